@@ -1,0 +1,167 @@
+/// \file main.cpp
+/// The `stroma` command: one executable, one subcommand per job (CLI11).
+///   stroma run SCENARIO      headless run, outputs into a directory
+///   stroma check SCENARIO REFERENCE   run and compare the final state to a stored reference
+/// Exit codes: 0 success, 1 check failed / run unhealthy, 2 bad input or usage.
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+
+#include "engine/headless_runner.hpp"
+#include "engine/model.hpp"
+#include "engine/scenario_spec.hpp"
+#include "engine/state_io.hpp"
+#include "tissue/input_error.hpp"
+
+namespace fs = std::filesystem;
+using namespace stroma;
+
+namespace {
+
+std::shared_ptr<const Model> load(const std::string& path) {
+  spdlog::debug("loading scenario {}", path);
+  const ScenarioSpec spec = load_scenario(path);
+  auto model = compile_model(spec);
+  for (const auto& n : model->notes) spdlog::warn("{}", n);
+  spdlog::info("scenario '{}': {} bodies, {} nodes, {} tetrahedra, dt {} s", spec.name,
+               spec.bodies.size(), model->fem.num_nodes, model->fem.elements.size(), spec.time_step);
+  return model;
+}
+
+/// Fails early (before a long run) if the output directory cannot be created or written.
+void ensure_writable_dir(const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(dir, 0, "--out", fmt::format("cannot create output directory: {}", ec.message()));
+  const fs::path probe = fs::path(dir) / ".stroma_write_test";
+  std::FILE* f = std::fopen(probe.c_str(), "w");
+  if (!f) throw InputError(dir, 0, "--out", "output directory is not writable");
+  std::fclose(f);
+  fs::remove(probe, ec);
+}
+
+void print_summary(const Model& m, const RunResult& r) {
+  if (m.stepper.integrator == Integrator::Static) {
+    fmt::print("static solve: {} Newton iterations, relative residual {:.3g} ({}), {:.3f} s\n",
+               r.newton_iterations, r.static_residual, r.static_converged ? "converged" : "NOT converged",
+               r.wall_seconds);
+  } else {
+    fmt::print("{} steps, sim time {:.6g} s, wall {:.3f} s; step ms p50 {:.4f} p99 {:.4f} max {:.4f}; "
+               "CG iterations mean {:.1f} max {}\n",
+               r.steps, r.sim_time, r.wall_seconds, r.step_ms.p50, r.step_ms.p99, r.step_ms.max,
+               r.cg_iterations_mean, r.cg_iterations_max);
+    if (r.ticks_not_converged)
+      fmt::print("warning: {} ticks hit the CG iteration cap\n", r.ticks_not_converged);
+  }
+  for (const ProbeModel& p : m.probes) {
+    const Vec3 d = probe_displacement(m, r.final_state, p);
+    fmt::print("probe {}: displacement [{:.6e}, {:.6e}, {:.6e}] m\n", p.name, d[0], d[1], d[2]);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Stroma: real-time soft-tissue simulation (corotational FEM, implicit Euler)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "stroma 0.1.0");
+  std::string log_level = "info";
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|off")->capture_default_str();
+
+  // ---- run ----
+  std::string run_scenario, run_out;
+  long run_steps = -1;
+  double run_duration = -1;
+  int vtu_every = 0;
+  bool quiet = false, no_metrics = false;
+  auto* run = app.add_subcommand("run", "Run a scenario headless as fast as possible and write results");
+  run->add_option("scenario", run_scenario, "Scenario YAML file")->required()->check(CLI::ExistingFile);
+  auto* o_steps = run->add_option("--steps", run_steps, "Number of ticks (overrides run: in the scenario)")->check(CLI::PositiveNumber);
+  run->add_option("--duration", run_duration, "Simulated seconds (overrides run: in the scenario)")
+      ->check(CLI::PositiveNumber)->excludes(o_steps);
+  run->add_option("--out", run_out, "Output directory (default: out/<scenario name>)");
+  run->add_option("--vtu-every", vtu_every, "Also write a VTU every K ticks and series.pvd")->check(CLI::NonNegativeNumber);
+  run->add_flag("--quiet", quiet, "No progress messages");
+  run->add_flag("--no-metrics", no_metrics, "Skip metrics.csv (saves an energy pass per tick)");
+  run->footer("Writes summary.json, metrics.csv, final.vtu and final_state.csv into the output directory.");
+
+  // ---- check ----
+  std::string chk_scenario, chk_reference, chk_out;
+  bool chk_update = false;
+  auto* check = app.add_subcommand("check", "Run a scenario and compare its final state to a reference state");
+  check->add_option("scenario", chk_scenario, "Scenario YAML file")->required()->check(CLI::ExistingFile);
+  check->add_option("reference", chk_reference, "Reference state CSV (node,x,y,z), as written by run (final_state.csv)")->required();
+  check->add_option("--out", chk_out, "Also write the run's outputs here");
+  check->add_flag("--update", chk_update, "Write the reference from this run instead of comparing");
+  check->footer("Tolerances come from the scenario's check: section (max_error, mean_error, metres).\n"
+                "Exit status: 0 within tolerance, 1 outside, 2 bad input.");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  auto logger = spdlog::stderr_color_mt("stroma");
+  spdlog::set_default_logger(logger);
+  spdlog::set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
+  spdlog::set_level(spdlog::level::from_str(log_level));
+
+  try {
+    if (*run) {
+      auto model = load(run_scenario);
+      RunOptions o;
+      if (run_steps > 0) o.steps = run_steps;
+      if (run_duration > 0) o.duration = run_duration;
+      o.out_dir = run_out.empty() ? (fs::path("out") / (model->spec.name.empty() ? "run" : model->spec.name)).string() : run_out;
+      o.vtu_every = vtu_every;
+      o.progress = !quiet;
+      o.metrics = !no_metrics;
+      ensure_writable_dir(o.out_dir);
+      const RunResult r = run_headless(*model, o);
+      print_summary(*model, r);
+      fmt::print("results in {}/ (summary.json, metrics.csv, final.vtu, final_state.csv)\n", o.out_dir);
+      const bool healthy = r.ticks_non_finite == 0 && r.static_converged;
+      return healthy ? 0 : 1;
+    }
+    if (*check) {
+      auto model = load(chk_scenario);
+      std::vector<double> ref;
+      if (!chk_update) ref = read_state_csv(chk_reference);  // fail before running
+      if (!ref.empty() && ref.size() != model->fem.rest.size())
+        throw InputError(chk_reference, 0, "", fmt::format("reference has {} nodes, the scenario has {}",
+                                                           ref.size() / 3, model->fem.num_nodes));
+      RunOptions o;
+      o.out_dir = chk_out;
+      o.progress = false;
+      o.metrics = !chk_out.empty();
+      if (!chk_out.empty()) ensure_writable_dir(chk_out);
+      const RunResult r = run_headless(*model, o);
+      if (chk_update) {
+        write_state_csv(chk_reference, r.final_state);
+        fmt::print("reference written: {} ({} nodes, {} steps)\n", chk_reference, model->fem.num_nodes, r.steps);
+        return 0;
+      }
+      const StateDifference d = compare_positions(r.final_state.tissue.x, ref);
+      const CheckSpec& tol = model->spec.check;
+      const bool ok = d.max_error <= tol.max_error && d.mean_error <= tol.mean_error &&
+                      r.ticks_non_finite == 0;
+      fmt::print("check {}: {} steps; max nodal error {:.3e} m (node {}, tolerance {:.1e}); mean {:.3e} m (tolerance {:.1e}) -> {}\n",
+                 model->spec.name, r.steps, d.max_error, d.worst_node, tol.max_error, d.mean_error,
+                 tol.mean_error, ok ? "PASS" : "FAIL");
+      return ok ? 0 : 1;
+    }
+  } catch (const InputError& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 2;
+  }
+  return 0;
+}

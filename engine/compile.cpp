@@ -1,0 +1,178 @@
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "engine/model.hpp"
+#include "engine/state.hpp"
+#include "tissue/fem_build.hpp"
+#include "tissue/input_error.hpp"
+#include "tissue/material.hpp"
+#include "tissue/mesh_io.hpp"
+#include "tissue/mesh_prepare.hpp"
+
+namespace stroma {
+
+namespace {
+
+/// Local node indices selected by `sel` in `mesh`. Throws if the selection is empty or an index
+/// is out of range: a constraint that silently selects nothing is a classic scenario bug.
+std::vector<int32_t> select_nodes(const NodeSelection& sel, const TetMesh& mesh,
+                                  const std::string& field) {
+  std::vector<int32_t> out;
+  const int32_t n = static_cast<int32_t>(mesh.nodes.size());
+  if (sel.box) {
+    const BoxSpec& b = *sel.box;
+    for (int32_t i = 0; i < n; ++i) {
+      const Vec3& p = mesh.nodes[i];
+      if (p[0] >= b.min[0] && p[0] <= b.max[0] && p[1] >= b.min[1] && p[1] <= b.max[1] &&
+          p[2] >= b.min[2] && p[2] <= b.max[2])
+        out.push_back(i);
+    }
+    if (out.empty())
+      throw InputError(sel.where.file, sel.where.line, field + ".box",
+                       fmt::format("box [{}, {}, {}]..[{}, {}, {}] selects no node of mesh '{}'",
+                                   b.min[0], b.min[1], b.min[2], b.max[0], b.max[1], b.max[2],
+                                   mesh.source));
+  }
+  for (int i : sel.nodes) {
+    if (i < 0 || i >= n)
+      throw InputError(sel.where.file, sel.where.line, field + ".nodes",
+                       fmt::format("node {} is out of range: mesh '{}' has {} nodes (0-based)", i,
+                                   mesh.source, n));
+    out.push_back(i);
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+}  // namespace
+
+std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
+  auto model = std::make_shared<Model>();
+  model->spec = spec;
+  model->time_step = spec.time_step;
+  const SolverSpec& s = spec.solver;
+  model->stepper = StepperSettings{s.integrator,   s.linear_solver, s.preconditioner,
+                                   s.max_iterations, s.tolerance,   s.warm_start,
+                                   s.static_tolerance, s.static_max_newton};
+
+  std::vector<PreparedMesh> meshes;
+  meshes.reserve(spec.bodies.size());
+  std::vector<FemBodyInput> inputs;
+  for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
+    const BodySpec& b = spec.bodies[bi];
+    const std::string field = fmt::format("bodies[{}]", bi);
+    TetMesh mesh;
+    try {
+      mesh = load_tet_mesh(b.mesh_path);
+    } catch (const InputError& e) {
+      // Say which scenario line asked for this mesh, then what is wrong inside it.
+      throw InputError(b.where.file, b.where.line, field + ".mesh", e.what());
+    }
+    if (b.scale != 1.0)
+      for (Vec3& p : mesh.nodes)
+        for (double& c : p) c *= b.scale;
+    try {
+      meshes.push_back(prepare_mesh(std::move(mesh)));
+    } catch (const InputError& e) {
+      throw InputError(b.where.file, b.where.line, field + ".mesh", e.what());
+    }
+    const PreparedMesh& pm = meshes.back();
+    if (!pm.reoriented.empty())
+      model->notes.push_back(fmt::format("body '{}': {} inverted tetrahedra re-oriented", b.name,
+                                         pm.reoriented.size()));
+    if (!pm.unused_nodes.empty())
+      model->notes.push_back(fmt::format(
+          "body '{}': {} nodes are used by no tetrahedron and are kept out of the system "
+          "(first: {})", b.name, pm.unused_nodes.size(), pm.unused_nodes.front()));
+
+    const MaterialSpec& mat = b.material;
+    const std::string err = validate_material(mat.young_modulus, mat.poisson_ratio, mat.density,
+                                              mat.rayleigh_mass, mat.rayleigh_stiffness);
+    if (!err.empty())
+      throw InputError(mat.where.file, mat.where.line, field + ".material", err);
+
+    FemBodyInput in;
+    in.name = b.name;
+    in.model = mat.model;
+    in.rotation = mat.rotation;
+    in.young_modulus = mat.young_modulus;
+    in.poisson_ratio = mat.poisson_ratio;
+    in.density = mat.density;
+    in.rayleigh_mass = mat.rayleigh_mass;
+    in.rayleigh_stiffness = mat.rayleigh_stiffness;
+    for (size_t k = 0; k < b.fixed.size(); ++k) {
+      auto sel = select_nodes(b.fixed[k], pm.mesh, fmt::format("{}.fixed[{}]", field, k));
+      in.fixed_nodes.insert(in.fixed_nodes.end(), sel.begin(), sel.end());
+    }
+    for (size_t k = 0; k < b.loads.size(); ++k) {
+      const NodalLoadSpec& l = b.loads[k];
+      auto sel = select_nodes(l.select, pm.mesh, fmt::format("{}.loads[{}]", field, k));
+      const double share = l.per_node ? 1.0 : 1.0 / static_cast<double>(sel.size());
+      for (int32_t i : sel) in.nodal_forces.push_back({i, {l.force[0] * share, l.force[1] * share, l.force[2] * share}});
+    }
+    inputs.push_back(std::move(in));
+  }
+  for (size_t bi = 0; bi < inputs.size(); ++bi) inputs[bi].mesh = &meshes[bi];
+  model->fem = build_fem_model(inputs, spec.gravity);
+
+  model->body_tets.resize(meshes.size());
+  for (size_t bi = 0; bi < meshes.size(); ++bi) {
+    const int32_t off = model->fem.bodies[bi].node_begin;
+    for (const Tet& t : meshes[bi].mesh.tets)
+      model->body_tets[bi].push_back({t[0] + off, t[1] + off, t[2] + off, t[3] + off});
+  }
+
+  for (size_t pi = 0; pi < spec.probes.size(); ++pi) {
+    const ProbeSpec& p = spec.probes[pi];
+    int body = -1;
+    for (size_t bi = 0; bi < spec.bodies.size(); ++bi)
+      if (spec.bodies[bi].name == p.body) body = static_cast<int>(bi);
+    if (body < 0)
+      throw InputError(p.where.file, p.where.line, fmt::format("probes[{}].body", pi),
+                       fmt::format("no body named '{}'", p.body));
+    const PreparedMesh& pm = meshes[body];
+    ProbeModel pmod;
+    pmod.name = p.name;
+    pmod.body = body;
+    pmod.where = locate_point(pm.mesh, p.point);
+    // A probe far outside its body is almost certainly a typo (wrong units or axis).
+    Vec3 lo = pm.mesh.nodes[0], hi = pm.mesh.nodes[0];
+    for (const Vec3& q : pm.mesh.nodes)
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], q[k]);
+        hi[k] = std::max(hi[k], q[k]);
+      }
+    const double diag = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                  (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    if (pmod.where.distance > 0.05 * diag)
+      throw InputError(p.where.file, p.where.line, fmt::format("probes[{}].point", pi),
+                       fmt::format("point [{}, {}, {}] is {:.3g} outside body '{}' (its size is {:.3g})",
+                                   p.point[0], p.point[1], p.point[2], pmod.where.distance, p.body, diag));
+    for (int32_t& nidx : pmod.where.node) nidx += model->fem.bodies[body].node_begin;
+    model->probes.push_back(pmod);
+  }
+  return model;
+}
+
+Vec3 probe_position(const Model& m, const State& s, const ProbeModel& p) {
+  Vec3 r{0, 0, 0};
+  for (int k = 0; k < 4; ++k)
+    for (int c = 0; c < 3; ++c) r[c] += p.where.w[k] * s.tissue.x[3 * p.where.node[k] + c];
+  return r;
+}
+
+Vec3 probe_displacement(const Model& m, const State& s, const ProbeModel& p) {
+  Vec3 r{0, 0, 0};
+  for (int k = 0; k < 4; ++k)
+    for (int c = 0; c < 3; ++c) {
+      const int32_t d = 3 * p.where.node[k] + c;
+      r[c] += p.where.w[k] * (s.tissue.x[d] - m.fem.rest[d]);
+    }
+  return r;
+}
+
+}  // namespace stroma

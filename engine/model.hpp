@@ -1,0 +1,39 @@
+#pragma once
+/// \file model.hpp
+/// The compiled, immutable scenario model (as MuJoCo's mjModel): everything that does not
+/// change while the simulation runs. Built once by compile_model(); shared read-only.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "engine/scenario_spec.hpp"
+#include "tissue/barycentric.hpp"
+#include "tissue/fem_model.hpp"
+#include "tissue/time_stepper.hpp"
+
+namespace stroma {
+
+/// A compiled probe: a material point embedded in one tetrahedron (global node indices).
+struct ProbeModel {
+  std::string name;
+  int body = 0;
+  BarycentricPoint where;  ///< node indices are global
+};
+
+/// A compiled scenario.
+struct Model {
+  ScenarioSpec spec;               ///< the validated scenario it was compiled from
+  FemModel fem;                    ///< all bodies in one system
+  StepperSettings stepper;         ///< integrator and solver settings
+  double time_step = 0.001;        ///< s
+  std::vector<ProbeModel> probes;
+  std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
+  std::vector<std::string> notes;  ///< load-time observations worth logging (reoriented, unused)
+};
+
+/// Loads every mesh, validates materials and selections against them, and compiles.
+/// Throws InputError with the scenario file, line and field on any problem.
+std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec);
+
+}  // namespace stroma

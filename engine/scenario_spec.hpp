@@ -1,0 +1,125 @@
+#pragma once
+/// \file scenario_spec.hpp
+/// ScenarioSpec: the plain-data form of a scenario YAML file, after parsing and validation but
+/// before compilation. Every field has the default a scenario gets when the key is absent.
+/// Paths are already resolved (absolute or relative to the working directory), so the spec can
+/// be compiled without knowing where the YAML file was.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tissue/options.hpp"
+#include "tissue/tet_mesh.hpp"
+
+namespace stroma {
+
+/// Where a value came from in the scenario file, for error messages raised after parsing
+/// (for example when compile finds a box that selects no node).
+struct SourceLocation {
+  std::string file;  ///< scenario file path
+  int line = 0;      ///< 1-based line, 0 if unknown
+};
+
+
+/// `solver:` section.
+struct SolverSpec {
+  Integrator integrator = Integrator::ImplicitEuler;
+  LinearSolverKind linear_solver = LinearSolverKind::CG;
+  Preconditioner preconditioner = Preconditioner::Jacobi;
+  int max_iterations = 200;       ///< CG iteration cap per solve (also Newton cap for static)
+  double tolerance = 1.0e-6;      ///< CG relative residual ‖r‖/‖b‖
+  bool warm_start = true;         ///< CG starts from the previous tick's solution
+  double static_tolerance = 1.0e-8;   ///< static: Newton stops when ‖residual‖ ≤ this·‖f_ext‖
+  int static_max_newton = 50;     ///< static: Newton iteration cap
+};
+
+/// `material:` section of a body.
+struct MaterialSpec {
+  ElementModel model = ElementModel::Corotational;
+  RotationMethod rotation = RotationMethod::Polar;
+  double young_modulus = 0;        ///< Pa, required, > 0
+  double poisson_ratio = 0;        ///< required, in (-1, 0.5)
+  double density = 0;              ///< kg/m^3, required, > 0
+  double rayleigh_mass = 0;        ///< α in C = αM + βK, ≥ 0
+  double rayleigh_stiffness = 0;   ///< β in C = αM + βK, ≥ 0
+  SourceLocation where;
+};
+
+/// An axis-aligned box in rest coordinates (inclusive bounds).
+struct BoxSpec {
+  Vec3 min{0, 0, 0};
+  Vec3 max{0, 0, 0};
+};
+
+/// Selection of nodes: either a box (rest positions inside) or an explicit 0-based node list.
+struct NodeSelection {
+  std::optional<BoxSpec> box;
+  std::vector<int> nodes;
+  SourceLocation where;
+};
+
+/// `loads:` entry: a constant force applied to the selected nodes.
+/// `force` is the total force, divided equally over the selected nodes, unless `per_node` is set.
+struct NodalLoadSpec {
+  NodeSelection select;
+  Vec3 force{0, 0, 0};  ///< N
+  bool per_node = false;
+};
+
+/// One deformable body.
+struct BodySpec {
+  std::string name;
+  std::string mesh_path;   ///< resolved path of the tetrahedral mesh file
+  double scale = 1.0;      ///< multiplies node coordinates as read (unit conversion)
+  MaterialSpec material;
+  std::vector<NodeSelection> fixed;
+  std::vector<NodalLoadSpec> loads;
+  SourceLocation where;
+};
+
+/// A point of a body whose displacement is reported (metrics, summary, checks).
+struct ProbeSpec {
+  std::string name;
+  std::string body;
+  Vec3 point{0, 0, 0};  ///< rest (material) coordinates
+  SourceLocation where;
+};
+
+/// `run:` section: how long a headless run lasts. Exactly one of duration/steps is used;
+/// steps wins when both are given (the loader rejects giving both).
+struct RunSpec {
+  std::optional<double> duration;  ///< s of simulated time
+  std::optional<long> steps;
+};
+
+/// `check:` section: tolerances for `stroma check` against a stored reference state.
+struct CheckSpec {
+  double max_error = 1.0e-9;   ///< m: largest nodal position difference allowed
+  double mean_error = 1.0e-10; ///< m: mean nodal position difference allowed
+};
+
+/// A whole scenario.
+struct ScenarioSpec {
+  std::string name;
+  std::string file;        ///< the scenario file it was read from
+  double time_step = 0.001;
+  Vec3 gravity{0, -9.81, 0};
+  SolverSpec solver;
+  std::vector<BodySpec> bodies;
+  std::vector<ProbeSpec> probes;
+  RunSpec run;
+  CheckSpec check;
+};
+
+/// Reads and validates a scenario YAML file. Paths inside are resolved relative to the file.
+/// Throws InputError with file, line and field on any problem: unknown key, wrong type,
+/// missing required field, value out of range (ν ≥ 0.5, E ≤ 0, ...), duplicate names, probes
+/// naming unknown bodies. Mesh files are not opened here (compile does that).
+ScenarioSpec load_scenario(const std::string& path);
+
+/// Same, from YAML text; `file` is used in messages and `base_dir` to resolve relative paths.
+ScenarioSpec parse_scenario(const std::string& yaml_text, const std::string& file,
+                            const std::string& base_dir);
+
+}  // namespace stroma

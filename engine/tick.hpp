@@ -1,0 +1,57 @@
+#pragma once
+/// \file tick.hpp
+/// One simulation tick as a short function of named, timed stages:
+///   read inputs → collide → assemble → solve → integrate → damage → hand off.
+/// Stages a scene does not need are skipped (and report zero time). The same tick runs
+/// headless and in the real-time server. It never allocates, locks, logs or throws: problems
+/// come back as a status code.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string_view>
+
+#include "engine/model.hpp"
+#include "engine/state.hpp"
+#include "tissue/time_stepper.hpp"
+
+namespace stroma {
+
+/// Named stages of a tick, in order.
+enum class Stage : int { ReadInputs, Collide, Assemble, Solve, Integrate, Damage, HandOff, Count };
+inline constexpr int kStageCount = static_cast<int>(Stage::Count);
+/// snake_case stage name, as used in summary.json and metrics.csv.
+std::string_view stage_name(Stage s);
+
+/// How a tick ended.
+enum class TickStatus : uint8_t {
+  Ok,
+  SolverNotConverged,  ///< the linear solve hit its cap (state is still finite and advanced)
+  NonFinite            ///< NaN/Inf appeared in the solve; the state was not advanced
+};
+
+/// What one tick reports.
+struct TickReport {
+  TickStatus status = TickStatus::Ok;
+  SolveStats solve;                         ///< linear solver iterations and residual
+  double elastic_energy = 0;                ///< at the state the tick started from
+  std::array<int64_t, kStageCount> stage_ns{};  ///< wall time per stage
+  std::array<bool, kStageCount> stage_ran{};    ///< false: skipped (nothing to do)
+  int64_t total_ns = 0;
+};
+
+/// Per-thread scratch of the tick (the TimeStepper's work arrays). Not part of the state.
+class TickWorkspace {
+ public:
+  explicit TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {}
+  TimeStepper& stepper() { return stepper_; }
+  const TimeStepper& stepper() const { return stepper_; }
+
+ private:
+  TimeStepper stepper_;
+};
+
+/// Advances `s` by one time step of the model.
+TickReport tick(const Model& m, State& s, TickWorkspace& w);
+
+}  // namespace stroma

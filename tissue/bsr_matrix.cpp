@@ -1,0 +1,60 @@
+#include "tissue/bsr_matrix.hpp"
+
+#include <algorithm>
+
+namespace stroma {
+
+int32_t BsrPattern::find(int32_t i, int32_t j) const {
+  const auto b = col.begin() + row_ptr[i];
+  const auto e = col.begin() + row_ptr[i + 1];
+  const auto it = std::lower_bound(b, e, j);
+  return (it != e && *it == j) ? static_cast<int32_t>(it - col.begin()) : -1;
+}
+
+BsrPattern build_bsr_pattern(int32_t n, const std::vector<Tet>& tets,
+                             std::vector<ElementSlots>& slots) {
+  std::vector<std::vector<int32_t>> adj(n);
+  for (int32_t i = 0; i < n; ++i) adj[i].push_back(i);
+  for (const Tet& t : tets)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) adj[t[a]].push_back(t[b]);
+  BsrPattern p;
+  p.n = n;
+  p.row_ptr.assign(n + 1, 0);
+  for (int32_t i = 0; i < n; ++i) {
+    auto& r = adj[i];
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+    p.row_ptr[i + 1] = p.row_ptr[i] + static_cast<int32_t>(r.size());
+  }
+  p.col.reserve(p.row_ptr[n]);
+  for (auto& r : adj) p.col.insert(p.col.end(), r.begin(), r.end());
+  p.diag.resize(n);
+  for (int32_t i = 0; i < n; ++i) p.diag[i] = p.find(i, i);
+  slots.resize(tets.size());
+  for (size_t e = 0; e < tets.size(); ++e)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) slots[e][4 * a + b] = p.find(tets[e][a], tets[e][b]);
+  return p;
+}
+
+void bsr_spmv(const BsrPattern& p, const double* __restrict vals, const double* __restrict x,
+              double* __restrict y) {
+  const int32_t* __restrict rp = p.row_ptr.data();
+  const int32_t* __restrict cl = p.col.data();
+  for (int32_t i = 0; i < p.n; ++i) {
+    double y0 = 0, y1 = 0, y2 = 0;
+    for (int32_t s = rp[i]; s < rp[i + 1]; ++s) {
+      const double* B = vals + 9 * s;
+      const double* xj = x + 3 * cl[s];
+      y0 += B[0] * xj[0] + B[1] * xj[1] + B[2] * xj[2];
+      y1 += B[3] * xj[0] + B[4] * xj[1] + B[5] * xj[2];
+      y2 += B[6] * xj[0] + B[7] * xj[1] + B[8] * xj[2];
+    }
+    y[3 * i] = y0;
+    y[3 * i + 1] = y1;
+    y[3 * i + 2] = y2;
+  }
+}
+
+}  // namespace stroma

@@ -1,0 +1,106 @@
+#include "tissue/cg_solver.hpp"
+
+#include <cmath>
+
+#include "tissue/mat3.hpp"
+
+namespace stroma {
+
+namespace {
+inline double dotn(const double* __restrict a, const double* __restrict b, int32_t n) {
+  double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+  int32_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    s0 += a[i] * b[i];
+    s1 += a[i + 1] * b[i + 1];
+    s2 += a[i + 2] * b[i + 2];
+    s3 += a[i + 3] * b[i + 3];
+  }
+  for (; i < n; ++i) s0 += a[i] * b[i];
+  return (s0 + s1) + (s2 + s3);
+}
+}  // namespace
+
+void CgSolver::resize(int32_t n) {
+  n_ = n;
+  r_.assign(3 * n, 0.0);
+  z_.assign(3 * n, 0.0);
+  p_.assign(3 * n, 0.0);
+  q_.assign(3 * n, 0.0);
+  inv_diag_.assign(9 * n, 0.0);
+}
+
+void CgSolver::build_preconditioner(const BsrPattern& p, const double* A, Preconditioner prec) {
+  if (prec == Preconditioner::Jacobi) {
+    for (int32_t i = 0; i < n_; ++i) {
+      const double* D = A + 9 * p.diag[i];
+      inv_diag_[3 * i] = 1.0 / D[0];
+      inv_diag_[3 * i + 1] = 1.0 / D[4];
+      inv_diag_[3 * i + 2] = 1.0 / D[8];
+    }
+  } else if (prec == Preconditioner::BlockJacobi) {
+    for (int32_t i = 0; i < n_; ++i) m3::inverse(A + 9 * p.diag[i], inv_diag_.data() + 9 * i);
+  }
+}
+
+void CgSolver::apply_preconditioner(Preconditioner prec, const double* r, double* z) const {
+  const int32_t m = 3 * n_;
+  if (prec == Preconditioner::Jacobi) {
+    for (int32_t i = 0; i < m; ++i) z[i] = inv_diag_[i] * r[i];
+  } else if (prec == Preconditioner::BlockJacobi) {
+    for (int32_t i = 0; i < n_; ++i) m3::mulv(inv_diag_.data() + 9 * i, r + 3 * i, z + 3 * i);
+  } else {
+    for (int32_t i = 0; i < m; ++i) z[i] = r[i];
+  }
+}
+
+SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double* b, double* x,
+                           Preconditioner prec, int max_iterations, double tolerance) {
+  const int32_t m = 3 * n_;
+  SolveStats st;
+  const double bnorm = std::sqrt(dotn(b, b, m));
+  if (bnorm == 0.0) {
+    for (int32_t i = 0; i < m; ++i) x[i] = 0.0;
+    return st;
+  }
+  build_preconditioner(pat, A, prec);
+  double* r = r_.data();
+  double* z = z_.data();
+  double* p = p_.data();
+  double* q = q_.data();
+  bsr_spmv(pat, A, x, q);
+  for (int32_t i = 0; i < m; ++i) r[i] = b[i] - q[i];
+  apply_preconditioner(prec, r, z);
+  for (int32_t i = 0; i < m; ++i) p[i] = z[i];
+  double rz = dotn(r, z, m);
+  double rnorm = std::sqrt(dotn(r, r, m));
+  const double target = tolerance * bnorm;
+  st.converged = false;
+  int k = 0;
+  while (k < max_iterations) {
+    bsr_spmv(pat, A, p, q);
+    const double pq = dotn(p, q, m);
+    if (!(pq > 0.0)) break;  // not positive definite along p (or NaN): stop, report
+    const double alpha = rz / pq;
+    for (int32_t i = 0; i < m; ++i) {
+      x[i] += alpha * p[i];
+      r[i] -= alpha * q[i];
+    }
+    ++k;
+    rnorm = std::sqrt(dotn(r, r, m));
+    if (rnorm <= target) {
+      st.converged = true;
+      break;
+    }
+    apply_preconditioner(prec, r, z);
+    const double rz_new = dotn(r, z, m);
+    const double beta = rz_new / rz;
+    rz = rz_new;
+    for (int32_t i = 0; i < m; ++i) p[i] = z[i] + beta * p[i];
+  }
+  st.iterations = k;
+  st.relative_residual = rnorm / bnorm;
+  return st;
+}
+
+}  // namespace stroma

@@ -1,0 +1,93 @@
+#include "tissue/cholmod_solver.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+
+#include <cholmod.h>
+
+namespace stroma {
+
+struct CholmodSolver::Impl {
+  cholmod_common common;
+  cholmod_sparse* A = nullptr;
+  cholmod_factor* L = nullptr;
+  cholmod_dense* B = nullptr;
+  cholmod_dense* X = nullptr;
+  cholmod_dense* Y = nullptr;  // workspace of cholmod_solve2
+  cholmod_dense* E = nullptr;  // workspace of cholmod_solve2
+  std::vector<int64_t> map;    // CSC value k ← BSR value map[k]
+  size_t n = 0;
+};
+
+CholmodSolver::CholmodSolver(const BsrPattern& p) : impl_(std::make_unique<Impl>()) {
+  Impl& s = *impl_;
+  cholmod_start(&s.common);
+  s.common.print = 0;
+  s.n = 3 * static_cast<size_t>(p.n);
+  // Upper triangle (row ≤ col), column-major: collect (col, row, bsr index) and sort.
+  struct Entry {
+    int32_t col, row;
+    int64_t src;
+  };
+  std::vector<Entry> entries;
+  entries.reserve(static_cast<size_t>(p.nnzb()) * 6);
+  for (int32_t I = 0; I < p.n; ++I)
+    for (int32_t slot = p.row_ptr[I]; slot < p.row_ptr[I + 1]; ++slot) {
+      const int32_t J = p.col[slot];
+      if (J < I) continue;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) {
+          const int32_t row = 3 * I + r, col = 3 * J + c;
+          if (row <= col) entries.push_back({col, row, 9LL * slot + 3 * r + c});
+        }
+    }
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.col != b.col ? a.col < b.col : a.row < b.row;
+  });
+  s.A = cholmod_allocate_sparse(s.n, s.n, entries.size(), 1, 1, 1, CHOLMOD_REAL, &s.common);
+  if (!s.A) throw std::runtime_error("CHOLMOD: cannot allocate the sparse matrix");
+  auto* colp = static_cast<int*>(s.A->p);
+  auto* rowi = static_cast<int*>(s.A->i);
+  auto* val = static_cast<double*>(s.A->x);
+  std::fill(colp, colp + s.n + 1, 0);
+  s.map.resize(entries.size());
+  for (size_t k = 0; k < entries.size(); ++k) {
+    colp[entries[k].col + 1]++;
+    rowi[k] = entries[k].row;
+    val[k] = (entries[k].row == entries[k].col) ? 1.0 : 0.0;
+    s.map[k] = entries[k].src;
+  }
+  for (size_t j = 0; j < s.n; ++j) colp[j + 1] += colp[j];
+  s.L = cholmod_analyze(s.A, &s.common);
+  if (!s.L) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
+  s.B = cholmod_zeros(s.n, 1, CHOLMOD_REAL, &s.common);
+}
+
+CholmodSolver::~CholmodSolver() {
+  Impl& s = *impl_;
+  cholmod_free_dense(&s.B, &s.common);
+  cholmod_free_dense(&s.X, &s.common);
+  cholmod_free_dense(&s.Y, &s.common);
+  cholmod_free_dense(&s.E, &s.common);
+  cholmod_free_factor(&s.L, &s.common);
+  cholmod_free_sparse(&s.A, &s.common);
+  cholmod_finish(&s.common);
+}
+
+bool CholmodSolver::factor(const double* vals) {
+  Impl& s = *impl_;
+  auto* val = static_cast<double*>(s.A->x);
+  for (size_t k = 0; k < s.map.size(); ++k) val[k] = vals[s.map[k]];
+  const int ok = cholmod_factorize(s.A, s.L, &s.common);
+  return ok && s.common.status == CHOLMOD_OK;
+}
+
+void CholmodSolver::solve(const double* b, double* x) {
+  Impl& s = *impl_;
+  std::memcpy(s.B->x, b, s.n * sizeof(double));
+  cholmod_solve2(CHOLMOD_A, s.L, s.B, nullptr, &s.X, nullptr, &s.Y, &s.E, &s.common);
+  std::memcpy(x, s.X->x, s.n * sizeof(double));
+}
+
+}  // namespace stroma

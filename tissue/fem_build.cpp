@@ -1,0 +1,98 @@
+#include "tissue/fem_build.hpp"
+
+#include <algorithm>
+
+#include "tissue/mat3.hpp"
+#include "tissue/material.hpp"
+#include "tissue/rotation.hpp"
+
+namespace stroma {
+
+FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity) {
+  FemModel m;
+  int32_t nn = 0, ne = 0;
+  for (const auto& b : bodies) {
+    nn += static_cast<int32_t>(b.mesh->mesh.nodes.size());
+    ne += static_cast<int32_t>(b.mesh->mesh.tets.size());
+  }
+  m.num_nodes = nn;
+  m.rest.resize(3 * nn);
+  m.mass.assign(nn, 0.0);
+  m.alpha.assign(nn, 0.0);
+  m.constrained.assign(nn, 0);
+  m.f_ext.assign(3 * nn, 0.0);
+  m.elements.reserve(ne);
+  const bool any_qr = std::any_of(bodies.begin(), bodies.end(), [](const FemBodyInput& b) {
+    return b.model == ElementModel::Corotational && b.rotation == RotationMethod::QR;
+  });
+  if (any_qr) m.rest_frame.resize(ne);
+
+  std::vector<Tet> all_tets;
+  all_tets.reserve(ne);
+  int32_t node_off = 0;
+  for (const auto& b : bodies) {
+    const TetMesh& mesh = b.mesh->mesh;
+    const Lame lame = lame_from_young_poisson(b.young_modulus, b.poisson_ratio);
+    BodyRange br;
+    br.name = b.name;
+    br.node_begin = node_off;
+    br.node_end = node_off + static_cast<int32_t>(mesh.nodes.size());
+    br.element_begin = static_cast<int32_t>(m.elements.size());
+    for (size_t i = 0; i < mesh.nodes.size(); ++i)
+      for (int k = 0; k < 3; ++k) m.rest[3 * (node_off + i) + k] = mesh.nodes[i][k];
+    for (const Tet& t : mesh.tets) {
+      ElementParams ep{};
+      for (int k = 0; k < 4; ++k) ep.node[k] = t[k] + node_off;
+      const Vec3& x0 = mesh.nodes[t[0]];
+      double Dm[9];  // columns: rest edges X1−X0, X2−X0, X3−X0
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) Dm[3 * r + c] = mesh.nodes[t[c + 1]][r] - x0[r];
+      const double det = m3::inverse(Dm, ep.g);
+      ep.volume = det / 6.0;
+      ep.lambda = lame.lambda;
+      ep.mu = lame.mu;
+      ep.beta = b.rayleigh_stiffness;
+      if (any_qr) {
+        const double e1[3] = {Dm[0], Dm[3], Dm[6]};
+        const double e2[3] = {Dm[1], Dm[4], Dm[7]};
+        edge_frame(e1, e2, m.rest_frame[m.elements.size()].data());
+      }
+      const double mq = b.density * ep.volume / 4.0;
+      for (int k = 0; k < 4; ++k) m.mass[ep.node[k]] += mq;
+      m.elements.push_back(ep);
+      all_tets.push_back({ep.node[0], ep.node[1], ep.node[2], ep.node[3]});
+    }
+    br.element_end = static_cast<int32_t>(m.elements.size());
+    ElementRange range{br.element_begin, br.element_end, ElementKernel::CorotationalPolar};
+    if (b.model == ElementModel::Linear) range.kernel = ElementKernel::Linear;
+    else if (b.rotation == RotationMethod::QR) range.kernel = ElementKernel::CorotationalQR;
+    m.ranges.push_back(range);
+    for (const Tri& f : b.mesh->boundary)
+      br.boundary.push_back({f[0] + node_off, f[1] + node_off, f[2] + node_off});
+    for (int32_t i = br.node_begin; i < br.node_end; ++i) {
+      m.alpha[i] = b.rayleigh_mass;
+      for (int k = 0; k < 3; ++k) m.f_ext[3 * i + k] += m.mass[i] * gravity[k];
+    }
+    for (int32_t i : b.fixed_nodes) m.constrained[i + node_off] = 1;
+    for (int32_t i : b.mesh->unused_nodes) m.constrained[i + node_off] = 1;
+    for (const auto& [i, f] : b.nodal_forces)
+      for (int k = 0; k < 3; ++k) m.f_ext[3 * (i + node_off) + k] += f[k];
+    m.bodies.push_back(std::move(br));
+    node_off += static_cast<int32_t>(mesh.nodes.size());
+  }
+
+  m.inv_mass.resize(nn);
+  for (int32_t i = 0; i < nn; ++i) {
+    if (m.constrained[i]) m.constrained_nodes.push_back(i);
+    m.inv_mass[i] = (m.constrained[i] || m.mass[i] <= 0) ? 0.0 : 1.0 / m.mass[i];
+  }
+  m.pattern = build_bsr_pattern(nn, all_tets, m.slots);
+  for (int32_t i = 0; i < nn; ++i)
+    for (int32_t s = m.pattern.row_ptr[i]; s < m.pattern.row_ptr[i + 1]; ++s) {
+      const int32_t j = m.pattern.col[s];
+      if (i != j && (m.constrained[i] || m.constrained[j])) m.constrained_offdiag_slots.push_back(s);
+    }
+  return m;
+}
+
+}  // namespace stroma

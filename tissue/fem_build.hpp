@@ -1,0 +1,28 @@
+#pragma once
+/// \file fem_build.hpp
+/// Compiles prepared meshes, materials, constraints and loads into a FemModel.
+
+#include <vector>
+
+#include "tissue/fem_model.hpp"
+#include "tissue/mesh_prepare.hpp"
+
+namespace stroma {
+
+/// Everything the FEM needs to know about one body, already validated.
+struct FemBodyInput {
+  std::string name;
+  const PreparedMesh* mesh = nullptr;   ///< node positions in metres
+  ElementModel model = ElementModel::Corotational;
+  RotationMethod rotation = RotationMethod::Polar;
+  double young_modulus = 0, poisson_ratio = 0, density = 0;
+  double rayleigh_mass = 0, rayleigh_stiffness = 0;
+  std::vector<int32_t> fixed_nodes;      ///< local (file-order) node indices
+  std::vector<std::pair<int32_t, Vec3>> nodal_forces;  ///< local node, force (N)
+};
+
+/// Builds the global model: bodies are concatenated (node and element offsets in order).
+/// Lumped mass: each tetrahedron gives ρV/4 to each of its nodes. Gravity enters f_ext as m·g.
+FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity);
+
+}  // namespace stroma

@@ -1,0 +1,36 @@
+#pragma once
+/// \file fem_forces.hpp
+/// The per-element pass of a tick: rotations, elastic forces, stiffness-times-velocity for the
+/// damping and implicit right-hand side, and assembly of the stiffness-warped tangent R·Ke·Rᵀ
+/// into the fixed BSR pattern — all in one sweep over the elements.
+///
+/// Ke is never stored: with shape gradients g_a and rotated gradients r_a = R·g_a,
+///   R·K_ab·Rᵀ = V (λ r_a r_bᵀ + μ r_b r_aᵀ + μ (g_a·g_b) I),
+/// and the elastic force is f_a = −V·R·σ(ε)·g_a with ε = sym(RᵀF) − I, σ = λ tr(ε) I + 2μ ε,
+/// which equals −R·Ke·(Rᵀx − X) and, for the polar R, is exactly −∂E/∂x.
+
+#include "tissue/fem_model.hpp"
+
+namespace stroma {
+
+/// Inputs and outputs of one element pass. Output arrays are accumulated into (+=): the
+/// caller zeroes them. Null outputs are skipped (their work is not done).
+struct ElasticPass {
+  const double* x = nullptr;   ///< 3n current positions (required)
+  double* force = nullptr;     ///< 3n: += elastic force
+  const double* v = nullptr;   ///< 3n velocities, required when kv is set
+  double* kv = nullptr;        ///< 3n: += (kv_beta·β_e + kv_const)·K_e·v
+  double kv_beta = 0, kv_const = 0;
+  double* kvals = nullptr;     ///< BSR values: += (k_beta·β_e + k_const)·R·Ke·Rᵀ
+  double k_beta = 0, k_const = 0;
+  double* rotations = nullptr; ///< 9 per element: the element rotation (row-major)
+};
+
+/// Runs the pass over every element; returns the total elastic energy
+/// Σ V (μ ε:ε + λ/2 tr²ε).
+double elastic_pass(const FemModel& m, const ElasticPass& pass);
+
+/// Per-element von Mises stress of the corotated small strain (Pa) at positions x.
+void element_von_mises(const FemModel& m, const double* x, double* out);
+
+}  // namespace stroma

@@ -1,0 +1,69 @@
+#pragma once
+/// \file fem_model.hpp
+/// The compiled, immutable finite-element model of all deformable bodies: rest geometry,
+/// per-element shape gradients and Lamé parameters, lumped masses, constraints, constant
+/// external forces, the fixed BSR sparsity pattern and element→slot scatter maps.
+/// Built once (fem_build.hpp); read-only afterwards, shared by every thread.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tissue/bsr_matrix.hpp"
+#include "tissue/options.hpp"
+#include "tissue/tet_mesh.hpp"
+
+namespace stroma {
+
+/// What one linear tetrahedron needs each tick (120 bytes, contiguous).
+struct ElementParams {
+  std::array<int32_t, 4> node;  ///< global node indices
+  double g[9];      ///< rows: gradients of shape functions N1, N2, N3 (∇N0 = −Σ); = Dm⁻¹
+  double volume;    ///< rest volume (> 0)
+  double lambda;    ///< Lamé λ
+  double mu;        ///< Lamé μ
+  double beta;      ///< Rayleigh stiffness coefficient of its body
+};
+
+/// How a contiguous range of elements is computed (one body; one kernel, no per-element branch).
+enum class ElementKernel : uint8_t { Linear, CorotationalPolar, CorotationalQR };
+
+/// A contiguous range of elements sharing one kernel (one body).
+struct ElementRange {
+  int32_t begin = 0;
+  int32_t end = 0;
+  ElementKernel kernel = ElementKernel::CorotationalPolar;
+};
+
+/// One body's slice of the global arrays.
+struct BodyRange {
+  std::string name;
+  int32_t node_begin = 0, node_end = 0;        ///< global node indices [begin, end)
+  int32_t element_begin = 0, element_end = 0;  ///< global element indices
+  std::vector<Tri> boundary;                   ///< surface triangles, global node indices
+};
+
+/// The whole compiled FEM system.
+struct FemModel {
+  int32_t num_nodes = 0;
+  std::vector<double> rest;                 ///< 3n rest positions
+  std::vector<ElementParams> elements;
+  std::vector<ElementRange> ranges;         ///< kernels by range, covering all elements
+  std::vector<std::array<double, 9>> rest_frame;  ///< per element, QR rotation only (else empty)
+  std::vector<double> mass;                 ///< lumped mass per node (kg); 0 for unused nodes
+  std::vector<double> inv_mass;             ///< 1/mass, 0 for constrained nodes
+  std::vector<double> alpha;                ///< Rayleigh mass coefficient per node
+  std::vector<uint8_t> constrained;         ///< 1: node does not move (fixed or unused)
+  std::vector<int32_t> constrained_nodes;   ///< list of the above
+  std::vector<double> f_ext;                ///< 3n constant external force (gravity + loads)
+  BsrPattern pattern;
+  std::vector<ElementSlots> slots;          ///< per element
+  std::vector<int32_t> constrained_offdiag_slots;  ///< slots zeroed to project constraints
+  std::vector<BodyRange> bodies;
+
+  /// Number of degrees of freedom (3 per node, constrained included).
+  int32_t dofs() const { return 3 * num_nodes; }
+};
+
+}  // namespace stroma

@@ -1,0 +1,33 @@
+#pragma once
+/// \file options.hpp
+/// Choices of element model, rotation extraction, integrator and linear solver. Plain enums
+/// shared by the tissue layer and the scenario spec (engine/) that selects them.
+
+namespace stroma {
+
+/// Time integration scheme.
+enum class Integrator {
+  ImplicitEuler,    ///< linearised backward Euler, one Newton step per tick
+  SymplecticEuler,  ///< explicit, conditionally stable (for comparison)
+  Static            ///< Newton iterations to equilibrium (CHOLMOD or CG per iteration)
+};
+/// Linear solver for the implicit/static systems.
+enum class LinearSolverKind { CG, Cholmod };
+/// Preconditioner of the conjugate gradient.
+enum class Preconditioner {
+  Jacobi,       ///< inverse of the scalar diagonal
+  BlockJacobi,  ///< inverse of each node's 3×3 diagonal block
+  None
+};
+/// Element formulation.
+enum class ElementModel {
+  Corotational,  ///< small strain in a per-element rotated frame (large rotations)
+  Linear         ///< small strain, small rotation (fails under rotation: for comparison)
+};
+/// How the corotational element rotation is extracted.
+enum class RotationMethod {
+  Polar,  ///< polar decomposition via SVD, inversion-safe
+  QR      ///< SOFA's edge frame ("large")
+};
+
+}  // namespace stroma

@@ -1,0 +1,231 @@
+#include "tissue/time_stepper.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "tissue/fem_forces.hpp"
+
+namespace stroma {
+
+TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
+    : m_(model), cfg_(settings), cg_(model.num_nodes) {
+  const size_t n3 = 3 * static_cast<size_t>(m_.num_nodes);
+  force_.assign(n3, 0.0);
+  kv_.assign(n3, 0.0);
+  rhs_.assign(n3, 0.0);
+  tmp_.assign(n3, 0.0);
+  rot_.assign(9 * m_.elements.size(), 0.0);
+  A_.assign(9 * static_cast<size_t>(m_.pattern.nnzb()), 0.0);
+  const bool needs_direct = cfg_.linear_solver == LinearSolverKind::Cholmod &&
+                            cfg_.integrator != Integrator::SymplecticEuler;
+  any_beta_ = std::any_of(m_.elements.begin(), m_.elements.end(),
+                          [](const ElementParams& e) { return e.beta != 0.0; });
+  if (needs_direct) cholmod_ = std::make_unique<CholmodSolver>(m_.pattern);
+}
+
+TimeStepper::~TimeStepper() = default;
+
+void TimeStepper::project_constraints(double* A, double diag_scale) {
+  for (int32_t s : m_.constrained_offdiag_slots) std::fill(A + 9 * s, A + 9 * s + 9, 0.0);
+  for (int32_t i : m_.constrained_nodes) {
+    double* D = A + 9 * m_.pattern.diag[i];
+    const double d = m_.mass[i] > 0 ? m_.mass[i] * diag_scale : diag_scale;
+    std::fill(D, D + 9, 0.0);
+    D[0] = D[4] = D[8] = d;
+  }
+}
+
+double TimeStepper::assemble(const TissueState& s, double h) {
+  std::fill(force_.begin(), force_.end(), 0.0);
+  std::fill(kv_.begin(), kv_.end(), 0.0);
+  ElasticPass p;
+  p.x = s.x.data();
+  p.force = force_.data();
+  p.v = s.v.data();
+  p.kv = kv_.data();
+  p.rotations = rot_.data();
+  const bool implicit = cfg_.integrator == Integrator::ImplicitEuler;
+  if (implicit) {
+    std::fill(A_.begin(), A_.end(), 0.0);
+    p.kv_beta = 1.0;
+    p.kv_const = h;
+    p.kvals = A_.data();
+    p.k_beta = h;
+    p.k_const = h * h;
+  } else if (any_beta_) {
+    p.kv_beta = 1.0;
+    p.kv_const = 0.0;
+  } else {
+    p.kv = nullptr;  // no stiffness damping: skip K·v
+  }
+  const double energy = elastic_pass(m_, p);
+
+  const int32_t n = m_.num_nodes;
+  const double* fe = m_.f_ext.data();
+  for (int32_t i = 0; i < n; ++i) {
+    const double am = m_.alpha[i] * m_.mass[i];
+    for (int k = 0; k < 3; ++k) {
+      const int32_t d = 3 * i + k;
+      const double f = fe[d] + force_[d] - am * s.v[d] - kv_[d];
+      rhs_[d] = m_.constrained[i] ? 0.0 : (implicit ? h * f : h * f * m_.inv_mass[i]);
+    }
+  }
+  if (implicit) {
+    for (int32_t i = 0; i < n; ++i) {
+      double* D = A_.data() + 9 * m_.pattern.diag[i];
+      const double md = (1.0 + h * m_.alpha[i]) * m_.mass[i];
+      D[0] += md;
+      D[4] += md;
+      D[8] += md;
+    }
+    project_constraints(A_.data(), 1.0);
+  }
+  return energy;
+}
+
+SolveStats TimeStepper::solve(TissueState& s) {
+  SolveStats st;
+  double* dv = s.dv.data();
+  const size_t n3 = rhs_.size();
+  if (cfg_.integrator == Integrator::SymplecticEuler) {
+    std::copy(rhs_.begin(), rhs_.end(), dv);  // assemble already formed h·M⁻¹·f
+    return st;
+  }
+  if (!cfg_.warm_start) std::fill(dv, dv + n3, 0.0);
+  for (int32_t i : m_.constrained_nodes) dv[3 * i] = dv[3 * i + 1] = dv[3 * i + 2] = 0.0;
+  if (cfg_.linear_solver == LinearSolverKind::Cholmod) {
+    st.converged = cholmod_->factor(A_.data());
+    if (st.converged) cholmod_->solve(rhs_.data(), dv);
+    st.iterations = 0;
+    return st;
+  }
+  return cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner,
+                   cfg_.max_iterations, cfg_.tolerance);
+}
+
+void TimeStepper::integrate(TissueState& s, double h) {
+  const int32_t n = m_.num_nodes;
+  for (int32_t i = 0; i < n; ++i) {
+    if (m_.constrained[i]) {
+      s.v[3 * i] = s.v[3 * i + 1] = s.v[3 * i + 2] = 0.0;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) {
+      const int32_t d = 3 * i + k;
+      s.v[d] += s.dv[d];
+      s.x[d] += h * s.v[d];
+    }
+  }
+}
+
+StaticResult TimeStepper::solve_static(TissueState& s) {
+  StaticResult res;
+  const int32_t n = m_.num_nodes;
+  std::fill(s.v.begin(), s.v.end(), 0.0);
+  double fref = 0;
+  for (int32_t i = 0; i < n; ++i)
+    if (!m_.constrained[i])
+      for (int k = 0; k < 3; ++k) fref += m_.f_ext[3 * i + k] * m_.f_ext[3 * i + k];
+  fref = std::sqrt(fref);
+  if (fref == 0) fref = 1.0;
+  CholmodSolver* direct = cholmod_.get();
+  std::unique_ptr<CholmodSolver> own;
+  if (cfg_.linear_solver == LinearSolverKind::Cholmod && !direct) {
+    own = std::make_unique<CholmodSolver>(m_.pattern);
+    direct = own.get();
+  }
+  for (int it = 0; it <= cfg_.static_max_newton; ++it) {
+    std::fill(force_.begin(), force_.end(), 0.0);
+    std::fill(A_.begin(), A_.end(), 0.0);
+    ElasticPass p;
+    p.x = s.x.data();
+    p.force = force_.data();
+    p.kvals = A_.data();
+    p.k_const = 1.0;
+    p.rotations = rot_.data();
+    elastic_pass(m_, p);
+    double rn = 0, dsum = 0;
+    int dcount = 0;
+    for (int32_t i = 0; i < n; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const int32_t d = 3 * i + k;
+        rhs_[d] = m_.constrained[i] ? 0.0 : m_.f_ext[d] + force_[d];
+        rn += rhs_[d] * rhs_[d];
+      }
+      if (!m_.constrained[i]) {
+        const double* D = A_.data() + 9 * m_.pattern.diag[i];
+        dsum += D[0] + D[4] + D[8];
+        dcount += 3;
+      }
+    }
+    res.relative_residual = std::sqrt(rn) / fref;
+    if (!std::isfinite(res.relative_residual)) return res;
+    if (res.relative_residual <= cfg_.static_tolerance) {
+      res.converged = true;
+      return res;
+    }
+    if (it == cfg_.static_max_newton) break;
+    // Constrained rows get the mean free diagonal: keeps CG's conditioning; rhs there is 0.
+    const double scale = dcount ? dsum / dcount : 1.0;
+    for (int32_t sl : m_.constrained_offdiag_slots) std::fill(&A_[9 * sl], &A_[9 * sl] + 9, 0.0);
+    for (int32_t i : m_.constrained_nodes) {
+      double* D = A_.data() + 9 * m_.pattern.diag[i];
+      std::fill(D, D + 9, 0.0);
+      D[0] = D[4] = D[8] = scale;
+    }
+    std::fill(tmp_.begin(), tmp_.end(), 0.0);
+    if (direct) {
+      if (!direct->factor(A_.data())) return res;
+      direct->solve(rhs_.data(), tmp_.data());
+    } else {
+      // Inner solves need not be tighter than the Newton target relative to this residual.
+      const SolveStats cs = cg_.solve(m_.pattern, A_.data(), rhs_.data(), tmp_.data(),
+                                      cfg_.preconditioner, 20 * cfg_.max_iterations,
+                                      std::clamp(0.1 * cfg_.static_tolerance / std::max(res.relative_residual, 1e-300), 1e-14, 0.1));
+      res.linear_iterations += cs.iterations;
+    }
+    for (size_t d = 0; d < s.x.size(); ++d) s.x[d] += tmp_[d];
+    ++res.newton_iterations;
+  }
+  return res;
+}
+
+double TimeStepper::kinetic_energy(const TissueState& s) const {
+  double e = 0;
+  for (int32_t i = 0; i < m_.num_nodes; ++i) {
+    const double* v = &s.v[3 * i];
+    e += 0.5 * m_.mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  }
+  return e;
+}
+
+double TimeStepper::external_potential(const TissueState& s) const {
+  double e = 0;
+  for (size_t d = 0; d < s.x.size(); ++d) e -= m_.f_ext[d] * (s.x[d] - m_.rest[d]);
+  return e;
+}
+
+double TimeStepper::elastic_energy(const TissueState& s) const {
+  ElasticPass p;
+  p.x = s.x.data();
+  return elastic_pass(m_, p);
+}
+
+void TimeStepper::elastic_force(const TissueState& s, double* f) const {
+  std::fill(f, f + s.x.size(), 0.0);
+  ElasticPass p;
+  p.x = s.x.data();
+  p.force = f;
+  elastic_pass(m_, p);
+}
+
+void TimeStepper::stiffness(const TissueState& s, std::vector<double>& kvals) const {
+  kvals.assign(9 * static_cast<size_t>(m_.pattern.nnzb()), 0.0);
+  ElasticPass p;
+  p.x = s.x.data();
+  p.kvals = kvals.data();
+  p.k_const = 1.0;
+  elastic_pass(m_, p);
+}
+
+}  // namespace stroma

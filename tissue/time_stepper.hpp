@@ -1,0 +1,86 @@
+#pragma once
+/// \file time_stepper.hpp
+/// Time integration of the FEM system, split into the stages the tick pipeline times
+/// separately: assemble (element pass + right-hand side), solve (linear system), integrate
+/// (velocity and position update). Owns all scratch memory: no allocation after construction.
+///
+/// Implicit Euler, linearised (one Newton step per tick), Rayleigh damping C = αM + βK:
+///   (M + hC + h²K) Δv = h (f_ext + f(x) − C v − h K v),   v ← v + Δv,   x ← x + h v.
+/// Symplectic Euler: v ← v + h M⁻¹ (f_ext + f(x) − C v),   x ← x + h v.
+/// Static: Newton on f_ext + f(x) = 0 with the tangent R·Ke·Rᵀ.
+
+#include <memory>
+#include <vector>
+
+#include "tissue/cg_solver.hpp"
+#include "tissue/cholmod_solver.hpp"
+#include "tissue/fem_model.hpp"
+#include "tissue/options.hpp"
+#include "tissue/tissue_state.hpp"
+
+namespace stroma {
+
+/// Solver settings (from the scenario's `solver:` section).
+struct StepperSettings {
+  Integrator integrator = Integrator::ImplicitEuler;
+  LinearSolverKind linear_solver = LinearSolverKind::CG;
+  Preconditioner preconditioner = Preconditioner::Jacobi;
+  int max_iterations = 200;
+  double tolerance = 1e-6;
+  bool warm_start = true;
+  double static_tolerance = 1e-8;
+  int static_max_newton = 50;
+};
+
+/// Result of a static solve.
+struct StaticResult {
+  int newton_iterations = 0;
+  int linear_iterations = 0;      ///< CG iterations summed (0 with CHOLMOD)
+  double relative_residual = 0;   ///< ‖f_ext + f(x)‖ / ‖f_ext‖ on free DOFs at exit
+  bool converged = false;
+};
+
+/// Stages of one time step over a FemModel. Not thread-safe; one per physics thread.
+class TimeStepper {
+ public:
+  TimeStepper(const FemModel& model, const StepperSettings& settings);
+  ~TimeStepper();
+
+  /// Stage "assemble": element pass at the current state and the step's right-hand side.
+  /// Returns the elastic energy at s.x (before the step).
+  double assemble(const TissueState& s, double h);
+  /// Stage "solve": Δv (implicit Euler) into s.dv. No-op for symplectic Euler.
+  SolveStats solve(TissueState& s);
+  /// Stage "integrate": update v and x; constrained nodes keep v = 0.
+  void integrate(TissueState& s, double h);
+
+  /// Newton iterations to static equilibrium from s.x (velocities zeroed).
+  StaticResult solve_static(TissueState& s);
+
+  /// ½ vᵀ M v.
+  double kinetic_energy(const TissueState& s) const;
+  /// Potential of the constant external forces: −f_extᵀ (x − X).
+  double external_potential(const TissueState& s) const;
+  /// Elastic energy at s.x (a separate element pass; not for the hot loop).
+  double elastic_energy(const TissueState& s) const;
+  /// Elastic force at s.x into `f` (3n), for tests and diagnostics.
+  void elastic_force(const TissueState& s, double* f) const;
+  /// Assembled tangent stiffness K(x) (unscaled, unprojected) into BSR values, for tests.
+  void stiffness(const TissueState& s, std::vector<double>& kvals) const;
+
+  const FemModel& model() const { return m_; }
+  const StepperSettings& settings() const { return cfg_; }
+  /// The element rotations of the last assemble (9 per element), for stress output.
+  const std::vector<double>& rotations() const { return rot_; }
+
+ private:
+  void project_constraints(double* A, double diag_scale);
+  const FemModel& m_;
+  StepperSettings cfg_;
+  bool any_beta_ = false;
+  std::vector<double> force_, kv_, rhs_, A_, rot_, tmp_;
+  CgSolver cg_;
+  std::unique_ptr<CholmodSolver> cholmod_;
+};
+
+}  // namespace stroma

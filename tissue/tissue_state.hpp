@@ -1,0 +1,28 @@
+#pragma once
+/// \file tissue_state.hpp
+/// The small mutable state of the deformable bodies. Snapshot and restore are plain copies.
+
+#include <vector>
+
+#include "tissue/fem_model.hpp"
+
+namespace stroma {
+
+/// Positions, velocities and the solver's warm start. Everything else is either in the
+/// immutable FemModel or scratch space that need not survive a tick.
+struct TissueState {
+  std::vector<double> x;   ///< 3n positions (m)
+  std::vector<double> v;   ///< 3n velocities (m/s)
+  std::vector<double> dv;  ///< 3n last velocity increment: CG warm start (implicit Euler)
+
+  /// State at rest: x = rest positions, v = 0.
+  static TissueState at_rest(const FemModel& m) {
+    TissueState s;
+    s.x = m.rest;
+    s.v.assign(m.rest.size(), 0.0);
+    s.dv.assign(m.rest.size(), 0.0);
+    return s;
+  }
+};
+
+}  // namespace stroma
