@@ -5,6 +5,8 @@
 /// happy path never counts lines.
 #include "tissue/mesh_io.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <bit>
 #include <charconv>
@@ -17,8 +19,6 @@
 #include <string_view>
 #include <unordered_map>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "tissue/input_error.hpp"
 
@@ -45,7 +45,7 @@ char lower(char c) { return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' +
 
 bool iequals(std::string_view a, std::string_view b) {
   return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(),
-                                             [](char x, char y) { return lower(x) == lower(y); });
+                                            [](char x, char y) { return lower(x) == lower(y); });
 }
 
 /// Quotes file text in a message without flooding it (binary junk, long lines).
@@ -78,7 +78,8 @@ struct ParseContext {
     pos = std::min(pos, text.size());
     // The end of a file that ends with a newline belongs to its last line, not a phantom one.
     if (pos == text.size() && pos > 0 && text[pos - 1] == '\n') --pos;
-    return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n'));
+    return 1 +
+           static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n'));
   }
   [[noreturn]] void fail(size_t pos, const std::string& message) const {
     throw InputError(source, line_at(pos), field, message);
@@ -148,7 +149,8 @@ class Scanner {
   /// For line scanners: nothing may follow what was read.
   void expect_line_end() {
     if (!at_end())
-      ctx_->fail(pos_, fmt::format("unexpected extra value '{}' at the end of the line", clip(token())));
+      ctx_->fail(pos_,
+                 fmt::format("unexpected extra value '{}' at the end of the line", clip(token())));
   }
   /// The rest of the range, trimmed (for a line scanner: the rest of the line).
   std::string_view rest() {
@@ -201,13 +203,14 @@ class Scanner {
 /// a more useful message than "non-numeric value 'CELLS'".
 bool looks_like_keyword(std::string_view tok) {
   if (tok.empty() || tok[0] == '$' || tok[0] == '<') return true;
-  return tok.size() >= 3 &&
-         std::all_of(tok.begin(), tok.end(), [](char c) { return (c >= 'A' && c <= 'Z') || c == '_'; });
+  return tok.size() >= 3 && std::all_of(tok.begin(), tok.end(),
+                                        [](char c) { return (c >= 'A' && c <= 'Z') || c == '_'; });
 }
 
 /// Reads exactly `count` whitespace-separated numbers (ASCII data blocks of VTK files).
 template <class T>
-std::vector<T> read_values(const ParseContext& ctx, Scanner& sc, size_t count, std::string_view what) {
+std::vector<T> read_values(const ParseContext& ctx, Scanner& sc, size_t count,
+                           std::string_view what) {
   std::vector<T> out;
   // Every value takes at least two characters: never let a bogus count allocate gigabytes.
   out.reserve(std::min(count, (sc.end() - sc.pos()) / 2 + 1));
@@ -220,10 +223,11 @@ std::vector<T> read_values(const ParseContext& ctx, Scanner& sc, size_t count, s
       continue;
     }
     if (tok.empty())
-      ctx.fail(at, fmt::format("truncated: expected {} {}, found {} before the end of the {}", count,
-                               what, i, sc.end_name()));
+      ctx.fail(at, fmt::format("truncated: expected {} {}, found {} before the end of the {}",
+                               count, what, i, sc.end_name()));
     if (looks_like_keyword(tok))
-      ctx.fail(at, fmt::format("truncated: expected {} {}, found {} before '{}'", count, what, i, clip(tok)));
+      ctx.fail(at, fmt::format("truncated: expected {} {}, found {} before '{}'", count, what, i,
+                               clip(tok)));
     if constexpr (std::is_integral_v<T>)
       ctx.fail(at, fmt::format("invalid value '{}' in {} (expected an integer)", clip(tok), what));
     else
@@ -250,13 +254,13 @@ struct ScalarType {
 
 std::optional<ScalarType> legacy_vtk_type(std::string_view name) {
   static constexpr std::pair<std::string_view, ScalarType> kTypes[] = {
-      {"float", {Kind::Float, 4}},          {"double", {Kind::Float, 8}},
-      {"char", {Kind::Signed, 1}},          {"unsigned_char", {Kind::Unsigned, 1}},
-      {"short", {Kind::Signed, 2}},         {"unsigned_short", {Kind::Unsigned, 2}},
-      {"int", {Kind::Signed, 4}},           {"unsigned_int", {Kind::Unsigned, 4}},
-      {"long", {Kind::Signed, 8}},          {"unsigned_long", {Kind::Unsigned, 8}},
-      {"vtktypeint32", {Kind::Signed, 4}},  {"vtktypeuint32", {Kind::Unsigned, 4}},
-      {"vtktypeint64", {Kind::Signed, 8}},  {"vtktypeuint64", {Kind::Unsigned, 8}},
+      {"float", {Kind::Float, 4}},         {"double", {Kind::Float, 8}},
+      {"char", {Kind::Signed, 1}},         {"unsigned_char", {Kind::Unsigned, 1}},
+      {"short", {Kind::Signed, 2}},        {"unsigned_short", {Kind::Unsigned, 2}},
+      {"int", {Kind::Signed, 4}},          {"unsigned_int", {Kind::Unsigned, 4}},
+      {"long", {Kind::Signed, 8}},         {"unsigned_long", {Kind::Unsigned, 8}},
+      {"vtktypeint32", {Kind::Signed, 4}}, {"vtktypeuint32", {Kind::Unsigned, 4}},
+      {"vtktypeint64", {Kind::Signed, 8}}, {"vtktypeuint64", {Kind::Unsigned, 8}},
       {"vtkidtype", {Kind::Signed, 8}},
   };
   for (const auto& [n, t] : kTypes)
@@ -266,10 +270,11 @@ std::optional<ScalarType> legacy_vtk_type(std::string_view name) {
 
 std::optional<ScalarType> xml_vtk_type(std::string_view name) {
   static constexpr std::pair<std::string_view, ScalarType> kTypes[] = {
-      {"Float32", {Kind::Float, 4}},  {"Float64", {Kind::Float, 8}},  {"Int8", {Kind::Signed, 1}},
-      {"UInt8", {Kind::Unsigned, 1}}, {"Int16", {Kind::Signed, 2}},   {"UInt16", {Kind::Unsigned, 2}},
-      {"Int32", {Kind::Signed, 4}},   {"UInt32", {Kind::Unsigned, 4}}, {"Int64", {Kind::Signed, 8}},
-      {"UInt64", {Kind::Unsigned, 8}},
+      {"Float32", {Kind::Float, 4}}, {"Float64", {Kind::Float, 8}},
+      {"Int8", {Kind::Signed, 1}},   {"UInt8", {Kind::Unsigned, 1}},
+      {"Int16", {Kind::Signed, 2}},  {"UInt16", {Kind::Unsigned, 2}},
+      {"Int32", {Kind::Signed, 4}},  {"UInt32", {Kind::Unsigned, 4}},
+      {"Int64", {Kind::Signed, 8}},  {"UInt64", {Kind::Unsigned, 8}},
   };
   for (const auto& [n, t] : kTypes)
     if (n == name) return t;
@@ -297,9 +302,11 @@ std::vector<T> decode_values(const unsigned char* p, size_t count, ScalarType t,
     const uint64_t bits = load_bits(p, t.size, big_endian);
     if constexpr (std::is_floating_point_v<T>) {
       if (t.kind == Kind::Float)
-        out[i] = t.size == 4 ? std::bit_cast<float>(static_cast<uint32_t>(bits)) : std::bit_cast<double>(bits);
+        out[i] = t.size == 4 ? std::bit_cast<float>(static_cast<uint32_t>(bits))
+                             : std::bit_cast<double>(bits);
       else
-        out[i] = t.kind == Kind::Signed ? static_cast<T>(sign_extend(bits, t.size)) : static_cast<T>(bits);
+        out[i] = t.kind == Kind::Signed ? static_cast<T>(sign_extend(bits, t.size))
+                                        : static_cast<T>(bits);
     } else {
       out[i] = t.kind == Kind::Signed ? sign_extend(bits, t.size) : static_cast<int64_t>(bits);
     }
@@ -309,7 +316,8 @@ std::vector<T> decode_values(const unsigned char* p, size_t count, ScalarType t,
 
 std::vector<Vec3> to_points(const std::vector<double>& xyz) {
   std::vector<Vec3> points(xyz.size() / 3);
-  for (size_t i = 0; i < points.size(); ++i) points[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+  for (size_t i = 0; i < points.size(); ++i)
+    points[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
   return points;
 }
 
@@ -320,7 +328,9 @@ std::vector<Vec3> to_points(const std::vector<double>& xyz) {
 constexpr int64_t kGmshTet4 = 4;
 
 /// gmsh types of tetrahedra with more than 4 nodes (TET10, TET20, TET35, TET56).
-bool is_gmsh_higher_order_tet(int64_t type) { return type == 11 || type == 29 || type == 30 || type == 31; }
+bool is_gmsh_higher_order_tet(int64_t type) {
+  return type == 11 || type == 29 || type == 30 || type == 31;
+}
 
 std::string gmsh_higher_order_message(int64_t type) {
   return fmt::format("{} tetrahedra (type {}) are not supported; re-mesh with -order 1",
@@ -347,7 +357,8 @@ class GmshReader {
       ctx_.field = std::string(name);
       if (name == nodes_name || name == elements_name) {
         const bool nodes = name == nodes_name;
-        if (nodes ? have_nodes : have_elements) ctx_.fail(at, fmt::format("second {} section", name));
+        if (nodes ? have_nodes : have_elements)
+          ctx_.fail(at, fmt::format("second {} section", name));
         if (!nodes && !have_nodes) ctx_.fail(at, fmt::format("{} before {}", name, nodes_name));
         (nodes ? have_nodes : have_elements) = true;
         if (nodes) {
@@ -386,23 +397,27 @@ class GmshReader {
       return;
     }
     if (head != "$MeshFormat")
-      ctx_.fail(first_pos, fmt::format("not a gmsh file: expected $MeshFormat or $NOD, found '{}'", clip(head)));
+      ctx_.fail(first_pos, fmt::format("not a gmsh file: expected $MeshFormat or $NOD, found '{}'",
+                                       clip(head)));
 
     Scanner line = body_line([] { return std::string("missing the version line"); });
     const size_t version_pos = line.token_pos();
     const std::string_view version = line.token();
     double v = 0;
-    if (!parse_number(version, v)) ctx_.fail(version_pos, fmt::format("invalid gmsh version '{}'", clip(version)));
+    if (!parse_number(version, v))
+      ctx_.fail(version_pos, fmt::format("invalid gmsh version '{}'", clip(version)));
     // 2.0-2.2 share the node and element layout; 4.0 differs from 4.1 and is not read.
     if (v >= 2.0 && v < 3.0) {
       version_ = 2;
     } else if (v == 4.1) {
       version_ = 4;
     } else {
-      ctx_.fail(version_pos, fmt::format("unsupported gmsh version {} (supported: 1.0, 2.x and 4.1)", version));
+      ctx_.fail(version_pos,
+                fmt::format("unsupported gmsh version {} (supported: 1.0, 2.x and 4.1)", version));
     }
     const size_t type_pos = line.token_pos();
-    if (line.integer("file type") != 0) ctx_.fail(type_pos, "binary .msh not supported; save as ASCII");
+    if (line.integer("file type") != 0)
+      ctx_.fail(type_pos, "binary .msh not supported; save as ASCII");
     line.integer("data size");
     line.expect_line_end();
     expect_end_marker("$EndMeshFormat", 1, "format line");
@@ -417,7 +432,8 @@ class GmshReader {
       ctx_.fail(ctx_.text.size(),
                 fmt::format("truncated: {} before the end of the file", describe()));
     if (line->peek() == '$')
-      ctx_.fail(line->pos(), fmt::format("truncated: {} before '{}'", describe(), clip(line->rest())));
+      ctx_.fail(line->pos(),
+                fmt::format("truncated: {} before '{}'", describe(), clip(line->rest())));
     return *line;
   }
 
@@ -429,12 +445,14 @@ class GmshReader {
   /// the count in the section header is wrong.
   void expect_end_marker(std::string_view marker, int64_t count, std::string_view what) {
     auto line = file_.next_line();
-    if (!line) ctx_.fail(ctx_.text.size(), fmt::format("missing {} at the end of the file", marker));
+    if (!line)
+      ctx_.fail(ctx_.text.size(), fmt::format("missing {} at the end of the file", marker));
     const size_t at = line->pos();
     const std::string_view text = line->rest();
     if (!iequals(text, marker))
       ctx_.fail(at, fmt::format("expected {} after {} {}, found '{}' (is the count in the section "
-                                "header wrong?)", marker, count, what, clip(text)));
+                                "header wrong?)",
+                                marker, count, what, clip(text)));
   }
 
   /// Sections this reader does not need ($PhysicalNames, $Entities, $NodeData, ...).
@@ -471,7 +489,8 @@ class GmshReader {
     header.expect_line_end();
     reserve_nodes(count);
     for (int64_t i = 0; i < count; ++i) {
-      Scanner line = body_line([&] { return fmt::format("expected {} nodes, found {}", count, i); });
+      Scanner line =
+          body_line([&] { return fmt::format("expected {} nodes, found {}", count, i); });
       const size_t at = line.token_pos();
       map_tag(line.integer("node tag"), nodes_.size(), at);
       nodes_.push_back(read_xyz(line));
@@ -492,7 +511,8 @@ class GmshReader {
     header.expect_line_end();
     reserve_nodes(total);
     for (int64_t b = 0; b < blocks; ++b) {
-      Scanner bh = body_line([&] { return fmt::format("expected {} node blocks, found {}", blocks, b); });
+      Scanner bh =
+          body_line([&] { return fmt::format("expected {} node blocks, found {}", blocks, b); });
       const size_t dim_pos = bh.token_pos();
       const int64_t dim = bh.integer("entity dimension");
       bh.integer("entity tag");
@@ -502,7 +522,8 @@ class GmshReader {
       bh.expect_line_end();
       if (dim < 0 || dim > 3) ctx_.fail(dim_pos, fmt::format("invalid entity dimension {}", dim));
       if (parametric != 0 && parametric != 1)
-        ctx_.fail(param_pos, fmt::format("invalid parametric flag {} (expected 0 or 1)", parametric));
+        ctx_.fail(param_pos,
+                  fmt::format("invalid parametric flag {} (expected 0 or 1)", parametric));
 
       const size_t first = nodes_.size();
       for (int64_t j = 0; j < n; ++j) {
@@ -527,14 +548,16 @@ class GmshReader {
     }
     expect_end_marker("$EndNodes", blocks, "node blocks");
     if (nodes_.size() != static_cast<size_t>(total))
-      ctx_.fail(header_pos, fmt::format("header announces {} nodes but the blocks hold {}", total, nodes_.size()));
+      ctx_.fail(header_pos, fmt::format("header announces {} nodes but the blocks hold {}", total,
+                                        nodes_.size()));
   }
 
   int32_t node_index(Scanner& line) {
     const size_t at = line.token_pos();
     const int64_t tag = line.integer("node tag");
     const auto it = index_of_tag_.find(tag);
-    if (it == index_of_tag_.end()) ctx_.fail(at, fmt::format("element refers to unknown node tag {}", tag));
+    if (it == index_of_tag_.end())
+      ctx_.fail(at, fmt::format("element refers to unknown node tag {}", tag));
     return it->second;
   }
 
@@ -545,14 +568,16 @@ class GmshReader {
     tets_.push_back(t);
   }
 
-  /// 1.0: "number type reg-phys reg-elem number-of-nodes nodes..."; 2.x: "tag type ntags tags... nodes...".
+  /// 1.0: "number type reg-phys reg-elem number-of-nodes nodes..."; 2.x: "tag type ntags tags...
+  /// nodes...".
   void read_elements_v1v2() {
     Scanner header = header_line("element count");
     const int64_t count = header.count("element count");
     header.expect_line_end();
     tets_.reserve(std::min(static_cast<size_t>(count), ctx_.text.size() / 16 + 1));
     for (int64_t i = 0; i < count; ++i) {
-      Scanner line = body_line([&] { return fmt::format("expected {} elements, found {}", count, i); });
+      Scanner line =
+          body_line([&] { return fmt::format("expected {} elements, found {}", count, i); });
       line.integer("element number");
       const size_t type_pos = line.token_pos();
       const int64_t type = line.integer("element type");
@@ -562,7 +587,8 @@ class GmshReader {
         const size_t n_pos = line.token_pos();
         const int64_t n = line.integer("number of nodes");
         if (type == kGmshTet4 && n != 4)
-          ctx_.fail(n_pos, fmt::format("a linear tetrahedron (type 4) has 4 nodes, this line gives {}", n));
+          ctx_.fail(n_pos, fmt::format(
+                               "a linear tetrahedron (type 4) has 4 nodes, this line gives {}", n));
       } else {
         const int64_t ntags = line.count("number of tags");
         for (int64_t t = 0; t < ntags; ++t) line.integer("element tag");
@@ -589,7 +615,8 @@ class GmshReader {
     header.expect_line_end();
     int64_t seen = 0;
     for (int64_t b = 0; b < blocks; ++b) {
-      Scanner bh = body_line([&] { return fmt::format("expected {} element blocks, found {}", blocks, b); });
+      Scanner bh =
+          body_line([&] { return fmt::format("expected {} element blocks, found {}", blocks, b); });
       bh.integer("entity dimension");
       bh.integer("entity tag");
       const size_t type_pos = bh.token_pos();
@@ -598,9 +625,8 @@ class GmshReader {
       bh.expect_line_end();
       if (is_gmsh_higher_order_tet(type)) ctx_.fail(type_pos, gmsh_higher_order_message(type));
       for (int64_t j = 0; j < n; ++j) {
-        Scanner line = body_line([&] {
-          return fmt::format("expected {} elements in block {}, found {}", n, b + 1, j);
-        });
+        Scanner line = body_line(
+            [&] { return fmt::format("expected {} elements in block {}, found {}", n, b + 1, j); });
         if (type == kGmshTet4) {
           line.integer("element tag");
           add_tet(line);
@@ -611,7 +637,8 @@ class GmshReader {
     }
     expect_end_marker("$EndElements", blocks, "element blocks");
     if (seen != total)
-      ctx_.fail(header_pos, fmt::format("header announces {} elements but the blocks hold {}", total, seen));
+      ctx_.fail(header_pos,
+                fmt::format("header announces {} elements but the blocks hold {}", total, seen));
   }
 
   ParseContext& ctx_;
@@ -630,19 +657,20 @@ class GmshReader {
 
 constexpr int64_t kVtkTetra = 10;
 
+/// VTK tetrahedra with more than 4 nodes (QUADRATIC_TETRA, LAGRANGE_TETRAHEDRON,
+/// BEZIER_TETRAHEDRON): an error, not something to drop silently.
 std::optional<std::string> vtk_higher_order_message(int64_t type) {
-  if (type == 24)
-    return "quadratic tetrahedra (VTK cell type 24) are not supported; export linear tetrahedra (type 10)";
-  if (type == 71 || type == 78)
-    return fmt::format("higher-order tetrahedra (VTK cell type {}) are not supported; export linear "
-                       "tetrahedra (type 10)", type);
-  return std::nullopt;
+  if (type != 24 && type != 71 && type != 78) return std::nullopt;
+  return fmt::format(
+      "{} tetrahedra (VTK cell type {}) are not supported; export linear tetrahedra (type 10)",
+      type == 24 ? "quadratic" : "higher-order", type);
 }
 
 /// A VTK cell list in the one layout both readers convert to. Positions and field names say
 /// where each array sits in the file, for errors found only when the arrays are combined.
 struct CellArrays {
-  std::vector<int64_t> offsets;  // cell i uses connectivity[offsets[i], offsets[i+1]); offsets[0] == 0
+  /// Cell i uses connectivity[offsets[i], offsets[i+1]); offsets[0] == 0.
+  std::vector<int64_t> offsets;
   std::vector<int64_t> connectivity;
   std::vector<int64_t> types;
   size_t offsets_pos = kNoPos, connectivity_pos = kNoPos, types_pos = kNoPos;
@@ -656,13 +684,15 @@ TetMesh assemble_vtk_mesh(ParseContext& ctx, std::vector<Vec3> points, const Cel
   };
   const size_t ncells = c.types.size();
   if (c.offsets.size() != ncells + 1)
-    fail(c.types_field, c.types_pos, fmt::format("{} cell types for {} cells", ncells, c.offsets.size() - 1));
+    fail(c.types_field, c.types_pos,
+         fmt::format("{} cell types for {} cells", ncells, c.offsets.size() - 1));
   for (size_t i = 0; i < ncells; ++i)
     if (c.offsets[i + 1] < c.offsets[i])
       fail(c.offsets_field, c.offsets_pos, fmt::format("offsets decrease at cell {}", i));
   if (c.offsets.back() != static_cast<int64_t>(c.connectivity.size()))
-    fail(c.offsets_field, c.offsets_pos, fmt::format("last offset {} does not match the {} connectivity values",
-                                                     c.offsets.back(), c.connectivity.size()));
+    fail(c.offsets_field, c.offsets_pos,
+         fmt::format("last offset {} does not match the {} connectivity values", c.offsets.back(),
+                     c.connectivity.size()));
 
   TetMesh mesh;
   mesh.tets.reserve(ncells);
@@ -670,27 +700,32 @@ TetMesh assemble_vtk_mesh(ParseContext& ctx, std::vector<Vec3> points, const Cel
   for (size_t i = 0; i < ncells; ++i) {
     const int64_t type = c.types[i];
     if (type != kVtkTetra) {
-      if (auto message = vtk_higher_order_message(type)) fail(c.types_field, c.types_pos, fmt::format("cell {}: {}", i, *message));
+      if (auto message = vtk_higher_order_message(type))
+        fail(c.types_field, c.types_pos, fmt::format("cell {}: {}", i, *message));
       ++others;
       continue;
     }
     const int64_t begin = c.offsets[i];
     if (c.offsets[i + 1] - begin != 4)
-      fail(c.types_field, c.types_pos, fmt::format("cell {} is a tetrahedron (type 10) but has {} points", i,
-                                                   c.offsets[i + 1] - begin));
+      fail(c.types_field, c.types_pos,
+           fmt::format("cell {} is a tetrahedron (type 10) but has {} points", i,
+                       c.offsets[i + 1] - begin));
     Tet t;
     for (int k = 0; k < 4; ++k) {
       const int64_t index = c.connectivity[static_cast<size_t>(begin + k)];
       if (index < 0 || index >= static_cast<int64_t>(points.size()))
         fail(c.connectivity_field, c.connectivity_pos,
-             fmt::format("cell {} refers to point {}, but there are {} points", i, index, points.size()));
+             fmt::format("cell {} refers to point {}, but there are {} points", i, index,
+                         points.size()));
       t[static_cast<size_t>(k)] = static_cast<int32_t>(index);
     }
     mesh.tets.push_back(t);
   }
   if (mesh.tets.empty())
-    fail(c.types_field, c.types_pos, fmt::format("no tetrahedra in the mesh (found {} cells of other types; "
-                                                 "only linear tetrahedra, type 10, are read)", others));
+    fail(c.types_field, c.types_pos,
+         fmt::format("no tetrahedra in the mesh (found {} cells of other types; "
+                     "only linear tetrahedra, type 10, are read)",
+                     others));
   mesh.nodes = std::move(points);
   mesh.source = ctx.source;
   return mesh;
@@ -738,7 +773,8 @@ class VtkLegacyReader {
     ctx_.field = "header";
     const auto magic = file_.raw_line();
     constexpr std::string_view kMagic = "# vtk DataFile Version";
-    if (!magic || magic->size() < kMagic.size() || !iequals(magic->substr(0, kMagic.size()), kMagic))
+    if (!magic || magic->size() < kMagic.size() ||
+        !iequals(magic->substr(0, kMagic.size()), kMagic))
       ctx_.fail(0, fmt::format("not a VTK file: the first line must start with '{}'", kMagic));
     double version = 0;
     const std::string_view version_text = trim(magic->substr(kMagic.size()));
@@ -755,14 +791,17 @@ class VtkLegacyReader {
     } else if (mode && iequals(*mode, "BINARY")) {
       binary_ = true;
     } else {
-      ctx_.fail(mode_pos, fmt::format("expected ASCII or BINARY on line 3, found '{}'", clip(mode.value_or(""))));
+      ctx_.fail(mode_pos, fmt::format("expected ASCII or BINARY on line 3, found '{}'",
+                                      clip(mode.value_or(""))));
     }
     const size_t at = file_.token_pos();
     if (!iequals(file_.token(), "DATASET")) ctx_.fail(at, "expected 'DATASET UNSTRUCTURED_GRID'");
     const size_t type_pos = file_.token_pos();
     const std::string_view type = file_.token();
     if (!iequals(type, "UNSTRUCTURED_GRID"))
-      ctx_.fail(type_pos, fmt::format("dataset type '{}' is not supported; expected UNSTRUCTURED_GRID", clip(type)));
+      ctx_.fail(type_pos,
+                fmt::format("dataset type '{}' is not supported; expected UNSTRUCTURED_GRID",
+                            clip(type)));
   }
 
   ScalarType read_type(bool need_integer) {
@@ -775,11 +814,15 @@ class VtkLegacyReader {
     return *type;
   }
 
-  void expect_keyword(std::string_view keyword) {
+  /// Returns the keyword's offset. (Never use token_pos() to locate binary data: it would skip
+  /// the newline that ends the keyword line, and skip_line() would then eat into the values.)
+  size_t expect_keyword(std::string_view keyword) {
     const size_t at = file_.token_pos();
     const std::string_view tok = file_.token();
-    if (!iequals(tok, keyword)) ctx_.fail(at, fmt::format("expected '{}', found '{}'", keyword, clip(tok)));
+    if (!iequals(tok, keyword))
+      ctx_.fail(at, fmt::format("expected '{}', found '{}'", keyword, clip(tok)));
     ctx_.field = std::string(keyword);
+    return at;
   }
 
   /// An array's values: text numbers, or (BINARY files) raw big-endian values starting on the
@@ -792,10 +835,11 @@ class VtkLegacyReader {
     ctx_.binary_from = std::min(ctx_.binary_from, begin);
     const size_t bytes = count * static_cast<size_t>(type.size);
     if (ctx_.text.size() - begin < bytes)
-      ctx_.fail(begin, fmt::format("truncated binary data: expected {} {} ({} bytes), found {} bytes", count,
-                                   what, bytes, ctx_.text.size() - begin));
-    auto values = decode_values<T>(reinterpret_cast<const unsigned char*>(ctx_.text.data() + begin), count,
-                                   type, /*big_endian=*/true);
+      ctx_.fail(begin,
+                fmt::format("truncated binary data: expected {} {} ({} bytes), found {} bytes",
+                            count, what, bytes, ctx_.text.size() - begin));
+    auto values = decode_values<T>(reinterpret_cast<const unsigned char*>(ctx_.text.data() + begin),
+                                   count, type, /*big_endian=*/true);
     file_.seek(begin + bytes);
     return values;
   }
@@ -809,25 +853,26 @@ class VtkLegacyReader {
 
   void read_cells(size_t at) {
     const int64_t n = file_.count(new_cell_layout_ ? "number of offsets" : "number of cells");
-    const int64_t size = file_.count(new_cell_layout_ ? "number of connectivity values" : "cell list size");
+    const int64_t size =
+        file_.count(new_cell_layout_ ? "number of connectivity values" : "cell list size");
     if (new_cell_layout_) {
-      expect_keyword("OFFSETS");
+      cells_.offsets_pos = expect_keyword("OFFSETS");
       const ScalarType offset_type = read_type(true);
-      cells_.offsets_pos = file_.token_pos();
       cells_.offsets = read_array<int64_t>(static_cast<size_t>(n), offset_type, "offsets");
       if (cells_.offsets.empty() || cells_.offsets[0] != 0)
         ctx_.fail(cells_.offsets_pos, "OFFSETS must start with 0");
       cells_.offsets_field = "OFFSETS";
-      expect_keyword("CONNECTIVITY");
+      cells_.connectivity_pos = expect_keyword("CONNECTIVITY");
       const ScalarType conn_type = read_type(true);
-      cells_.connectivity_pos = file_.token_pos();
-      cells_.connectivity = read_array<int64_t>(static_cast<size_t>(size), conn_type, "connectivity values");
+      cells_.connectivity =
+          read_array<int64_t>(static_cast<size_t>(size), conn_type, "connectivity values");
       cells_.connectivity_field = "CONNECTIVITY";
     } else {
       // Classic layout: per cell "npts id0 id1 ...", all as int32 in BINARY files.
       cells_.connectivity_pos = cells_.offsets_pos = at;
       cells_.offsets_field = cells_.connectivity_field = "CELLS";
-      const auto list = read_array<int64_t>(static_cast<size_t>(size), ScalarType{Kind::Signed, 4}, "cell list values");
+      const auto list = read_array<int64_t>(static_cast<size_t>(size), ScalarType{Kind::Signed, 4},
+                                            "cell list values");
       split_cell_list(list, static_cast<size_t>(n), at);
     }
     have_cells_ = true;
@@ -841,22 +886,26 @@ class VtkLegacyReader {
     for (size_t i = 0; i < n; ++i) {
       const int64_t npts = pos < list.size() ? list[pos] : -1;
       if (npts < 0 || static_cast<size_t>(npts) > list.size() - pos - 1)
-        ctx_.fail(at, fmt::format("cell {} does not fit in the cell list of {} values (wrong CELLS size?)", i,
-                                  list.size()));
-      cells_.connectivity.insert(cells_.connectivity.end(), list.begin() + static_cast<long>(pos + 1),
-                                 list.begin() + static_cast<long>(pos + 1 + static_cast<size_t>(npts)));
+        ctx_.fail(at, fmt::format(
+                          "cell {} does not fit in the cell list of {} values (wrong CELLS size?)",
+                          i, list.size()));
+      cells_.connectivity.insert(
+          cells_.connectivity.end(), list.begin() + static_cast<long>(pos + 1),
+          list.begin() + static_cast<long>(pos + 1 + static_cast<size_t>(npts)));
       cells_.offsets.push_back(static_cast<int64_t>(cells_.connectivity.size()));
       pos += 1 + static_cast<size_t>(npts);
     }
     if (pos != list.size())
-      ctx_.fail(at, fmt::format("CELLS announces a list of {} values, but its {} cells use {}", list.size(), n, pos));
+      ctx_.fail(at, fmt::format("CELLS announces a list of {} values, but its {} cells use {}",
+                                list.size(), n, pos));
   }
 
   void read_cell_types(size_t at) {
     const int64_t n = file_.count("number of cell types");
     cells_.types_pos = at;
     cells_.types_field = "CELL_TYPES";
-    cells_.types = read_array<int64_t>(static_cast<size_t>(n), ScalarType{Kind::Signed, 4}, "cell types");
+    cells_.types =
+        read_array<int64_t>(static_cast<size_t>(n), ScalarType{Kind::Signed, 4}, "cell types");
     have_types_ = true;
   }
 
@@ -944,15 +993,17 @@ class VtuReader {
     if (!root) ctx_.fail(kNoPos, "not a VTK XML file: no <VTKFile> element");
     const auto type = xml_attribute(root->tag, "type");
     if (type != "UnstructuredGrid")
-      ctx_.fail(root->begin, fmt::format("VTK XML file of type '{}' is not supported; expected UnstructuredGrid",
-                                         clip(type.value_or(""))));
+      ctx_.fail(root->begin,
+                fmt::format("VTK XML file of type '{}' is not supported; expected UnstructuredGrid",
+                            clip(type.value_or(""))));
     const auto byte_order = xml_attribute(root->tag, "byte_order").value_or("LittleEndian");
     if (byte_order != "LittleEndian" && byte_order != "BigEndian")
       ctx_.fail(root->begin, fmt::format("unknown byte_order '{}'", clip(byte_order)));
     big_endian_ = byte_order == "BigEndian";
     const auto header_type = xml_attribute(root->tag, "header_type").value_or("UInt32");
     if (header_type != "UInt32" && header_type != "UInt64")
-      ctx_.fail(root->begin, fmt::format("unknown header_type '{}' (expected UInt32 or UInt64)", clip(header_type)));
+      ctx_.fail(root->begin, fmt::format("unknown header_type '{}' (expected UInt32 or UInt64)",
+                                         clip(header_type)));
     header_size_ = header_type == "UInt64" ? 8 : 4;
     compressor_ = xml_attribute(root->tag, "compressor").value_or("");
 
@@ -982,13 +1033,15 @@ class VtuReader {
 
     CellArrays c;
     // VTU offsets are the end of each cell; the shared layout wants a leading 0.
-    c.offsets = read_array<int64_t>(offsets, static_cast<size_t>(ncells), "offsets", "offsets (NumberOfCells)");
+    c.offsets = read_array<int64_t>(offsets, static_cast<size_t>(ncells), "offsets",
+                                    "offsets (NumberOfCells)");
     c.offsets.insert(c.offsets.begin(), 0);
     const int64_t nconn = c.offsets.back();
     if (nconn < 0) ctx_.fail(offsets.begin, fmt::format("negative last offset {}", nconn));
     c.connectivity = read_array<int64_t>(connectivity, static_cast<size_t>(nconn), "connectivity",
                                          "connectivity values (last offset)");
-    c.types = read_array<int64_t>(types, static_cast<size_t>(ncells), "types", "cell types (NumberOfCells)");
+    c.types = read_array<int64_t>(types, static_cast<size_t>(ncells), "types",
+                                  "cell types (NumberOfCells)");
     c.offsets_pos = offsets.begin;
     c.connectivity_pos = connectivity.begin;
     c.types_pos = types.begin;
@@ -1072,7 +1125,8 @@ class VtuReader {
 
   /// Reads exactly `count` values from a DataArray, ascii or inline binary.
   template <class T>
-  std::vector<T> read_array(const XmlTag& array, size_t count, std::string_view field, std::string_view what) {
+  std::vector<T> read_array(const XmlTag& array, size_t count, std::string_view field,
+                            std::string_view what) {
     ctx_.field = std::string(field);
     const size_t content_end = find_closing("DataArray", array);
     const auto type_name = xml_attribute(array.tag, "type").value_or("");
@@ -1090,26 +1144,34 @@ class VtuReader {
     }
     if (format == "binary") return decode_binary<T>(array, content_end, count, *type);
     if (format == "appended" || array.self_closing)
-      ctx_.fail(array.begin, "format=\"appended\" DataArrays are not supported; save with ascii or binary (inline) data");
+      ctx_.fail(array.begin,
+                "format=\"appended\" DataArrays are not supported; save with ascii or binary "
+                "(inline) data");
     ctx_.fail(array.begin, fmt::format("unknown DataArray format '{}'", clip(format)));
   }
 
   /// Inline binary: base64 of [byte count header][raw values], in the file's byte order.
   template <class T>
-  std::vector<T> decode_binary(const XmlTag& array, size_t content_end, size_t count, ScalarType type) {
+  std::vector<T> decode_binary(const XmlTag& array, size_t content_end, size_t count,
+                               ScalarType type) {
     if (!compressor_.empty())
-      ctx_.fail(array.begin, fmt::format("compressed binary data (compressor=\"{}\") is not supported; save "
-                                         "uncompressed or as ascii", clip(compressor_)));
+      ctx_.fail(array.begin,
+                fmt::format("compressed binary data (compressor=\"{}\") is not supported; save "
+                            "uncompressed or as ascii",
+                            clip(compressor_)));
     const std::vector<unsigned char> bytes = decode_base64(array.content_begin, content_end);
-    if (bytes.size() < header_size_) ctx_.fail(array.begin, "binary DataArray too short for its size header");
+    if (bytes.size() < header_size_)
+      ctx_.fail(array.begin, "binary DataArray too short for its size header");
     const uint64_t nbytes = load_bits(bytes.data(), static_cast<int>(header_size_), big_endian_);
     const size_t expected = count * static_cast<size_t>(type.size);
     if (nbytes != expected)
-      ctx_.fail(array.begin, fmt::format("binary DataArray holds {} bytes; expected {} for {} values", nbytes,
-                                         expected, count));
+      ctx_.fail(array.begin,
+                fmt::format("binary DataArray holds {} bytes; expected {} for {} values", nbytes,
+                            expected, count));
     if (bytes.size() - header_size_ < expected)
-      ctx_.fail(array.begin, fmt::format("truncated binary DataArray: {} bytes announced, {} present", expected,
-                                         bytes.size() - header_size_));
+      ctx_.fail(array.begin,
+                fmt::format("truncated binary DataArray: {} bytes announced, {} present", expected,
+                            bytes.size() - header_size_));
     return decode_values<T>(bytes.data() + header_size_, count, type, big_endian_);
   }
 
@@ -1122,7 +1184,8 @@ class VtuReader {
     int chars = 0;
     int pad = 0;
     auto emit = [&](int nbytes) {
-      for (int k = 0; k < nbytes; ++k) out.push_back(static_cast<unsigned char>(group >> (16 - 8 * k)));
+      for (int k = 0; k < nbytes; ++k)
+        out.push_back(static_cast<unsigned char>(group >> (16 - 8 * k)));
     };
     for (size_t i = begin; i < end; ++i) {
       const char c = doc_[i];
@@ -1179,13 +1242,17 @@ TetMesh read_with(std::istream& in, const std::string& source) {
 // Public entry points
 // =============================================================================================
 
-TetMesh read_gmsh(std::istream& in, const std::string& source) { return read_with<GmshReader>(in, source); }
+TetMesh read_gmsh(std::istream& in, const std::string& source) {
+  return read_with<GmshReader>(in, source);
+}
 
 TetMesh read_vtk_legacy(std::istream& in, const std::string& source) {
   return read_with<VtkLegacyReader>(in, source);
 }
 
-TetMesh read_vtu(std::istream& in, const std::string& source) { return read_with<VtuReader>(in, source); }
+TetMesh read_vtu(std::istream& in, const std::string& source) {
+  return read_with<VtuReader>(in, source);
+}
 
 TetMesh load_tet_mesh(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
@@ -1195,7 +1262,9 @@ TetMesh load_tet_mesh(const std::string& path) {
                                                          : ext == ".vtu" ? &read_vtu
                                                                          : nullptr;
   if (!reader)
-    throw InputError(path, 0, "", fmt::format("unknown mesh file extension '{}' (expected .msh, .vtk or .vtu)", ext));
+    throw InputError(
+        path, 0, "",
+        fmt::format("unknown mesh file extension '{}' (expected .msh, .vtk or .vtu)", ext));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, "", "cannot open file");
   return reader(in, path);

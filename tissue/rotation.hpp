@@ -27,7 +27,7 @@ inline void jacobi_rotate(double* S, double* V) {
   const double apq = S[3 * p + q];
   const double d = S[3 * q + q] - S[3 * p + p];
   const double hyp = std::sqrt(d * d + 4.0 * apq * apq);
-  const double t = std::copysign(2.0 * apq, d) / (std::fabs(d) + hyp + 1e-300);
+  const double t = 2.0 * apq * std::copysign(1.0, d) / (std::fabs(d) + hyp + 1e-300);
   const double c = 1.0 / std::sqrt(1.0 + t * t);
   const double s = t * c;
   S[3 * p + p] -= t * apq;
