@@ -28,7 +28,8 @@ std::string fixture(const std::string& name) {
 }
 
 std::string write_temp_file(const std::string& name, const std::string& bytes) {
-  const std::string path = ::testing::TempDir() + "/" + name;
+  // TempDir() ends with a separator; the prefix keeps clear of other suites' files under ctest -j.
+  const std::string path = ::testing::TempDir() + "mesh_io_" + name;
   std::ofstream out(path, std::ios::binary);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   return path;

@@ -1,5 +1,6 @@
 #include "tissue/fem_forces.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "tissue/mat3.hpp"
@@ -63,65 +64,95 @@ inline void scatter_pg(const ElementParams& ep, const double* P, double scale, d
   }
 }
 
+/// Elements per batch of the rotation kernel: 8 doubles fill an AVX-512 register.
+constexpr int kBatch = 8;
+
+/// Rotations of elements [e0, e0+count) into R[entry][lane] (count ≤ kBatch; spare lanes get
+/// identity gradients so they stay finite).
+template <ElementKernel K>
+inline void batch_rotations(const FemModel& m, const double* x, int32_t e0, int count,
+                            double (&R)[9][kBatch]) {
+  if constexpr (K == ElementKernel::Linear) {
+    for (int k = 0; k < 9; ++k)
+      for (int l = 0; l < kBatch; ++l) R[k][l] = (k % 4 == 0) ? 1.0 : 0.0;
+  } else if constexpr (K == ElementKernel::CorotationalPolar) {
+    double F[9][kBatch];
+    for (int l = 0; l < kBatch; ++l) {
+      double f[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, d1[3], d2[3];
+      if (l < count) deformation_gradient(x, m.elements[e0 + l], f, d1, d2);
+      for (int k = 0; k < 9; ++k) F[k][l] = f[k];
+    }
+    polar_rotation_batch<kBatch>(F, R);
+  } else {
+    for (int l = 0; l < kBatch; ++l) {
+      double f[9], d1[3] = {1, 0, 0}, d2[3] = {0, 1, 0}, r[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+      if (l < count) {
+        deformation_gradient(x, m.elements[e0 + l], f, d1, d2);
+        qr_rotation(m.rest_frame[e0 + l].data(), d1, d2, r);
+      }
+      for (int k = 0; k < 9; ++k) R[k][l] = r[k];
+    }
+  }
+}
+
 template <ElementKernel K, bool kHasKv, bool kHasK>
 double pass_range(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end) {
   double energy = 0.0;
   const double* __restrict x = p.x;
-  for (int32_t e = begin; e < end; ++e) {
-    const ElementParams& ep = m.elements[e];
-    double F[9], d1[3], d2[3], R[9];
-    deformation_gradient(x, ep, F, d1, d2);
-    if constexpr (K == ElementKernel::Linear) {
-      R[0] = R[4] = R[8] = 1.0;
-      R[1] = R[2] = R[3] = R[5] = R[6] = R[7] = 0.0;
-    } else if constexpr (K == ElementKernel::CorotationalPolar) {
-      polar_rotation(F, R);
-    } else {
-      qr_rotation(m.rest_frame[e].data(), d1, d2, R);
-    }
-    if (p.rotations)
-      for (int k = 0; k < 9; ++k) p.rotations[9 * e + k] = R[k];
+  for (int32_t e0 = begin; e0 < end; e0 += kBatch) {
+    const int count = std::min<int32_t>(kBatch, end - e0);
+    double Rb[9][kBatch];
+    batch_rotations<K>(m, x, e0, count, Rb);
+    for (int l = 0; l < count; ++l) {
+      const int32_t e = e0 + l;
+      const ElementParams& ep = m.elements[e];
+      double F[9], d1[3], d2[3], R[9];
+      deformation_gradient(x, ep, F, d1, d2);
+      for (int k = 0; k < 9; ++k) R[k] = Rb[k][l];
+      if (p.rotations)
+        for (int k = 0; k < 9; ++k) p.rotations[9 * e + k] = R[k];
 
-    double P[9], eps[9];
-    rotated_stress(R, F, ep.lambda, ep.mu, 1.0, P, eps);
-    const double tr = eps[0] + eps[4] + eps[8];
-    double ee = 0;
-    for (int k = 0; k < 9; ++k) ee += eps[k] * eps[k];
-    energy += ep.volume * (ep.mu * ee + 0.5 * ep.lambda * tr * tr);
-    if (p.force) scatter_pg(ep, P, ep.volume, p.force);
+      double P[9], eps[9];
+      rotated_stress(R, F, ep.lambda, ep.mu, 1.0, P, eps);
+      const double tr = eps[0] + eps[4] + eps[8];
+      double ee = 0;
+      for (int k = 0; k < 9; ++k) ee += eps[k] * eps[k];
+      energy += ep.volume * (ep.mu * ee + 0.5 * ep.lambda * tr * tr);
+      if (p.force) scatter_pg(ep, P, ep.volume, p.force);
 
-    if constexpr (kHasKv) {
-      double L[9], d1v[3], d2v[3], Q[9];
-      deformation_gradient(p.v, ep, L, d1v, d2v);
-      rotated_stress(R, L, ep.lambda, ep.mu, 0.0, Q, nullptr);
-      // scatter_pg adds −scale·Q·g; K·v is +V·Q·g, hence the negative scale.
-      scatter_pg(ep, Q, -ep.volume * (p.kv_beta * ep.beta + p.kv_const), p.kv);
-    }
+      if constexpr (kHasKv) {
+        double L[9], d1v[3], d2v[3], Q[9];
+        deformation_gradient(p.v, ep, L, d1v, d2v);
+        rotated_stress(R, L, ep.lambda, ep.mu, 0.0, Q, nullptr);
+        // scatter_pg adds −scale·Q·g; K·v is +V·Q·g, hence the negative scale.
+        scatter_pg(ep, Q, -ep.volume * (p.kv_beta * ep.beta + p.kv_const), p.kv);
+      }
 
-    if constexpr (kHasK) {
-      const double s = ep.volume * (p.k_beta * ep.beta + p.k_const);
-      double r[4][3], g[4][3];
-      for (int a = 0; a < 3; ++a)
-        for (int i = 0; i < 3; ++i) g[a + 1][i] = ep.g[3 * a + i];
-      for (int i = 0; i < 3; ++i) g[0][i] = -(g[1][i] + g[2][i] + g[3][i]);
-      for (int a = 0; a < 4; ++a) m3::mulv(R, g[a], r[a]);
-      const double sl = s * ep.lambda, sm = s * ep.mu;
-      const ElementSlots& slot = m.slots[e];
-      for (int a = 0; a < 4; ++a)
-        for (int b = a; b < 4; ++b) {
-          double B[9];
-          const double gg = sm * m3::dot(g[a], g[b]);
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) B[3 * i + j] = sl * r[a][i] * r[b][j] + sm * r[b][i] * r[a][j];
-          B[0] += gg; B[4] += gg; B[8] += gg;
-          double* Kab = p.kvals + 9 * slot[4 * a + b];
-          for (int k = 0; k < 9; ++k) Kab[k] += B[k];
-          if (a != b) {
-            double* Kba = p.kvals + 9 * slot[4 * b + a];
+      if constexpr (kHasK) {
+        const double s = ep.volume * (p.k_beta * ep.beta + p.k_const);
+        double r[4][3], g[4][3];
+        for (int a = 0; a < 3; ++a)
+          for (int i = 0; i < 3; ++i) g[a + 1][i] = ep.g[3 * a + i];
+        for (int i = 0; i < 3; ++i) g[0][i] = -(g[1][i] + g[2][i] + g[3][i]);
+        for (int a = 0; a < 4; ++a) m3::mulv(R, g[a], r[a]);
+        const double sl = s * ep.lambda, sm = s * ep.mu;
+        const ElementSlots& slot = m.slots[e];
+        for (int a = 0; a < 4; ++a)
+          for (int b = a; b < 4; ++b) {
+            double B[9];
+            const double gg = sm * m3::dot(g[a], g[b]);
             for (int i = 0; i < 3; ++i)
-              for (int j = 0; j < 3; ++j) Kba[3 * i + j] += B[3 * j + i];
+              for (int j = 0; j < 3; ++j) B[3 * i + j] = sl * r[a][i] * r[b][j] + sm * r[b][i] * r[a][j];
+            B[0] += gg; B[4] += gg; B[8] += gg;
+            double* Kab = p.kvals + 9 * slot[4 * a + b];
+            for (int k = 0; k < 9; ++k) Kab[k] += B[k];
+            if (a != b) {
+              double* Kba = p.kvals + 9 * slot[4 * b + a];
+              for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) Kba[3 * i + j] += B[3 * j + i];
+            }
           }
-        }
+      }
     }
   }
   return energy;

@@ -19,44 +19,54 @@ namespace stroma {
 
 namespace detail {
 
-/// One Jacobi rotation in the (p, q) plane that zeroes S(p,q); accumulates V ← V·J.
-/// Branch-free: a zero off-diagonal gives t = 0 (identity rotation).
-template <int p, int q>
-inline void jacobi_rotate(double* S, double* V) {
+/// One Jacobi rotation in the (p, q) plane that zeroes S(p,q) in every lane, accumulating
+/// V ← V·J. Branch-free: a zero off-diagonal gives t = 0 (identity rotation). Arrays are
+/// structure-of-arrays, [entry][lane], so the lane loop vectorises (W doubles per instruction).
+template <int p, int q, int W>
+inline void jacobi_rotate(double (&S)[9][W], double (&V)[9][W]) {
   constexpr int r = 3 - p - q;
-  const double apq = S[3 * p + q];
-  const double d = S[3 * q + q] - S[3 * p + p];
-  const double hyp = std::sqrt(d * d + 4.0 * apq * apq);
-  const double t = 2.0 * apq * std::copysign(1.0, d) / (std::fabs(d) + hyp + 1e-300);
-  const double c = 1.0 / std::sqrt(1.0 + t * t);
-  const double s = t * c;
-  S[3 * p + p] -= t * apq;
-  S[3 * q + q] += t * apq;
-  S[3 * p + q] = S[3 * q + p] = 0.0;
-  const double srp = S[3 * r + p], srq = S[3 * r + q];
-  const double nrp = c * srp - s * srq;
-  const double nrq = s * srp + c * srq;
-  S[3 * r + p] = S[3 * p + r] = nrp;
-  S[3 * r + q] = S[3 * q + r] = nrq;
-  for (int i = 0; i < 3; ++i) {
-    const double vp = V[3 * i + p], vq = V[3 * i + q];
-    V[3 * i + p] = c * vp - s * vq;
-    V[3 * i + q] = s * vp + c * vq;
+#pragma omp simd
+  for (int l = 0; l < W; ++l) {
+    const double apq = S[3 * p + q][l];
+    const double d = S[3 * q + q][l] - S[3 * p + p][l];
+    const double hyp = std::sqrt(d * d + 4.0 * apq * apq);
+    // t = tan θ of the classical Jacobi rotation, written without dividing by apq.
+    const double t = 2.0 * apq * (d >= 0.0 ? 1.0 : -1.0) / (std::fabs(d) + hyp + 1e-300);
+    const double c = 1.0 / std::sqrt(1.0 + t * t);
+    const double s = t * c;
+    S[3 * p + p][l] -= t * apq;
+    S[3 * q + q][l] += t * apq;
+    S[3 * p + q][l] = 0.0;
+    S[3 * q + p][l] = 0.0;
+    const double srp = S[3 * r + p][l], srq = S[3 * r + q][l];
+    const double nrp = c * srp - s * srq;
+    const double nrq = s * srp + c * srq;
+    S[3 * r + p][l] = nrp;
+    S[3 * p + r][l] = nrp;
+    S[3 * r + q][l] = nrq;
+    S[3 * q + r][l] = nrq;
+    for (int i = 0; i < 3; ++i) {
+      const double vp = V[3 * i + p][l], vq = V[3 * i + q][l];
+      V[3 * i + p][l] = c * vp - s * vq;
+      V[3 * i + q][l] = s * vp + c * vq;
+    }
   }
 }
 
-/// Swaps columns i, j of V (and eigenvalues) if ev[i] < ev[j]; negates one column to keep
-/// det V = +1.
-template <int i, int j>
-inline void sort_pair(double* ev, double* V) {
-  if (ev[i] < ev[j]) {
-    const double t = ev[i];
-    ev[i] = ev[j];
-    ev[j] = t;
+/// Orders eigenvalues i, j descending in every lane, swapping the columns of V with selects
+/// and negating one of them so det V stays +1.
+template <int i, int j, int W>
+inline void sort_pair(double (&ev)[3][W], double (&V)[9][W]) {
+#pragma omp simd
+  for (int l = 0; l < W; ++l) {
+    const bool sw = ev[i][l] < ev[j][l];
+    const double ei = ev[i][l], ej = ev[j][l];
+    ev[i][l] = sw ? ej : ei;
+    ev[j][l] = sw ? ei : ej;
     for (int k = 0; k < 3; ++k) {
-      const double a = V[3 * k + i];
-      V[3 * k + i] = V[3 * k + j];
-      V[3 * k + j] = -a;
+      const double a = V[3 * k + i][l], b = V[3 * k + j][l];
+      V[3 * k + i][l] = sw ? b : a;
+      V[3 * k + j][l] = sw ? -a : b;
     }
   }
 }
@@ -64,52 +74,85 @@ inline void sort_pair(double* ev, double* V) {
 }  // namespace detail
 
 /// Number of cyclic Jacobi sweeps. Four sweeps drive the off-diagonal of FᵀF to round-off for
-/// every 3×3 matrix tried (tests/test_rotation.cpp checks 1e-12 against Eigen's SVD).
+/// every 3×3 matrix tried (tests/test_rotation.cpp checks against Eigen's SVD).
 inline constexpr int kPolarSweeps = 4;
 
-/// Rotation of the polar decomposition of F (row-major 3×3), sign-corrected for inversion.
-inline void polar_rotation(const double* F, double* R) {
-  double S[9];
-  m3::mul_tn(F, F, S);
-  double V[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+/// Polar rotations of W deformation gradients at once. F and R are [entry][lane]
+/// (row-major 3×3 entries). Fixed cost and branch-free, so the compiler vectorises across
+/// elements: with AVX-512 eight elements go through every instruction together.
+template <int W>
+inline void polar_rotation_batch(const double (&F)[9][W], double (&R)[9][W]) {
+  double S[9][W], V[9][W], ev[3][W];
+#pragma omp simd
+  for (int l = 0; l < W; ++l) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        S[3 * i + j][l] = F[i][l] * F[j][l] + F[3 + i][l] * F[3 + j][l] + F[6 + i][l] * F[6 + j][l];
+    for (int k = 0; k < 9; ++k) V[k][l] = (k % 4 == 0) ? 1.0 : 0.0;
+  }
   for (int k = 0; k < kPolarSweeps; ++k) {
     detail::jacobi_rotate<0, 1>(S, V);
     detail::jacobi_rotate<0, 2>(S, V);
     detail::jacobi_rotate<1, 2>(S, V);
   }
-  double ev[3] = {S[0], S[4], S[8]};
+#pragma omp simd
+  for (int l = 0; l < W; ++l) {
+    ev[0][l] = S[0][l];
+    ev[1][l] = S[4][l];
+    ev[2][l] = S[8][l];
+  }
   detail::sort_pair<0, 1>(ev, V);
   detail::sort_pair<0, 2>(ev, V);
   detail::sort_pair<1, 2>(ev, V);
 
-  // B = F·V; columns b1, b2 give u1, u2 by Gram–Schmidt; u3 = u1 × u2 makes det U = +1, which
-  // leaves the sign of det F on the smallest singular value (Irving et al.).
-  double B[9];
-  m3::mul(F, V, B);
-  double u1[3] = {B[0], B[3], B[6]};
-  double b2[3] = {B[1], B[4], B[7]};
-  const double scale2 = ev[0] + 1e-300;
-  double n1 = m3::dot(u1, u1);
-  if (n1 < 1e-24 * scale2 || n1 == 0.0) {  // F ≈ 0: any frame will do
-    u1[0] = V[0]; u1[1] = V[3]; u1[2] = V[6];
-    n1 = 1.0;
+  // B = F·V; its columns b1, b2 give u1, u2 by Gram–Schmidt; u3 = u1 × u2 makes det U = +1,
+  // which leaves the sign of det F on the smallest singular value (Irving et al. 2004).
+#pragma omp simd
+  for (int l = 0; l < W; ++l) {
+    double b1[3], b2[3];
+    for (int i = 0; i < 3; ++i) {
+      b1[i] = F[3 * i][l] * V[0][l] + F[3 * i + 1][l] * V[3][l] + F[3 * i + 2][l] * V[6][l];
+      b2[i] = F[3 * i][l] * V[1][l] + F[3 * i + 1][l] * V[4][l] + F[3 * i + 2][l] * V[7][l];
+    }
+    const double tiny = 1e-24 * (ev[0][l] + 1e-300);
+    double n1 = b1[0] * b1[0] + b1[1] * b1[1] + b1[2] * b1[2];
+    const bool z1 = !(n1 > tiny);  // F ≈ 0: any frame will do; take V's first column
+    double u1[3] = {z1 ? V[0][l] : b1[0], z1 ? V[3][l] : b1[1], z1 ? V[6][l] : b1[2]};
+    n1 = z1 ? 1.0 : n1;
+    const double i1 = 1.0 / std::sqrt(n1);
+    u1[0] *= i1; u1[1] *= i1; u1[2] *= i1;
+    const double pr = u1[0] * b2[0] + u1[1] * b2[1] + u1[2] * b2[2];
+    double u2[3] = {b2[0] - pr * u1[0], b2[1] - pr * u1[1], b2[2] - pr * u1[2]};
+    double n2 = u2[0] * u2[0] + u2[1] * u2[1] + u2[2] * u2[2];
+    // Element flattened to a line: any unit vector normal to u1 (e × u1).
+    const bool ex = std::fabs(u1[0]) < 0.9;
+    const double e0 = ex ? 1.0 : 0.0, e1 = ex ? 0.0 : 1.0;
+    const double w2[3] = {e1 * u1[2], -e0 * u1[2], e0 * u1[1] - e1 * u1[0]};
+    const double nw = w2[0] * w2[0] + w2[1] * w2[1] + w2[2] * w2[2];
+    const bool z2 = !(n2 > tiny);
+    u2[0] = z2 ? w2[0] : u2[0];
+    u2[1] = z2 ? w2[1] : u2[1];
+    u2[2] = z2 ? w2[2] : u2[2];
+    n2 = z2 ? nw : n2;
+    const double i2 = 1.0 / std::sqrt(n2);
+    u2[0] *= i2; u2[1] *= i2; u2[2] *= i2;
+    const double u3[3] = {u1[1] * u2[2] - u1[2] * u2[1], u1[2] * u2[0] - u1[0] * u2[2],
+                          u1[0] * u2[1] - u1[1] * u2[0]};
+    // R = U·Vᵀ
+    for (int i = 0; i < 3; ++i) {
+      const double ui[3] = {u1[i], u2[i], u3[i]};
+      for (int j = 0; j < 3; ++j)
+        R[3 * i + j][l] = ui[0] * V[3 * j][l] + ui[1] * V[3 * j + 1][l] + ui[2] * V[3 * j + 2][l];
+    }
   }
-  const double i1 = 1.0 / std::sqrt(n1);
-  u1[0] *= i1; u1[1] *= i1; u1[2] *= i1;
-  const double proj = m3::dot(u1, b2);
-  double u2[3] = {b2[0] - proj * u1[0], b2[1] - proj * u1[1], b2[2] - proj * u1[2]};
-  double n2 = m3::dot(u2, u2);
-  if (n2 < 1e-24 * scale2 || n2 == 0.0) {  // element flattened to a line: pick any normal
-    const double e[3] = {std::fabs(u1[0]) < 0.9 ? 1.0 : 0.0, std::fabs(u1[0]) < 0.9 ? 0.0 : 1.0, 0.0};
-    m3::cross(e, u1, u2);
-    n2 = m3::dot(u2, u2);
-  }
-  const double i2 = 1.0 / std::sqrt(n2);
-  u2[0] *= i2; u2[1] *= i2; u2[2] *= i2;
-  double u3[3];
-  m3::cross(u1, u2, u3);
-  const double U[9] = {u1[0], u2[0], u3[0], u1[1], u2[1], u3[1], u1[2], u2[2], u3[2]};
-  m3::mul_nt(U, V, R);
+}
+
+/// Rotation of the polar decomposition of one F (row-major 3×3), sign-corrected for inversion.
+inline void polar_rotation(const double* F, double* R) {
+  double Fb[9][1], Rb[9][1];
+  for (int k = 0; k < 9; ++k) Fb[k][0] = F[k];
+  polar_rotation_batch<1>(Fb, Rb);
+  for (int k = 0; k < 9; ++k) R[k] = Rb[k][0];
 }
 
 /// Orthonormal frame (rows) from two edges: x along e1, z normal to the (e1, e2) plane.
