@@ -70,7 +70,7 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
       mesh = load_tet_mesh(b.mesh_path);
     } catch (const InputError& e) {
       // Say which scenario line asked for this mesh, then what is wrong inside it.
-      throw InputError(b.where.file, b.where.line, field + ".mesh", e.what());
+      throw InputError(b.mesh_where.file, b.mesh_where.line, field + ".mesh", e.what());
     }
     if (b.scale != 1.0)
       for (Vec3& p : mesh.nodes)
@@ -78,7 +78,7 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
     try {
       meshes.push_back(prepare_mesh(std::move(mesh)));
     } catch (const InputError& e) {
-      throw InputError(b.where.file, b.where.line, field + ".mesh", e.what());
+      throw InputError(b.mesh_where.file, b.mesh_where.line, field + ".mesh", e.what());
     }
     const PreparedMesh& pm = meshes.back();
     if (!pm.reoriented.empty())

@@ -554,6 +554,7 @@ BodySpec parse_body(const MapReader& m, const Context& ctx) {
   m.require("name", b.name);
   std::string mesh;
   m.require("mesh", mesh);
+  b.mesh_where = m.req("mesh").location();
   b.mesh_path = resolve_path(mesh, ctx.base_dir);
   m.read("scale", b.scale, greater_than(0));
   b.material = parse_material(m.req("material"));

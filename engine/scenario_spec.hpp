@@ -71,6 +71,7 @@ struct NodalLoadSpec {
 struct BodySpec {
   std::string name;
   std::string mesh_path;   ///< resolved path of the tetrahedral mesh file
+  SourceLocation mesh_where;  ///< where `mesh:` is in the scenario file
   double scale = 1.0;      ///< multiplies node coordinates as read (unit conversion)
   MaterialSpec material;
   std::vector<NodeSelection> fixed;

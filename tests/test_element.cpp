@@ -567,7 +567,9 @@ TEST(Element, LumpedMassIsQuarterOfElementMassPerNode) {
   EXPECT_EQ(m.constrained[unused], 1);
   EXPECT_EQ(m.inv_mass[unused], 0.0);
   for (int32_t i = 0; i < m.num_nodes; ++i)
-    if (i != unused) EXPECT_NEAR(m.inv_mass[i], 1.0 / m.mass[i], 1e-12 / m.mass[i]);
+    if (i != unused) {
+      EXPECT_NEAR(m.inv_mass[i], 1.0 / m.mass[i], 1e-12 / m.mass[i]);
+    }
 }
 
 TEST(Element, GravityForceIsMassTimesG) {

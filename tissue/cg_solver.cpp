@@ -77,6 +77,12 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
   const double target = tolerance * bnorm;
   st.converged = false;
   int k = 0;
+  // A warm start may already meet the relative test; a zero start never does (‖r‖ = ‖b‖).
+  if (rnorm <= target) {
+    st.converged = true;
+    st.relative_residual = rnorm / bnorm;
+    return st;
+  }
   while (k < max_iterations) {
     bsr_spmv(pat, A, p, q);
     const double pq = dotn(p, q, m);

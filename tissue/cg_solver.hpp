@@ -1,9 +1,10 @@
 #pragma once
 /// \file cg_solver.hpp
 /// Preconditioned conjugate gradient on a BSR matrix, allocation-free after construction.
-/// The stopping test is relative, ‖r‖ ≤ tol·‖b‖, and at least one iteration is always done on a
-/// non-zero right-hand side: an absolute threshold (as SOFA's `threshold`) silently returns the
-/// initial guess on small-valued SI systems.
+/// The stopping test is relative, ‖r‖ ≤ tol·‖b‖, so a small but non-zero system is solved like
+/// any other: an absolute threshold (as SOFA's `threshold`) silently returns the initial guess
+/// on small-valued SI systems. Zero iterations happen only when the warm start already meets
+/// the relative test (or b = 0).
 
 #include <vector>
 

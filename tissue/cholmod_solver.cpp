@@ -24,6 +24,9 @@ CholmodSolver::CholmodSolver(const BsrPattern& p) : impl_(std::make_unique<Impl>
   Impl& s = *impl_;
   cholmod_start(&s.common);
   s.common.print = 0;
+  // Always LLᵀ (supernodal): a simplicial LDLᵀ would "succeed" on indefinite matrices, and the
+  // engine must know when the system is not positive definite.
+  s.common.supernodal = CHOLMOD_SUPERNODAL;
   s.n = 3 * static_cast<size_t>(p.n);
   // Upper triangle (row ≤ col), column-major: collect (col, row, bsr index) and sort.
   struct Entry {
@@ -80,7 +83,8 @@ bool CholmodSolver::factor(const double* vals) {
   auto* val = static_cast<double*>(s.A->x);
   for (size_t k = 0; k < s.map.size(); ++k) val[k] = vals[s.map[k]];
   const int ok = cholmod_factorize(s.A, s.L, &s.common);
-  return ok && s.common.status == CHOLMOD_OK;
+  // Not positive definite: CHOLMOD still returns TRUE but stops at column L->minor < n.
+  return ok && s.common.status == CHOLMOD_OK && s.L->minor >= s.n;
 }
 
 void CholmodSolver::solve(const double* b, double* x) {

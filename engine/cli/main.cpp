@@ -151,8 +151,10 @@ int main(int argc, char** argv) {
       const CheckSpec& tol = model->spec.check;
       const bool ok = d.max_error <= tol.max_error && d.mean_error <= tol.mean_error &&
                       r.ticks_non_finite == 0;
-      fmt::print("check {}: {} steps; max nodal error {:.3e} m (node {}, tolerance {:.1e}); mean {:.3e} m (tolerance {:.1e}) -> {}\n",
-                 model->spec.name, r.steps, d.max_error, d.worst_node, tol.max_error, d.mean_error,
+      const std::string worst = d.worst_node >= 0 ? fmt::format(" at node {}", d.worst_node) : "";
+      fmt::print("check {}: {} steps; max nodal error {:.3e} m{} (tolerance {:.1e}); mean {:.3e} m "
+                 "(tolerance {:.1e}) -> {}\n",
+                 model->spec.name, r.steps, d.max_error, worst, tol.max_error, d.mean_error,
                  tol.mean_error, ok ? "PASS" : "FAIL");
       return ok ? 0 : 1;
     }
