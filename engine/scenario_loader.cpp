@@ -169,6 +169,12 @@ const Choices<LinearSolverKind> kLinearSolvers = {{"cg", LinearSolverKind::CG},
 const Choices<Preconditioner> kPreconditioners = {{"jacobi", Preconditioner::Jacobi},
                                                   {"block_jacobi", Preconditioner::BlockJacobi},
                                                   {"none", Preconditioner::None}};
+// true/false kept as aliases: true = the best guess (extrapolate), false = off.
+const Choices<WarmStart> kWarmStarts = {{"extrapolate", WarmStart::Extrapolate},
+                                        {"previous", WarmStart::Previous},
+                                        {"off", WarmStart::Off},
+                                        {"true", WarmStart::Extrapolate},
+                                        {"false", WarmStart::Off}};
 const Choices<ElementModel> kElementModels = {{"corotational", ElementModel::Corotational},
                                               {"linear", ElementModel::Linear}};
 const Choices<RotationMethod> kRotationMethods = {{"polar", RotationMethod::Polar},
@@ -475,7 +481,7 @@ SolverSpec parse_solver(const Field& f) {
   m.read("preconditioner", s.preconditioner, kPreconditioners);
   m.read("max_iterations", s.max_iterations, greater_than(0));
   m.read("tolerance", s.tolerance, open_interval(0, 1));
-  m.read("warm_start", s.warm_start);
+  m.read("warm_start", s.warm_start, kWarmStarts);
   m.read("static_tolerance", s.static_tolerance, greater_than(0));
   m.read("static_max_newton", s.static_max_newton, greater_than(0));
   return s;

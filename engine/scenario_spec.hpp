@@ -29,7 +29,7 @@ struct SolverSpec {
   Preconditioner preconditioner = Preconditioner::Jacobi;
   int max_iterations = 200;       ///< CG iteration cap per solve (also Newton cap for static)
   double tolerance = 1.0e-6;      ///< CG relative residual ‖r‖/‖b‖
-  bool warm_start = true;         ///< CG starts from the previous tick's solution
+  WarmStart warm_start = WarmStart::Extrapolate;  ///< CG initial guess (off | previous | extrapolate)
   double static_tolerance = 1.0e-8;   ///< static: Newton stops when ‖residual‖ ≤ this·‖f_ext‖
   int static_max_newton = 50;     ///< static: Newton iteration cap
 };

@@ -204,7 +204,8 @@ struct NamedMesh {
 std::vector<NamedMesh> test_meshes_list() {
   return {{"single tet", single_tet(kL)},
           {"cube (6 tets)", cube6(kL)},
-          {"jittered 2x2x2 box (48 tets)", box_mesh(2, 2, 2, {kL, kL, kL}, {0.3, -0.1, 0.2}, 0.05)}};
+          // 36 tetrahedra: four full batches of the 8-wide rotation kernel and a partial one.
+          {"jittered 3x2x1 box (36 tets)", box_mesh(3, 2, 1, {1.5 * kL, kL, 0.5 * kL}, {0.3, -0.1, 0.2}, 0.05)}};
 }
 
 // ---------------------------------------------------------------------------------------------

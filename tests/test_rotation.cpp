@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "tissue/rotation.hpp"
 
@@ -83,54 +84,44 @@ double min_relative_gap(const Mat3& F) {
   return std::min(s(0) - s(1), s(1) - s(2)) / s(0);
 }
 
-/// Accumulates the error statistics of one family of matrices.
+/// Error statistics of one family of matrices.
 struct Stats {
-  std::string name;
   int count = 0;
   double max_err = 0;     ///< max |R − R_ref| entry
   double max_orth = 0;    ///< max |RᵀR − I| entry
   double max_det = 0;     ///< max |det R − 1|
-  void add(const Mat3& F) {
-    const Mat3 R = engine_polar(F);
-    const Mat3 Rref = reference_polar(F);
+  void add(const Mat3& R, const Mat3& Rref) {
     max_err = std::max(max_err, max_abs(R - Rref));
     max_orth = std::max(max_orth, max_abs(R.transpose() * R - Mat3::Identity()));
     max_det = std::max(max_det, std::abs(R.determinant() - 1.0));
     ++count;
   }
-  void check_and_print() const {
-    std::printf("  polar %-26s n=%5d  max|R-Rref|=%.3e  max|RtR-I|=%.3e  max|detR-1|=%.3e\n",
-                name.c_str(), count, max_err, max_orth, max_det);
-    EXPECT_LE(max_err, 1e-10) << name;
-    EXPECT_LE(max_orth, 1e-12) << name;
-    EXPECT_LE(max_det, 1e-12) << name;
-  }
 };
 
-constexpr int kPerFamily = 1500;  // 8 families → 12,000 matrices
+enum Family { kRot, kStretch, kShear, kNearSing, kInverted, kInvNearSing, kRepeated, kGauss, kFamilies };
+constexpr const char* kFamilyName[kFamilies] = {
+    "pure rotation",        "rotation x sym stretch",  "large shear (gamma 1..10)",
+    "near-singular (1e-8)", "inverted (det<0)",        "inverted near-singular",
+    "repeated singular values", "gaussian (either sign)"};
 
-TEST(Rotation, PolarMatchesSvdReferenceOnRandomMatrices) {
+struct Sample {
+  Family family;
+  Mat3 F;
+};
+
+/// ≥ 10,000 matrices of every difficult kind (fixed seed).
+std::vector<Sample> make_samples() {
+  constexpr int kPerFamily = 1500;
   RandomMatrices g(0x5EED'0001ULL);
-  Stats rot{"pure rotation"}, stretch{"rotation x sym stretch"}, shear{"large shear"},
-      near_sing{"near-singular (1e-8)"}, inverted{"inverted (det<0)"},
-      inv_near{"inverted near-singular"}, repeated{"repeated singular values"},
-      gauss{"gaussian (either sign)"};
-  double max_rot_vs_F = 0;
-  int total = 0;
-
+  std::vector<Sample> out;
   for (int k = 0; k < kPerFamily; ++k) {
     // Pure rotation: the polar factor is F itself.
-    {
-      const Mat3 Q = g.rotation();
-      rot.add(Q);
-      max_rot_vs_F = std::max(max_rot_vs_F, max_abs(engine_polar(Q) - Q));
-    }
+    out.push_back({kRot, g.rotation()});
     // Rotation × symmetric positive stretch, principal stretches in [0.2, 5].
     {
       const Mat3 P = g.rotation();
       const Eigen::Vector3d s(g.log_uniform(0.2, 5), g.log_uniform(0.2, 5), g.log_uniform(0.2, 5));
-      const Mat3 S = P * s.asDiagonal() * P.transpose();
-      stretch.add(g.rotation() * S);
+      out.push_back({kStretch, g.rotation() * P * s.asDiagonal() * P.transpose()});
     }
     // Large shear: Q (I + γ a bᵀ), a ⟂ b, γ ∈ [1, 10] (stretch ratios up to ~100).
     {
@@ -138,10 +129,10 @@ TEST(Rotation, PolarMatchesSvdReferenceOnRandomMatrices) {
       Eigen::Vector3d b = g.unit_vector();
       b = (b - b.dot(a) * a).normalized();
       const double gamma = g.uniform(1.0, 10.0);
-      shear.add(g.rotation() * (Mat3::Identity() + gamma * a * b.transpose()));
+      out.push_back({kShear, g.rotation() * (Mat3::Identity() + gamma * a * b.transpose())});
     }
     // Near-singular: one singular value 1e-8, the others in [0.5, 2].
-    near_sing.add(g.with_singular_values(g.uniform(0.5, 2.0), g.uniform(0.5, 2.0), 1e-8));
+    out.push_back({kNearSing, g.with_singular_values(g.uniform(0.5, 2.0), g.uniform(0.5, 2.0), 1e-8)});
     // Inverted: det < 0 with distinct singular values; the negative sign on a random one
     // (the reference puts it on the smallest). Rejection keeps the smallest well separated.
     for (;;) {
@@ -149,40 +140,86 @@ TEST(Rotation, PolarMatchesSvdReferenceOnRandomMatrices) {
       s(static_cast<int>(g.uniform(0, 3)) % 3) *= -1.0;
       const Mat3 F = g.with_singular_values(s(0), s(1), s(2));
       if (min_relative_gap(F) < 1e-2) continue;
-      ASSERT_LT(F.determinant(), 0.0);
-      inverted.add(F);
+      out.push_back({kInverted, F});
       break;
     }
     // Inverted and nearly flat: smallest singular value −1e-8 (pushed just through).
-    inv_near.add(g.with_singular_values(g.uniform(0.5, 2.0), g.uniform(0.5, 2.0), -1e-8));
-    // Repeated singular values: uniform scaling × rotation, and a double singular value.
+    out.push_back({kInvNearSing, g.with_singular_values(g.uniform(0.5, 2.0), g.uniform(0.5, 2.0), -1e-8)});
+    // Repeated singular values: uniform scaling × rotation, and a double singular value
+    // (largest or smallest pair).
     {
-      const double s = g.log_uniform(0.1, 10);
-      repeated.add(s * g.rotation());
+      out.push_back({kRepeated, g.log_uniform(0.1, 10) * g.rotation()});
       const double a = g.log_uniform(0.2, 5), b = g.log_uniform(0.2, 5);
-      repeated.add(g.with_singular_values(a, a, b));
-      repeated.add(g.with_singular_values(b, a, a));
+      out.push_back({kRepeated, g.with_singular_values(a, a, b)});
+      out.push_back({kRepeated, g.with_singular_values(b, a, a)});
     }
     // Generic Gaussian matrices of either determinant sign, smallest σ separated.
     for (;;) {
       const Mat3 F = g.gaussian();
       if (min_relative_gap(F) < 1e-3) continue;
-      gauss.add(F);
+      out.push_back({kGauss, F});
       break;
     }
   }
-  for (const Stats* s : {&rot, &stretch, &shear, &near_sing, &inverted, &inv_near, &repeated, &gauss}) {
-    s->check_and_print();
-    total += s->count;
-  }
-  std::printf("  polar pure rotation: max|R-F| = %.3e over %d matrices\n", max_rot_vs_F, rot.count);
-  EXPECT_LE(max_rot_vs_F, 1e-12);
-  EXPECT_GE(total, 10000);
+  return out;
+}
+
+/// Checks one set of engine results against the reference, per family; returns the max error.
+double check_family_stats(const char* what, const std::vector<Sample>& samples,
+                          const std::vector<Mat3>& R) {
+  Stats st[kFamilies];
+  for (size_t i = 0; i < samples.size(); ++i) st[samples[i].family].add(R[i], reference_polar(samples[i].F));
   double worst = 0;
-  for (const Stats* s : {&rot, &stretch, &shear, &near_sing, &inverted, &inv_near, &repeated, &gauss})
-    worst = std::max(worst, s->max_err);
+  for (int f = 0; f < kFamilies; ++f) {
+    std::printf("  %s %-26s n=%5d  max|R-Rref|=%.3e  max|RtR-I|=%.3e  max|detR-1|=%.3e\n", what,
+                kFamilyName[f], st[f].count, st[f].max_err, st[f].max_orth, st[f].max_det);
+    EXPECT_LE(st[f].max_err, 1e-10) << what << ", " << kFamilyName[f];
+    EXPECT_LE(st[f].max_orth, 1e-12) << what << ", " << kFamilyName[f];
+    EXPECT_LE(st[f].max_det, 1e-12) << what << ", " << kFamilyName[f];
+    worst = std::max(worst, st[f].max_err);
+  }
+  return worst;
+}
+
+TEST(Rotation, PolarMatchesSvdReferenceOnRandomMatrices) {
+  const std::vector<Sample> samples = make_samples();
+  ASSERT_GE(samples.size(), 10000u);
+  std::vector<Mat3> R(samples.size());
+  double max_rot_vs_F = 0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    R[i] = engine_polar(samples[i].F);
+    if (samples[i].family == kRot) max_rot_vs_F = std::max(max_rot_vs_F, max_abs(R[i] - samples[i].F));
+  }
+  const double worst = check_family_stats("polar", samples, R);
+  std::printf("  polar pure rotation: max|R-F| = %.3e\n", max_rot_vs_F);
+  EXPECT_LE(max_rot_vs_F, 1e-12);
   RecordProperty("polar_max_abs_error", std::to_string(worst));
-  std::printf("  polar overall max|R-Rref| = %.3e over %d matrices\n", worst, total);
+  std::printf("  polar overall max|R-Rref| = %.3e over %zu matrices\n", worst, samples.size());
+}
+
+TEST(Rotation, PolarBatchOf8MatchesReferenceAndSingleLane) {
+  // The element pass runs polar_rotation_batch<8> (SIMD across elements); lanes must not
+  // interact and every lane must be as accurate as the single-matrix path.
+  const std::vector<Sample> samples = make_samples();
+  constexpr int W = 8;
+  std::vector<Mat3> R(samples.size());
+  double lane_vs_single = 0;
+  for (size_t i0 = 0; i0 < samples.size(); i0 += W) {
+    double F[9][W], Rb[9][W];
+    for (int l = 0; l < W; ++l) {
+      // Pad the last batch by repeating a sample (lanes must be independent anyway).
+      const Mat3& Fl = samples[std::min(i0 + l, samples.size() - 1)].F;
+      for (int k = 0; k < 9; ++k) F[k][l] = Fl.data()[k];
+    }
+    polar_rotation_batch<W>(F, Rb);
+    for (int l = 0; l < W && i0 + l < samples.size(); ++l) {
+      for (int k = 0; k < 9; ++k) R[i0 + l].data()[k] = Rb[k][l];
+      lane_vs_single = std::max(lane_vs_single, max_abs(R[i0 + l] - engine_polar(samples[i0 + l].F)));
+    }
+  }
+  check_family_stats("batch8", samples, R);
+  std::printf("  batch8 vs single-lane: max diff %.3e\n", lane_vs_single);
+  EXPECT_LE(lane_vs_single, 1e-14);
 }
 
 TEST(Rotation, PolarOfInvertedMatrixIsProperRotationNearestF) {

@@ -161,7 +161,7 @@ TEST(ScenarioLoader, FullScenarioEveryField) {
   EXPECT_EQ(s.solver.preconditioner, Preconditioner::BlockJacobi);
   EXPECT_EQ(s.solver.max_iterations, 321);
   EXPECT_DOUBLE_EQ(s.solver.tolerance, 1.0e-8);
-  EXPECT_FALSE(s.solver.warm_start);
+  EXPECT_EQ(s.solver.warm_start, WarmStart::Off);
   EXPECT_DOUBLE_EQ(s.solver.static_tolerance, 1.0e-9);
   EXPECT_EQ(s.solver.static_max_newton, 17);
 
@@ -249,7 +249,7 @@ TEST(ScenarioLoader, DefaultsWhenOmitted) {
   EXPECT_EQ(s.solver.preconditioner, Preconditioner::Jacobi);
   EXPECT_EQ(s.solver.max_iterations, d.solver.max_iterations);
   EXPECT_DOUBLE_EQ(s.solver.tolerance, d.solver.tolerance);
-  EXPECT_TRUE(s.solver.warm_start);
+  EXPECT_EQ(s.solver.warm_start, WarmStart::Extrapolate);
   EXPECT_DOUBLE_EQ(s.solver.static_tolerance, d.solver.static_tolerance);
   EXPECT_EQ(s.solver.static_max_newton, d.solver.static_max_newton);
   ASSERT_EQ(s.bodies.size(), 1u);
@@ -269,7 +269,7 @@ TEST(ScenarioLoader, DefaultsWhenOmitted) {
   const ScenarioSpec p = parse(kMinimal + "solver:\n  integrator: static\n");
   EXPECT_EQ(p.solver.integrator, Integrator::Static);
   EXPECT_EQ(p.solver.max_iterations, d.solver.max_iterations);
-  EXPECT_TRUE(p.solver.warm_start);
+  EXPECT_EQ(p.solver.warm_start, WarmStart::Extrapolate);
 }
 
 TEST(ScenarioLoader, RunDuration) {
@@ -459,7 +459,7 @@ TEST(ScenarioLoaderErrors, WrongTypeVector) {
 
 TEST(ScenarioLoaderErrors, WrongTypeOther) {
   expect_error(kMinimal + "solver:\n  warm_start: maybe\n", 10, "solver.warm_start",
-               {"expected true or false, got 'maybe'"});
+               {"unknown warm_start 'maybe'", "extrapolate", "previous", "off"});
   expect_error(kMinimal + "solver: fast\n", 9, "solver", {"expected a map", "got 'fast'"});
   expect_error(replace(kMinimal, "  - name: beam", "  - name: [a, b]"), 3, "bodies[0].name",
                {"expected a string, got a list"});

@@ -19,6 +19,12 @@ enum class Preconditioner {
   BlockJacobi,  ///< inverse of each node's 3×3 diagonal block
   None
 };
+/// Initial guess of the iterative solve each tick.
+enum class WarmStart {
+  Off,          ///< start from zero
+  Previous,     ///< start from the previous tick's Δv
+  Extrapolate   ///< start from 2·Δv(n−1) − Δv(n−2): velocity increments vary smoothly in time
+};
 /// Element formulation.
 enum class ElementModel {
   Corotational,  ///< small strain in a per-element rotated frame (large rotations)

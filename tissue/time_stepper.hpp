@@ -27,7 +27,7 @@ struct StepperSettings {
   Preconditioner preconditioner = Preconditioner::Jacobi;
   int max_iterations = 200;
   double tolerance = 1e-6;
-  bool warm_start = true;
+  WarmStart warm_start = WarmStart::Extrapolate;
   double static_tolerance = 1e-8;
   int static_max_newton = 50;
 };

@@ -14,6 +14,7 @@ struct TissueState {
   std::vector<double> x;   ///< 3n positions (m)
   std::vector<double> v;   ///< 3n velocities (m/s)
   std::vector<double> dv;  ///< 3n last velocity increment: CG warm start (implicit Euler)
+  std::vector<double> dv_prev;  ///< 3n velocity increment of the tick before (extrapolation)
 
   /// State at rest: x = rest positions, v = 0.
   static TissueState at_rest(const FemModel& m) {
@@ -21,6 +22,7 @@ struct TissueState {
     s.x = m.rest;
     s.v.assign(m.rest.size(), 0.0);
     s.dv.assign(m.rest.size(), 0.0);
+    s.dv_prev.assign(m.rest.size(), 0.0);
     return s;
   }
 };

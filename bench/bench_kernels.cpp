@@ -1,0 +1,150 @@
+/// \file bench_kernels.cpp
+/// Google Benchmark of the hot kernels on real scenarios: rotation extraction, the element pass
+/// (forces; forces + K·v + assembly), BSR SpMV, one CG solve, one whole tick.
+/// Run: build/bench/stroma_bench_kernels --benchmark_repetitions=10 --benchmark_report_aggregates_only=true
+/// Counters: per_element / per_dof are ns per item of one call.
+
+#include <benchmark/benchmark.h>
+
+#include <random>
+#include <string>
+
+#include "engine/model.hpp"
+#include "engine/scenario_spec.hpp"
+#include "engine/state.hpp"
+#include "engine/tick.hpp"
+#include "tissue/fem_forces.hpp"
+#include "tissue/rotation.hpp"
+
+using namespace stroma;
+
+namespace {
+
+const char* kScenarioNames[] = {"liver", "armadillo", "cantilever_dynamic"};
+
+std::shared_ptr<const Model> model_for(int i, RotationMethod rot = RotationMethod::Polar) {
+  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/" + kScenarioNames[i] + ".yaml");
+  for (auto& b : s.bodies) b.material.rotation = rot;
+  return compile_model(s);
+}
+
+/// A state some way into the scenario (deformed, moving), so rotations and CG are realistic.
+State warmed_state(const Model& m, TickWorkspace& w, int ticks = 100) {
+  State s = State::initial(m);
+  for (int k = 0; k < ticks; ++k) tick(m, s, w);
+  return s;
+}
+
+void BM_PolarRotationBatch8(benchmark::State& st) {
+  std::mt19937 g(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  double F[9][8], R[9][8];
+  for (auto& row : F)
+    for (double& v : row) v = u(g);
+  for (auto _ : st) {
+    benchmark::DoNotOptimize(F);
+    polar_rotation_batch<8>(F, R);
+    benchmark::DoNotOptimize(R);
+    benchmark::ClobberMemory();
+  }
+  st.counters["ns_per_element"] = benchmark::Counter(8.0, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_PolarRotationBatch8);
+
+void BM_QrRotation(benchmark::State& st) {
+  std::mt19937 g(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  double rest[9], e1[3] = {1, 0.1, 0}, e2[3] = {0.2, 1, 0.1}, R[9];
+  edge_frame(e1, e2, rest);
+  double c1[3] = {u(g), u(g), u(g)}, c2[3] = {u(g), u(g), u(g)};
+  for (auto _ : st) {
+    benchmark::DoNotOptimize(c1);
+    benchmark::DoNotOptimize(c2);
+    qr_rotation(rest, c1, c2, R);
+    benchmark::DoNotOptimize(R);
+    benchmark::ClobberMemory();
+  }
+  st.counters["ns_per_element"] = benchmark::Counter(1.0, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_QrRotation);
+
+/// Element pass. arg0: scenario; arg1: 0 forces only, 1 forces + K·v + assembly (implicit tick);
+/// arg2: 0 polar, 1 QR.
+void BM_ElementPass(benchmark::State& st) {
+  auto m = model_for(static_cast<int>(st.range(0)), st.range(2) ? RotationMethod::QR : RotationMethod::Polar);
+  TickWorkspace w(*m);
+  State s = warmed_state(*m, w);
+  std::vector<double> f(m->fem.dofs()), kv(m->fem.dofs()), K(9 * m->fem.pattern.nnzb()), rot(9 * m->fem.elements.size());
+  ElasticPass p;
+  p.x = s.tissue.x.data();
+  p.force = f.data();
+  if (st.range(1)) {
+    p.v = s.tissue.v.data();
+    p.kv = kv.data();
+    p.kv_beta = 1;
+    p.kv_const = m->time_step;
+    p.kvals = K.data();
+    p.k_beta = m->time_step;
+    p.k_const = m->time_step * m->time_step;
+    p.rotations = rot.data();
+  }
+  for (auto _ : st) {
+    benchmark::DoNotOptimize(elastic_pass(m->fem, p));
+    benchmark::ClobberMemory();
+  }
+  st.SetLabel(std::string(kScenarioNames[st.range(0)]) + (st.range(1) ? " forces+Kv+assembly" : " forces") + (st.range(2) ? " qr" : " polar"));
+  st.counters["ns_per_element"] = benchmark::Counter(static_cast<double>(m->fem.elements.size()),
+                                                     benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ElementPass)->ArgsProduct({{0, 1}, {0, 1}, {0, 1}})->Unit(benchmark::kMicrosecond);
+
+void BM_Spmv(benchmark::State& st) {
+  auto m = model_for(static_cast<int>(st.range(0)));
+  TickWorkspace w(*m);
+  State s = warmed_state(*m, w);
+  std::vector<double> K;
+  w.stepper().stiffness(s.tissue, K);
+  std::vector<double> y(m->fem.dofs());
+  for (auto _ : st) {
+    bsr_spmv(m->fem.pattern, K.data(), s.tissue.x.data(), y.data());
+    benchmark::DoNotOptimize(y.data());
+    benchmark::ClobberMemory();
+  }
+  st.SetLabel(kScenarioNames[st.range(0)]);
+  st.counters["blocks"] = m->fem.pattern.nnzb();
+}
+BENCHMARK(BM_Spmv)->DenseRange(0, 1)->Unit(benchmark::kMicrosecond);
+
+/// One CG solve of a warmed-up tick's system (cold start: the worst case of a tick).
+void BM_CgSolve(benchmark::State& st) {
+  auto m = model_for(static_cast<int>(st.range(0)));
+  TickWorkspace w(*m);
+  State s = warmed_state(*m, w);
+  w.stepper().assemble(s.tissue, m->time_step);
+  int iters = 0;
+  for (auto _ : st) {
+    std::fill(s.tissue.dv.begin(), s.tissue.dv.end(), 0.0);
+    iters = w.stepper().solve(s.tissue).iterations;
+  }
+  st.SetLabel(kScenarioNames[st.range(0)]);
+  st.counters["cg_iterations"] = iters;
+}
+BENCHMARK(BM_CgSolve)->DenseRange(0, 1)->Unit(benchmark::kMicrosecond);
+
+void BM_Tick(benchmark::State& st) {
+  auto m = model_for(static_cast<int>(st.range(0)));
+  TickWorkspace w(*m);
+  State s = warmed_state(*m, w);
+  const State s0 = s;
+  long n = 0;
+  for (auto _ : st) {
+    tick(*m, s, w);
+    if (++n % 1000 == 0) s = s0;  // stay in the same regime
+  }
+  st.SetLabel(kScenarioNames[st.range(0)]);
+}
+BENCHMARK(BM_Tick)->DenseRange(0, 2)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
