@@ -115,14 +115,20 @@ TEST(MeshPrepare, DegenerateTetrahedronIsRejectedNamingTheElement) {
   EXPECT_EQ(msg.find("tetrahedron 2"), std::string::npos) << msg;
 }
 
-TEST(MeshPrepare, NearlyFlatButValidTetrahedronIsAccepted) {
-  // Volume 1e-6 × edge³ is far above the default ratio 1e-10: a sliver, not degenerate.
-  TetMesh m;
-  m.nodes = {Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0.3, 0.3, 6e-6}};
-  m.tets = {Tet{0, 1, 2, 3}};
-  EXPECT_NO_THROW(prepare_mesh(m));
-  // ... while a ratio above its volume/edge³ rejects it.
-  EXPECT_THROW(prepare_mesh(m, 1e-5), InputError);
+TEST(MeshPrepare, DegeneracyTestIsScaleInvariant) {
+  // A sliver with |V| = 1e-6 and longest edge √2 (|V|/l³ ≈ 3.5e-7) at the scale of a 1 mm,
+  // 1 m and 1 km mesh: the test compares |V| with ratio × l³, so the verdict must not depend
+  // on the unit. Accepted with the default ratio 1e-10 and with 1e-7; rejected with 1e-5.
+  for (double s : {1e-3, 1.0, 1e3}) {
+    TetMesh m;
+    m.nodes = {Vec3{0, 0, 0}, Vec3{s, 0, 0}, Vec3{0, s, 0}, Vec3{0.3 * s, 0.3 * s, 6e-6 * s}};
+    m.tets = {Tet{0, 1, 2, 3}};
+    EXPECT_NO_THROW(prepare_mesh(m)) << "scale " << s;
+    EXPECT_NO_THROW(prepare_mesh(m, 1e-7)) << "scale " << s;
+    EXPECT_THROW(prepare_mesh(m, 1e-5), InputError) << "scale " << s;
+    // A well-shaped element at this scale is of course accepted.
+    EXPECT_NO_THROW(prepare_mesh(single_tet(s))) << "scale " << s;
+  }
 }
 
 TEST(MeshPrepare, RepeatedNodeAndBadIndexAreRejected) {

@@ -64,30 +64,132 @@ inline void scatter_pg(const ElementParams& ep, const double* P, double scale, d
   }
 }
 
-/// Elements per batch of the rotation kernel: 8 doubles fill an AVX-512 register.
+/// Elements per batch: 8 doubles fill an AVX-512 register. Everything up to the final scatter
+/// into nodal arrays and matrix slots is computed for 8 elements at once in [entry][lane]
+/// (structure-of-arrays) form, so the compiler vectorises across elements.
 constexpr int kBatch = 8;
+using Lanes = double[kBatch];
 
-/// Rotations of elements [e0, e0+count) into R[entry][lane] (count ≤ kBatch; spare lanes get
-/// identity gradients so they stay finite).
+/// Gathered inputs of one batch. Spare lanes (past the range end) hold an undeformed unit
+/// element with zero volume: finite values, zero contributions, never scattered.
+struct BatchInput {
+  double g[9][kBatch];   // shape gradients g1, g2, g3 (rows)
+  double d[9][kBatch];   // current edges x_a − x_0, a = 1..3 (d[3(a−1)+i])
+  double vol[kBatch], lambda[kBatch], mu[kBatch], beta[kBatch];
+};
+
+inline void gather(const FemModel& m, const double* __restrict x, int32_t e0, int count,
+                   BatchInput& in) {
+  for (int l = 0; l < kBatch; ++l) {
+    if (l < count) {
+      const ElementParams& ep = m.elements[e0 + l];
+      const double* x0 = x + 3 * ep.node[0];
+      for (int a = 0; a < 3; ++a) {
+        const double* xa = x + 3 * ep.node[a + 1];
+        for (int i = 0; i < 3; ++i) in.d[3 * a + i][l] = xa[i] - x0[i];
+      }
+      for (int k = 0; k < 9; ++k) in.g[k][l] = ep.g[k];
+      in.vol[l] = ep.volume;
+      in.lambda[l] = ep.lambda;
+      in.mu[l] = ep.mu;
+      in.beta[l] = ep.beta;
+    } else {
+      for (int k = 0; k < 9; ++k) in.d[k][l] = in.g[k][l] = (k % 4 == 0) ? 1.0 : 0.0;
+      in.vol[l] = in.lambda[l] = in.mu[l] = in.beta[l] = 0.0;
+    }
+  }
+}
+
+/// G[i][j] = Σ_a d[a][i]·g[a][j] for every lane (F from positions, L from velocities).
+inline void batch_gradient(const double (&d)[9][kBatch], const double (&g)[9][kBatch],
+                           double (&G)[9][kBatch]) {
+#pragma omp simd
+  for (int l = 0; l < kBatch; ++l)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        G[3 * i + j][l] = d[i][l] * g[j][l] + d[3 + i][l] * g[3 + j][l] + d[6 + i][l] * g[6 + j][l];
+}
+
+/// Nodal contributions out[a] = −scale·R·σ(sym(RᵀG) − shift·I)·g_a (a = 0..3, g_0 = −Σ) per lane;
+/// returns the per-lane energy density term V(μ ε:ε + λ/2 tr²ε) in `energy` when requested.
+inline void batch_stress_forces(const double (&R)[9][kBatch], const double (&G)[9][kBatch],
+                                const BatchInput& in, double shift, const Lanes& scale,
+                                double (&out)[12][kBatch], double* energy) {
+#pragma omp simd
+  for (int l = 0; l < kBatch; ++l) {
+    double S[9];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        S[3 * i + j] = R[i][l] * G[j][l] + R[3 + i][l] * G[3 + j][l] + R[6 + i][l] * G[6 + j][l];
+    const double e00 = S[0] - shift, e11 = S[4] - shift, e22 = S[8] - shift;
+    const double e01 = 0.5 * (S[1] + S[3]), e02 = 0.5 * (S[2] + S[6]), e12 = 0.5 * (S[5] + S[7]);
+    const double tr = e00 + e11 + e22;
+    const double mu2 = 2.0 * in.mu[l], lt = in.lambda[l] * tr;
+    const double sig[9] = {mu2 * e00 + lt, mu2 * e01, mu2 * e02,
+                           mu2 * e01, mu2 * e11 + lt, mu2 * e12,
+                           mu2 * e02, mu2 * e12, mu2 * e22 + lt};
+    if (energy) {
+      const double ee = e00 * e00 + e11 * e11 + e22 * e22 + 2.0 * (e01 * e01 + e02 * e02 + e12 * e12);
+      energy[l] = in.vol[l] * (in.mu[l] * ee + 0.5 * in.lambda[l] * tr * tr);
+    }
+    double P[9];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        P[3 * i + j] = R[3 * i][l] * sig[j] + R[3 * i + 1][l] * sig[3 + j] + R[3 * i + 2][l] * sig[6 + j];
+    double f0[3] = {0, 0, 0};
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < 3; ++i) {
+        const double v = -scale[l] * (P[3 * i] * in.g[3 * a][l] + P[3 * i + 1] * in.g[3 * a + 1][l] +
+                                      P[3 * i + 2] * in.g[3 * a + 2][l]);
+        out[3 * (a + 1) + i][l] = v;
+        f0[i] -= v;
+      }
+    for (int i = 0; i < 3; ++i) out[i][l] = f0[i];
+  }
+}
+
+/// The 10 distinct 3×3 blocks (a ≤ b) of s·R·Ke·Rᵀ per lane, in the order of kBlockPairs.
+constexpr int kBlockPairs[10][2] = {{0, 0}, {0, 1}, {0, 2}, {0, 3}, {1, 1},
+                                    {1, 2}, {1, 3}, {2, 2}, {2, 3}, {3, 3}};
+inline void batch_stiffness_blocks(const double (&R)[9][kBatch], const BatchInput& in,
+                                   const Lanes& scale, double (&B)[10][9][kBatch]) {
+#pragma omp simd
+  for (int l = 0; l < kBatch; ++l) {
+    double g[4][3], r[4][3];
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < 3; ++i) g[a + 1][i] = in.g[3 * a + i][l];
+    for (int i = 0; i < 3; ++i) g[0][i] = -(g[1][i] + g[2][i] + g[3][i]);
+#pragma GCC unroll 4
+    for (int a = 0; a < 4; ++a)
+      for (int i = 0; i < 3; ++i)
+        r[a][i] = R[3 * i][l] * g[a][0] + R[3 * i + 1][l] * g[a][1] + R[3 * i + 2][l] * g[a][2];
+    const double sl = scale[l] * in.lambda[l], sm = scale[l] * in.mu[l];
+#pragma GCC unroll 10
+    for (int k = 0; k < 10; ++k) {
+      const int a = kBlockPairs[k][0], b = kBlockPairs[k][1];
+      const double gg = sm * (g[a][0] * g[b][0] + g[a][1] * g[b][1] + g[a][2] * g[b][2]);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          B[k][3 * i + j][l] = sl * r[a][i] * r[b][j] + sm * r[b][i] * r[a][j] + (i == j ? gg : 0.0);
+    }
+  }
+}
+
+/// Rotations of the batch into R[entry][lane].
 template <ElementKernel K>
-inline void batch_rotations(const FemModel& m, const double* x, int32_t e0, int count,
-                            double (&R)[9][kBatch]) {
+inline void batch_rotations(const FemModel& m, int32_t e0, int count, const BatchInput& in,
+                            const double (&F)[9][kBatch], double (&R)[9][kBatch]) {
   if constexpr (K == ElementKernel::Linear) {
     for (int k = 0; k < 9; ++k)
       for (int l = 0; l < kBatch; ++l) R[k][l] = (k % 4 == 0) ? 1.0 : 0.0;
   } else if constexpr (K == ElementKernel::CorotationalPolar) {
-    double F[9][kBatch];
-    for (int l = 0; l < kBatch; ++l) {
-      double f[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, d1[3], d2[3];
-      if (l < count) deformation_gradient(x, m.elements[e0 + l], f, d1, d2);
-      for (int k = 0; k < 9; ++k) F[k][l] = f[k];
-    }
     polar_rotation_batch<kBatch>(F, R);
   } else {
     for (int l = 0; l < kBatch; ++l) {
-      double f[9], d1[3] = {1, 0, 0}, d2[3] = {0, 1, 0}, r[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+      double r[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
       if (l < count) {
-        deformation_gradient(x, m.elements[e0 + l], f, d1, d2);
+        const double d1[3] = {in.d[0][l], in.d[1][l], in.d[2][l]};
+        const double d2[3] = {in.d[3][l], in.d[4][l], in.d[5][l]};
         qr_rotation(m.rest_frame[e0 + l].data(), d1, d2, r);
       }
       for (int k = 0; k < 9; ++k) R[k][l] = r[k];
@@ -95,63 +197,63 @@ inline void batch_rotations(const FemModel& m, const double* x, int32_t e0, int 
   }
 }
 
+inline void scatter_nodal(const ElementParams& ep, const double (&c)[12][kBatch], int l,
+                          double* __restrict out) {
+  for (int a = 0; a < 4; ++a) {
+    double* o = out + 3 * ep.node[a];
+    o[0] += c[3 * a][l];
+    o[1] += c[3 * a + 1][l];
+    o[2] += c[3 * a + 2][l];
+  }
+}
+
 template <ElementKernel K, bool kHasKv, bool kHasK>
 double pass_range(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end) {
   double energy = 0.0;
-  const double* __restrict x = p.x;
+  BatchInput in;
+  double F[9][kBatch], R[9][kBatch], fo[12][kBatch], en[kBatch];
+  Lanes neg_vol, kv_scale, k_scale;
   for (int32_t e0 = begin; e0 < end; e0 += kBatch) {
     const int count = std::min<int32_t>(kBatch, end - e0);
-    double Rb[9][kBatch];
-    batch_rotations<K>(m, x, e0, count, Rb);
+    gather(m, p.x, e0, count, in);
+    batch_gradient(in.d, in.g, F);
+    batch_rotations<K>(m, e0, count, in, F, R);
+    for (int l = 0; l < kBatch; ++l) neg_vol[l] = in.vol[l];
+    batch_stress_forces(R, F, in, 1.0, neg_vol, fo, en);
     for (int l = 0; l < count; ++l) {
-      const int32_t e = e0 + l;
-      const ElementParams& ep = m.elements[e];
-      double F[9], d1[3], d2[3], R[9];
-      deformation_gradient(x, ep, F, d1, d2);
-      for (int k = 0; k < 9; ++k) R[k] = Rb[k][l];
+      const ElementParams& ep = m.elements[e0 + l];
+      energy += en[l];
+      if (p.force) scatter_nodal(ep, fo, l, p.force);
       if (p.rotations)
-        for (int k = 0; k < 9; ++k) p.rotations[9 * e + k] = R[k];
-
-      double P[9], eps[9];
-      rotated_stress(R, F, ep.lambda, ep.mu, 1.0, P, eps);
-      const double tr = eps[0] + eps[4] + eps[8];
-      double ee = 0;
-      for (int k = 0; k < 9; ++k) ee += eps[k] * eps[k];
-      energy += ep.volume * (ep.mu * ee + 0.5 * ep.lambda * tr * tr);
-      if (p.force) scatter_pg(ep, P, ep.volume, p.force);
-
-      if constexpr (kHasKv) {
-        double L[9], d1v[3], d2v[3], Q[9];
-        deformation_gradient(p.v, ep, L, d1v, d2v);
-        rotated_stress(R, L, ep.lambda, ep.mu, 0.0, Q, nullptr);
-        // scatter_pg adds −scale·Q·g; K·v is +V·Q·g, hence the negative scale.
-        scatter_pg(ep, Q, -ep.volume * (p.kv_beta * ep.beta + p.kv_const), p.kv);
-      }
-
-      if constexpr (kHasK) {
-        const double s = ep.volume * (p.k_beta * ep.beta + p.k_const);
-        double r[4][3], g[4][3];
-        for (int a = 0; a < 3; ++a)
-          for (int i = 0; i < 3; ++i) g[a + 1][i] = ep.g[3 * a + i];
-        for (int i = 0; i < 3; ++i) g[0][i] = -(g[1][i] + g[2][i] + g[3][i]);
-        for (int a = 0; a < 4; ++a) m3::mulv(R, g[a], r[a]);
-        const double sl = s * ep.lambda, sm = s * ep.mu;
-        const ElementSlots& slot = m.slots[e];
-        for (int a = 0; a < 4; ++a)
-          for (int b = a; b < 4; ++b) {
-            double B[9];
-            const double gg = sm * m3::dot(g[a], g[b]);
+        for (int k = 0; k < 9; ++k) p.rotations[9 * (e0 + l) + k] = R[k][l];
+    }
+    if constexpr (kHasKv) {
+      // K·v = V·R·σ(sym(Rᵀ L))·g_a with L the velocity gradient (a negative scale turns the
+      // force sign convention of batch_stress_forces into +K·v).
+      BatchInput vin;
+      gather(m, p.v, e0, count, vin);
+      double L[9][kBatch], kv[12][kBatch];
+      batch_gradient(vin.d, in.g, L);
+      for (int l = 0; l < kBatch; ++l) kv_scale[l] = -in.vol[l] * (p.kv_beta * in.beta[l] + p.kv_const);
+      batch_stress_forces(R, L, in, 0.0, kv_scale, kv, nullptr);
+      for (int l = 0; l < count; ++l) scatter_nodal(m.elements[e0 + l], kv, l, p.kv);
+    }
+    if constexpr (kHasK) {
+      double B[10][9][kBatch];
+      for (int l = 0; l < kBatch; ++l) k_scale[l] = in.vol[l] * (p.k_beta * in.beta[l] + p.k_const);
+      batch_stiffness_blocks(R, in, k_scale, B);
+      for (int l = 0; l < count; ++l) {
+        const ElementSlots& slot = m.slots[e0 + l];
+        for (int k = 0; k < 10; ++k) {
+          const int a = kBlockPairs[k][0], b = kBlockPairs[k][1];
+          double* __restrict Kab = p.kvals + 9 * slot[4 * a + b];
+          for (int q = 0; q < 9; ++q) Kab[q] += B[k][q][l];
+          if (a != b) {
+            double* __restrict Kba = p.kvals + 9 * slot[4 * b + a];
             for (int i = 0; i < 3; ++i)
-              for (int j = 0; j < 3; ++j) B[3 * i + j] = sl * r[a][i] * r[b][j] + sm * r[b][i] * r[a][j];
-            B[0] += gg; B[4] += gg; B[8] += gg;
-            double* Kab = p.kvals + 9 * slot[4 * a + b];
-            for (int k = 0; k < 9; ++k) Kab[k] += B[k];
-            if (a != b) {
-              double* Kba = p.kvals + 9 * slot[4 * b + a];
-              for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j) Kba[3 * i + j] += B[3 * j + i];
-            }
+              for (int j = 0; j < 3; ++j) Kba[3 * i + j] += B[k][3 * j + i][l];
           }
+        }
       }
     }
   }
