@@ -168,7 +168,8 @@ const Choices<LinearSolverKind> kLinearSolvers = {{"cg", LinearSolverKind::CG},
                                                   {"cholmod", LinearSolverKind::Cholmod}};
 const Choices<Preconditioner> kPreconditioners = {{"jacobi", Preconditioner::Jacobi},
                                                   {"block_jacobi", Preconditioner::BlockJacobi},
-                                                  {"none", Preconditioner::None}};
+                                                  {"none", Preconditioner::None},
+                                                  {"warped_cholesky", Preconditioner::WarpedCholesky}};
 // true/false kept as aliases: true = the best guess (extrapolate), false = off.
 const Choices<WarmStart> kWarmStarts = {{"extrapolate", WarmStart::Extrapolate},
                                         {"previous", WarmStart::Previous},

@@ -43,7 +43,7 @@ struct TickReport {
 /// Per-thread scratch of the tick (the TimeStepper's work arrays). Not part of the state.
 class TickWorkspace {
  public:
-  explicit TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {}
+  explicit TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) { stepper_.prepare(m.time_step); }
   TimeStepper& stepper() { return stepper_; }
   const TimeStepper& stepper() const { return stepper_; }
 

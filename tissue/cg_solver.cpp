@@ -49,13 +49,17 @@ void CgSolver::apply_preconditioner(Preconditioner prec, const double* r, double
     for (int32_t i = 0; i < m; ++i) z[i] = inv_diag_[i] * r[i];
   } else if (prec == Preconditioner::BlockJacobi) {
     for (int32_t i = 0; i < n_; ++i) m3::mulv(inv_diag_.data() + 9 * i, r + 3 * i, z + 3 * i);
+  } else if (prec == Preconditioner::WarpedCholesky && external_ && external_->apply) {
+    external_->apply(external_->context, r, z);
   } else {
     for (int32_t i = 0; i < m; ++i) z[i] = r[i];
   }
 }
 
 SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double* b, double* x,
-                           Preconditioner prec, int max_iterations, double tolerance) {
+                           Preconditioner prec, int max_iterations, double tolerance,
+                           const ExternalPreconditioner* external) {
+  external_ = external;
   const int32_t m = 3 * n_;
   SolveStats st;
   const double bnorm = std::sqrt(dotn(b, b, m));

@@ -20,6 +20,13 @@ struct SolveStats {
   bool converged = true;          ///< false: hit the iteration cap or broke down
 };
 
+/// A preconditioner supplied by the caller (used for Preconditioner::WarpedCholesky):
+/// z = M⁻¹ r. A plain function pointer: one indirect call per CG iteration, none per element.
+struct ExternalPreconditioner {
+  void (*apply)(void* context, const double* r, double* z) = nullptr;
+  void* context = nullptr;
+};
+
 /// Reusable PCG workspace for one system size.
 class CgSolver {
  public:
@@ -28,11 +35,13 @@ class CgSolver {
   void resize(int32_t n);
   /// Solves A x = b; `x` holds the initial guess on entry (warm start) and the solution on exit.
   SolveStats solve(const BsrPattern& p, const double* A, const double* b, double* x,
-                   Preconditioner prec, int max_iterations, double tolerance);
+                   Preconditioner prec, int max_iterations, double tolerance,
+                   const ExternalPreconditioner* external = nullptr);
 
  private:
   void build_preconditioner(const BsrPattern& p, const double* A, Preconditioner prec);
   void apply_preconditioner(Preconditioner prec, const double* r, double* z) const;
+  const ExternalPreconditioner* external_ = nullptr;
   int32_t n_ = 0;
   std::vector<double> r_, z_, p_, q_, inv_diag_;  // inv_diag_: 3n (Jacobi) or 9n (block)
 };

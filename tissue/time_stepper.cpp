@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "tissue/fem_forces.hpp"
+#include "tissue/mat3.hpp"
 
 namespace stroma {
 
@@ -21,6 +22,79 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
   any_beta_ = std::any_of(m_.elements.begin(), m_.elements.end(),
                           [](const ElementParams& e) { return e.beta != 0.0; });
   if (needs_direct) cholmod_ = std::make_unique<CholmodSolver>(m_.pattern);
+  if (cfg_.preconditioner == Preconditioner::WarpedCholesky &&
+      cfg_.linear_solver == LinearSolverKind::CG) {
+    node_element_.assign(m_.num_nodes, -1);
+    for (size_t e = 0; e < m_.elements.size(); ++e)
+      for (int32_t n : m_.elements[e].node)
+        if (node_element_[n] < 0) node_element_[n] = static_cast<int32_t>(e);
+    node_rot_.assign(9 * static_cast<size_t>(m_.num_nodes), 0.0);
+    warp_a_.assign(n3, 0.0);
+    warp_b_.assign(n3, 0.0);
+    warp_op_.apply = &TimeStepper::apply_warped;
+    warp_op_.context = this;
+  }
+}
+
+void TimeStepper::build_rest_factor(double h_mass, double k_beta, double k_const) {
+  if (rest_factor_ && rest_factor_key_[0] == h_mass && rest_factor_key_[1] == k_beta &&
+      rest_factor_key_[2] == k_const)
+    return;
+  std::vector<double> A0(A_.size(), 0.0);
+  ElasticPass p;
+  p.x = m_.rest.data();
+  p.kvals = A0.data();
+  p.k_beta = k_beta;
+  p.k_const = k_const;
+  elastic_pass(m_, p);
+  for (int32_t i = 0; i < m_.num_nodes; ++i) {
+    double* D = A0.data() + 9 * m_.pattern.diag[i];
+    const double md = h_mass < 0 ? 0.0 : (1.0 + h_mass * m_.alpha[i]) * m_.mass[i];
+    D[0] += md;
+    D[4] += md;
+    D[8] += md;
+  }
+  for (int32_t s : m_.constrained_offdiag_slots) std::fill(A0.begin() + 9 * s, A0.begin() + 9 * s + 9, 0.0);
+  for (int32_t i : m_.constrained_nodes) {
+    double* D = A0.data() + 9 * m_.pattern.diag[i];
+    std::fill(D, D + 9, 0.0);
+    D[0] = D[4] = D[8] = 1.0;
+  }
+  if (!rest_factor_) rest_factor_ = std::make_unique<CholmodSolver>(m_.pattern);
+  rest_factor_->factor(A0.data());
+  rest_factor_key_[0] = h_mass;
+  rest_factor_key_[1] = k_beta;
+  rest_factor_key_[2] = k_const;
+}
+
+void TimeStepper::prepare(double h) {
+  if (!warp_op_.apply) return;
+  if (cfg_.integrator == Integrator::ImplicitEuler) build_rest_factor(h, h, h * h);
+  if (cfg_.integrator == Integrator::Static) build_rest_factor(-1.0, 0.0, 1.0);
+}
+
+void TimeStepper::update_node_rotations() {
+  for (int32_t i = 0; i < m_.num_nodes; ++i) {
+    double* R = node_rot_.data() + 9 * i;
+    const int32_t e = node_element_[i];
+    if (e < 0 || m_.constrained[i]) {
+      std::fill(R, R + 9, 0.0);
+      R[0] = R[4] = R[8] = 1.0;
+    } else {
+      std::copy(rot_.begin() + 9 * e, rot_.begin() + 9 * e + 9, R);
+    }
+  }
+}
+
+void TimeStepper::apply_warped(void* self, const double* r, double* z) {
+  auto* t = static_cast<TimeStepper*>(self);
+  const int32_t n = t->m_.num_nodes;
+  const double* R = t->node_rot_.data();
+  double* a = t->warp_a_.data();
+  double* b = t->warp_b_.data();
+  for (int32_t i = 0; i < n; ++i) m3::mulv_t(R + 9 * i, r + 3 * i, a + 3 * i);
+  t->rest_factor_->solve(a, b);
+  for (int32_t i = 0; i < n; ++i) m3::mulv(R + 9 * i, b + 3 * i, z + 3 * i);
 }
 
 TimeStepper::~TimeStepper() = default;
@@ -78,6 +152,11 @@ double TimeStepper::assemble(const TissueState& s, double h) {
       }
     }
     project_constraints(A_.data(), 1.0);
+    if (warp_op_.apply) {
+      // Rest-pose factor with this step's coefficients: built once, rebuilt only if h changes.
+      build_rest_factor(h, h, h * h);
+      update_node_rotations();
+    }
   } else {
     for (int32_t i = 0; i < n; ++i) {
       const double am = m_.alpha[i] * m_.mass[i];
@@ -124,7 +203,7 @@ SolveStats TimeStepper::solve(TissueState& s) {
     return st;
   }
   return cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner,
-                   cfg_.max_iterations, cfg_.tolerance);
+                   cfg_.max_iterations, cfg_.tolerance, warp_op_.apply ? &warp_op_ : nullptr);
 }
 
 void TimeStepper::integrate(TissueState& s, double h) {
@@ -202,10 +281,16 @@ StaticResult TimeStepper::solve_static(TissueState& s) {
       if (!direct->factor(A_.data())) return res;
       direct->solve(rhs_.data(), tmp_.data());
     } else {
+      if (warp_op_.apply) {
+        build_rest_factor(-1.0, 0.0, 1.0);
+        update_node_rotations();
+      }
       // Inner solves need not be tighter than the Newton target relative to this residual.
+      const double tol = std::clamp(
+          0.1 * cfg_.static_tolerance / std::max(res.relative_residual, 1e-300), 1e-14, 0.1);
       const SolveStats cs = cg_.solve(m_.pattern, A_.data(), rhs_.data(), tmp_.data(),
-                                      cfg_.preconditioner, 20 * cfg_.max_iterations,
-                                      std::clamp(0.1 * cfg_.static_tolerance / std::max(res.relative_residual, 1e-300), 1e-14, 0.1));
+                                      cfg_.preconditioner, 20 * cfg_.max_iterations, tol,
+                                      warp_op_.apply ? &warp_op_ : nullptr);
       res.linear_iterations += cs.iterations;
     }
     for (size_t d = 0; d < s.x.size(); ++d) s.x[d] += tmp_[d];

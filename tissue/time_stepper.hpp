@@ -46,6 +46,10 @@ class TimeStepper {
   TimeStepper(const FemModel& model, const StepperSettings& settings);
   ~TimeStepper();
 
+  /// Load-time work that depends on the step size (the warped preconditioner's rest-pose
+  /// factorisation), so the first tick is not slower than the others. Optional.
+  void prepare(double h);
+
   /// Stage "assemble": element pass at the current state and the step's right-hand side.
   /// Returns the elastic energy at s.x (before the step).
   double assemble(const TissueState& s, double h);
@@ -75,12 +79,24 @@ class TimeStepper {
 
  private:
   void project_constraints(double* A, double diag_scale);
+  /// Factors A₀ = (1 + h_mass·α)·M + (k_beta·β + k_const)·K(rest) for the warped
+  /// preconditioner (h_mass < 0: no mass term, for static solves).
+  void build_rest_factor(double h_mass, double k_beta, double k_const);
+  /// Per-node rotations (9 per node) from the element rotations of the last element pass.
+  void update_node_rotations();
+  static void apply_warped(void* self, const double* r, double* z);
   const FemModel& m_;
   StepperSettings cfg_;
   bool any_beta_ = false;
   std::vector<double> force_, kv_, rhs_, A_, rot_, tmp_;
   CgSolver cg_;
   std::unique_ptr<CholmodSolver> cholmod_;
+  // Warped rest-pose Cholesky preconditioner (only when selected).
+  std::unique_ptr<CholmodSolver> rest_factor_;
+  double rest_factor_key_[3] = {-1, -1, -1};  // coefficients it was built with
+  std::vector<int32_t> node_element_;          // an element incident to each node (−1: none)
+  std::vector<double> node_rot_, warp_a_, warp_b_;
+  ExternalPreconditioner warp_op_;
 };
 
 }  // namespace stroma

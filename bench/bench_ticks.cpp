@@ -1,0 +1,96 @@
+/// \file bench_ticks.cpp
+/// Whole-tick timing of scenarios over repeated runs: for each run, ticks from the initial
+/// state and records every tick's wall time; reports the median over runs of the per-run p50,
+/// p99 and max, the spread (min–max of the per-run p50/p99), CG iterations, and the stage split.
+///
+/// Usage: stroma_bench_ticks SCENARIO [--mesh FILE] [--runs R] [--steps N] [--tolerance T]
+///                          [--label TEXT] [--markdown]
+/// The machine is shared and noisy: report medians over many runs, never one run.
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "engine/model.hpp"
+#include "engine/scenario_spec.hpp"
+#include "engine/state.hpp"
+#include "engine/tick.hpp"
+
+using namespace stroma;
+
+namespace {
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+double median(std::vector<double> v) { return percentile(std::move(v), 0.5); }
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Tick timing of a scenario over repeated runs (median of per-run percentiles)"};
+  std::string scenario, mesh, label;
+  int runs = 10;
+  long steps = 1000;
+  double tolerance = -1;
+  bool markdown = false;
+  app.add_option("scenario", scenario, "Scenario YAML")->required()->check(CLI::ExistingFile);
+  app.add_option("--mesh", mesh, "Replace the first body's mesh")->check(CLI::ExistingFile);
+  app.add_option("--runs", runs, "Repetitions")->capture_default_str();
+  app.add_option("--steps", steps, "Ticks per run")->capture_default_str();
+  app.add_option("--tolerance", tolerance, "Override the CG tolerance");
+  app.add_option("--label", label, "Row label");
+  app.add_flag("--markdown", markdown, "Print a markdown table row");
+  CLI11_PARSE(app, argc, argv);
+
+  ScenarioSpec spec = load_scenario(scenario);
+  if (!mesh.empty()) spec.bodies.at(0).mesh_path = mesh;
+  if (tolerance > 0) spec.solver.tolerance = tolerance;
+  auto m = compile_model(spec);
+  std::vector<double> p50s, p99s, maxs, cgs, asm_ms, solve_ms;
+  int cg_max = 0;
+  for (int r = 0; r < runs; ++r) {
+    State s = State::initial(*m);
+    TickWorkspace w(*m);
+    std::vector<double> t;
+    t.reserve(steps);
+    double cg = 0, as = 0, so = 0;
+    for (long k = 0; k < steps; ++k) {
+      const TickReport rep = tick(*m, s, w);
+      t.push_back(static_cast<double>(rep.total_ns) * 1e-6);
+      cg += rep.solve.iterations;
+      cg_max = std::max(cg_max, rep.solve.iterations);
+      as += static_cast<double>(rep.stage_ns[static_cast<int>(Stage::Assemble)]) * 1e-6;
+      so += static_cast<double>(rep.stage_ns[static_cast<int>(Stage::Solve)]) * 1e-6;
+    }
+    p50s.push_back(percentile(t, 0.5));
+    p99s.push_back(percentile(t, 0.99));
+    maxs.push_back(*std::max_element(t.begin(), t.end()));
+    cgs.push_back(cg / static_cast<double>(steps));
+    asm_ms.push_back(as / static_cast<double>(steps));
+    solve_ms.push_back(so / static_cast<double>(steps));
+  }
+  const std::string name = label.empty() ? spec.name : label;
+  if (markdown) {
+    fmt::print("| {} | {} | {} | {:.3f} ({:.3f}–{:.3f}) | {:.3f} ({:.3f}–{:.3f}) | {:.3f} | {:.1f} / {} | {:.3f} / {:.3f} |\n",
+               name, m->fem.num_nodes, m->fem.elements.size(), median(p50s),
+               *std::min_element(p50s.begin(), p50s.end()), *std::max_element(p50s.begin(), p50s.end()),
+               median(p99s), *std::min_element(p99s.begin(), p99s.end()), *std::max_element(p99s.begin(), p99s.end()),
+               median(maxs), median(cgs), cg_max, median(asm_ms), median(solve_ms));
+  } else {
+    fmt::print("{}: {} nodes, {} tets, {} runs x {} ticks\n", name, m->fem.num_nodes, m->fem.elements.size(), runs, steps);
+    fmt::print("  tick ms  p50 {:.4f} (runs {:.4f}-{:.4f})  p99 {:.4f} (runs {:.4f}-{:.4f})  max {:.4f}\n",
+               median(p50s), *std::min_element(p50s.begin(), p50s.end()), *std::max_element(p50s.begin(), p50s.end()),
+               median(p99s), *std::min_element(p99s.begin(), p99s.end()), *std::max_element(p99s.begin(), p99s.end()),
+               median(maxs));
+    fmt::print("  CG iterations mean {:.1f} max {}; assemble {:.4f} ms, solve {:.4f} ms per tick\n", median(cgs),
+               cg_max, median(asm_ms), median(solve_ms));
+  }
+  return 0;
+}
