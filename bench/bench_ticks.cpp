@@ -4,6 +4,7 @@
 /// p99 and max, the spread (min–max of the per-run p50/p99), CG iterations, and the stage split.
 ///
 /// Usage: stroma_bench_ticks SCENARIO [--mesh FILE] [--runs R] [--steps N] [--tolerance T]
+///                          [--preconditioner P]
 ///                          [--label TEXT] [--markdown]
 /// The machine is shared and noisy: report medians over many runs, never one run.
 
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
   long steps = 1000;
   double tolerance = -1;
   bool markdown = false;
+  std::string pc;
   app.add_option("scenario", scenario, "Scenario YAML")->required()->check(CLI::ExistingFile);
   app.add_option("--mesh", mesh, "Replace the first body's mesh")->check(CLI::ExistingFile);
   app.add_option("--runs", runs, "Repetitions")->capture_default_str();
@@ -47,11 +49,17 @@ int main(int argc, char** argv) {
   app.add_option("--tolerance", tolerance, "Override the CG tolerance");
   app.add_option("--label", label, "Row label");
   app.add_flag("--markdown", markdown, "Print a markdown table row");
+  app.add_option("--preconditioner", pc, "Override the CG preconditioner")
+      ->check(CLI::IsMember({"jacobi", "block_jacobi", "none", "warped_cholesky"}));
   CLI11_PARSE(app, argc, argv);
 
   ScenarioSpec spec = load_scenario(scenario);
   if (!mesh.empty()) spec.bodies.at(0).mesh_path = mesh;
   if (tolerance > 0) spec.solver.tolerance = tolerance;
+  if (pc == "jacobi") spec.solver.preconditioner = Preconditioner::Jacobi;
+  if (pc == "block_jacobi") spec.solver.preconditioner = Preconditioner::BlockJacobi;
+  if (pc == "none") spec.solver.preconditioner = Preconditioner::None;
+  if (pc == "warped_cholesky") spec.solver.preconditioner = Preconditioner::WarpedCholesky;
   auto m = compile_model(spec);
   std::vector<double> p50s, p99s, maxs, cgs, asm_ms, solve_ms;
   int cg_max = 0;

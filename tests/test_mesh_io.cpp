@@ -331,6 +331,18 @@ TEST(MeshIoErrors, GmshNonNumericCoordinate) {
                     {"non-numeric y coordinate", "'1.0e0x'"});
 }
 
+TEST(MeshIoErrors, GmshUnknownElementType) {
+  std::istringstream v22(
+      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n"
+      "$EndNodes\n$Elements\n2\n1 4 2 0 1 1 2 3 4\n2 999 2 0 1 1 2 3 4\n$EndElements\n");
+  expect_input_error([&] { read_gmsh(v22, "u.msh"); }, "u.msh", 14, "$Elements",
+                     {"unknown element type 999"});
+  std::istringstream v10("$NOD\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n$ENDNOD\n$ELM\n1\n"
+                          "1 0 1 1 4 1 2 3 4\n$ENDELM\n");
+  expect_input_error([&] { read_gmsh(v10, "u10.msh"); }, "u10.msh", 10, "$ELM",
+                     {"unknown element type 0"});
+}
+
 TEST(MeshIoErrors, GmshQuadraticTetrahedra) {
   expect_file_error(fixture("bad_quadratic.msh"), 30, "$Elements",
                     {"quadratic tetrahedra (type 11) are not supported; re-mesh with -order 1"});

@@ -328,6 +328,15 @@ std::vector<Vec3> to_points(const std::vector<double>& xyz) {
 constexpr int64_t kGmshTet4 = 4;
 
 /// gmsh types of tetrahedra with more than 4 nodes (TET10, TET20, TET35, TET56).
+/// Gmsh numbers its element types 1..140 (MSH_MAX_NUM); anything else is a corrupt file or a
+/// format this reader does not know, not an element type to skip silently.
+bool is_gmsh_element_type(int64_t type) { return type >= 1 && type <= 140; }
+
+std::string gmsh_unknown_type_message(int64_t type) {
+  return fmt::format("unknown element type {} (gmsh element types are 1..140; 4 is the linear "
+                     "tetrahedron)", type);
+}
+
 bool is_gmsh_higher_order_tet(int64_t type) {
   return type == 11 || type == 29 || type == 30 || type == 31;
 }
@@ -593,6 +602,8 @@ class GmshReader {
         const int64_t ntags = line.count("number of tags");
         for (int64_t t = 0; t < ntags; ++t) line.integer("element tag");
       }
+      if (!is_gmsh_element_type(type))
+        ctx_.fail(type_pos, gmsh_unknown_type_message(type));
       if (type == kGmshTet4)
         add_tet(line);
       else if (is_gmsh_higher_order_tet(type))
@@ -623,6 +634,7 @@ class GmshReader {
       const int64_t type = bh.integer("element type");
       const int64_t n = bh.count("number of elements in block");
       bh.expect_line_end();
+      if (!is_gmsh_element_type(type)) ctx_.fail(type_pos, gmsh_unknown_type_message(type));
       if (is_gmsh_higher_order_tet(type)) ctx_.fail(type_pos, gmsh_higher_order_message(type));
       for (int64_t j = 0; j < n; ++j) {
         Scanner line = body_line(
