@@ -1,0 +1,119 @@
+// compile_model: everything that can only be checked once the meshes are read — selections,
+// probes, material ranges — fails with the scenario file, line and field.
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "engine/model.hpp"
+#include "engine/scenario_spec.hpp"
+#include "engine/state.hpp"
+#include "tissue/input_error.hpp"
+
+using namespace stroma;
+
+namespace {
+
+const std::string kMeshDir = std::string(STROMA_SOURCE_DIR) + "/scenarios/meshes";
+
+std::string beam_scenario(const std::string& fixed, const std::string& probe_point) {
+  return "name: t\n"                                                              // 1
+         "bodies:\n"                                                              // 2
+         "  - name: beam\n"                                                       // 3
+         "    mesh: beam_tet4_h5p000mm.msh\n"                                     // 4
+         "    material: {young_modulus: 1.0e7, poisson_ratio: 0.3, density: 1000}\n"  // 5
+         "    fixed:\n"                                                           // 6
+         "      - " + fixed + "\n"                                                // 7
+         "probes:\n"                                                              // 8
+         "  - {name: tip, body: beam, point: " + probe_point + "}\n";             // 9
+}
+
+void expect_compile_error(const std::string& yaml, int line, const std::string& field,
+                          const std::string& words) {
+  const ScenarioSpec spec = parse_scenario(yaml, "t.yaml", kMeshDir);
+  try {
+    compile_model(spec);
+    FAIL() << "expected an InputError mentioning " << words;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "t.yaml");
+    EXPECT_EQ(e.line(), line) << e.what();
+    EXPECT_EQ(e.field(), field) << e.what();
+    EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+
+TEST(Compile, BoxSelectingNoNodeIsAnError) {
+  expect_compile_error(beam_scenario("box: {min: [5, 5, 5], max: [6, 6, 6]}", "[0.1, 0.005, 0.005]"), 7,
+                       "bodies[0].fixed[0].box", "selects no node");
+}
+
+TEST(Compile, NodeIndexOutOfRangeIsAnError) {
+  expect_compile_error(beam_scenario("nodes: [0, 191]", "[0.1, 0.005, 0.005]"), 7,
+                       "bodies[0].fixed[0].nodes", "node 191 is out of range");
+}
+
+TEST(Compile, ProbeFarOutsideTheBodyIsAnError) {
+  expect_compile_error(beam_scenario("nodes: [0]", "[1.0, 0.005, 0.005]"), 9, "probes[0].point",
+                       "outside body 'beam'");
+}
+
+TEST(Compile, MissingMeshNamesTheMeshLine) {
+  std::string yaml = beam_scenario("nodes: [0]", "[0.1, 0.005, 0.005]");
+  yaml.replace(yaml.find("beam_tet4_h5p000mm.msh"), 22, "nope.msh");
+  expect_compile_error(yaml, 4, "bodies[0].mesh", "cannot open");
+}
+
+TEST(Compile, ProbeJustOutsideUsesTheNearestTetrahedron) {
+  // 0.1 mm beyond the tip face: projected onto the face, weights non-negative and summing to 1.
+  const ScenarioSpec spec = parse_scenario(beam_scenario("nodes: [0]", "[0.1001, 0.005, 0.005]"),
+                                           "t.yaml", kMeshDir);
+  auto m = compile_model(spec);
+  const BarycentricPoint& w = m->probes.at(0).where;
+  EXPECT_NEAR(w.distance, 1e-4, 1e-9);
+  double sum = 0;
+  for (double x : w.w) {
+    EXPECT_GE(x, -1e-12);
+    sum += x;
+  }
+  EXPECT_NEAR(sum, 1.0, 1e-12);
+  const Vec3 p = probe_position(*m, State::initial(*m), m->probes[0]);
+  EXPECT_NEAR(p[0], 0.1, 1e-12);
+  EXPECT_NEAR(p[1], 0.005, 1e-12);
+  EXPECT_NEAR(p[2], 0.005, 1e-12);
+}
+
+TEST(Compile, ProbeInsideInterpolatesAffineFieldsExactly) {
+  // Barycentric interpolation reproduces any affine displacement field exactly.
+  const ScenarioSpec spec = parse_scenario(beam_scenario("nodes: [0]", "[0.0373, 0.0041, 0.0077]"),
+                                           "t.yaml", kMeshDir);
+  auto m = compile_model(spec);
+  State s = State::initial(*m);
+  auto field = [](const double* X, int k) { return 1e-3 * (0.3 * X[0] - 0.7 * X[1] + 0.2 * X[2]) + 1e-4 * k; };
+  for (int32_t i = 0; i < m->fem.num_nodes; ++i)
+    for (int k = 0; k < 3; ++k) s.tissue.x[3 * i + k] += field(&m->fem.rest[3 * i], k);
+  const Vec3 d = probe_displacement(*m, s, m->probes[0]);
+  const double X[3] = {0.0373, 0.0041, 0.0077};
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(d[k], field(X, k), 1e-15);
+  EXPECT_EQ(m->probes[0].where.distance, 0.0);
+}
+
+TEST(Compile, NodalLoadIsSplitOverTheSelection) {
+  std::string yaml = beam_scenario("nodes: [0]", "[0.1, 0.005, 0.005]");
+  yaml.replace(yaml.find("probes:"), 0,
+               "    loads:\n      - box: {min: [0.0999, -1, -1], max: [1, 1, 1]}\n        force: [0, -2, 0]\n");
+  ScenarioSpec spec = parse_scenario(yaml, "t.yaml", kMeshDir);
+  spec.gravity = {0, 0, 0};
+  auto m = compile_model(spec);
+  double fy = 0;
+  int loaded = 0;
+  for (int32_t i = 0; i < m->fem.num_nodes; ++i)
+    if (m->fem.f_ext[3 * i + 1] != 0) {
+      fy += m->fem.f_ext[3 * i + 1];
+      ++loaded;
+      EXPECT_GE(m->fem.rest[3 * i], 0.0999);
+    }
+  EXPECT_NEAR(fy, -2.0, 1e-12);
+  EXPECT_GT(loaded, 4);
+}
