@@ -11,6 +11,8 @@ PACKAGES=(
   libeigen3-dev libsuitesparse-dev libopenblas0-pthread
   # scenario files, CLI, logging
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
+  # DDS (Eclipse Cyclone DDS C API + idlc)
+  cyclonedds-dev cyclonedds-tools
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # images
