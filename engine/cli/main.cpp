@@ -2,6 +2,7 @@
 /// The `stroma` command: one executable, one subcommand per job (CLI11).
 ///   stroma run SCENARIO      headless run, outputs into a directory
 ///   stroma check SCENARIO REFERENCE   run and compare the final state to a stored reference
+///   stroma serve SCENARIO    real-time server at 1 kHz over DDS (loopback by default)
 /// Exit codes: 0 success, 1 check failed / run unhealthy, 2 bad input or usage.
 
 #include <cstdio>
@@ -17,6 +18,7 @@
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state_io.hpp"
+#include "server/serve.hpp"
 #include "tissue/input_error.hpp"
 
 namespace fs = std::filesystem;
@@ -102,6 +104,27 @@ int main(int argc, char** argv) {
   check->footer("Tolerances come from the scenario's check: section (max_error, mean_error, metres).\n"
                 "Exit status: 0 within tolerance, 1 outside, 2 bad input.");
 
+  // ---- serve ----
+  ServeOptions srv;
+  auto* serve = app.add_subcommand("serve", "Run a scenario in real time (one tick per time step of wall time) and serve it over DDS");
+  serve->add_option("scenario", srv.scenario, "Scenario YAML file")->required()->check(CLI::ExistingFile);
+  serve->add_option("--dds-config", srv.dds_config, "Cyclone DDS XML configuration (default: CYCLONEDDS_URI, else built-in loopback-only)")
+      ->check(CLI::ExistingFile);
+  serve->add_option("--domain", srv.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
+  serve->add_option("--realtime", srv.realtime, "auto: try SCHED_FIFO + mlockall, warn and go on if denied; fifo: required; off")
+      ->capture_default_str()->check(CLI::IsMember({"auto", "fifo", "off"}));
+  serve->add_option("--cpu", srv.cpu, "Pin the physics thread to this CPU")->check(CLI::NonNegativeNumber);
+  serve->add_option("--duration", srv.duration, "Stop after this many wall seconds (default: until Ctrl-C or Control SHUTDOWN)")
+      ->check(CLI::NonNegativeNumber);
+  serve->add_option("--stats", srv.stats_file, "Write timing statistics (JSON) here at exit");
+  serve->add_option("--publish-hz", srv.publish_hz, "TissueState rate")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
+  serve->add_flag("--paused", srv.start_paused, "Start paused (resume or step with stroma_Control)");
+  serve->footer(
+      "Network: by default every DDS participant is on the loopback interface only, without multicast\n"
+      "(secure by default). To serve on a LAN, copy server/cyclonedds-loopback.xml, replace \"lo\" by\n"
+      "your interface and pass it with --dds-config FILE (or set CYCLONEDDS_URI).\n"
+      "Topics: stroma_TissueMesh, stroma_TissueState, stroma_SimStatus (out), stroma_Control (in); see docs/DDS.md.");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -129,6 +152,7 @@ int main(int argc, char** argv) {
       const bool healthy = r.ticks_non_finite == 0 && r.static_converged;
       return healthy ? 0 : 1;
     }
+    if (*serve) return run_serve(srv);
     if (*check) {
       auto model = load(chk_scenario);
       std::vector<double> ref;

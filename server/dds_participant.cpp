@@ -1,0 +1,56 @@
+#include "server/dds_participant.hpp"
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace stroma {
+
+const char* const kLoopbackDdsConfig =
+    "<CycloneDDS><Domain Id=\"any\">"
+    "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
+    "<AllowMulticast>false</AllowMulticast></General>"
+    "<Discovery><ParticipantIndex>auto</ParticipantIndex>"
+    "<MaxAutoParticipantIndex>20</MaxAutoParticipantIndex>"
+    "<Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery>"
+    "</Domain></CycloneDDS>";
+
+dds_return_t dds_check(dds_return_t rc, const char* what) {
+  if (rc < 0) throw std::runtime_error(fmt::format("{}: {}", what, dds_strretcode(rc)));
+  return rc;
+}
+
+DdsParticipant create_participant(int domain_id, const std::string& config_file) {
+  DdsParticipant p;
+  std::string xml;
+  if (!config_file.empty()) {
+    std::ifstream f(config_file);
+    if (!f) throw std::runtime_error(fmt::format("--dds-config: cannot open '{}'", config_file));
+    std::stringstream ss;
+    ss << f.rdbuf();
+    xml = ss.str();
+    p.config_source = config_file;
+  } else if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri && *uri) {
+    p.config_source = std::string("CYCLONEDDS_URI=") + uri;
+  } else {
+    xml = kLoopbackDdsConfig;
+    p.config_source = "built-in loopback configuration (lo only, no multicast)";
+  }
+  if (!xml.empty()) {
+    const dds_entity_t d = dds_create_domain(static_cast<dds_domainid_t>(domain_id), xml.c_str());
+    // A domain already created in this process (a second participant) keeps its configuration.
+    if (d < 0 && d != DDS_RETCODE_PRECONDITION_NOT_MET)
+      throw std::runtime_error(fmt::format("DDS domain {} with {}: {}", domain_id, p.config_source,
+                                           dds_strretcode(d)));
+  }
+  p.participant = dds_create_participant(static_cast<dds_domainid_t>(domain_id), nullptr, nullptr);
+  if (p.participant < 0)
+    throw std::runtime_error(fmt::format("DDS participant on domain {}: {}", domain_id,
+                                         dds_strretcode(p.participant)));
+  return p;
+}
+
+}  // namespace stroma

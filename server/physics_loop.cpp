@@ -1,0 +1,159 @@
+#include "server/physics_loop.hpp"
+
+#include <time.h>
+
+#include <algorithm>
+
+namespace stroma {
+
+namespace {
+
+constexpr int64_t kNs = 1000000000LL;
+
+inline int64_t now_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * kNs + ts.tv_nsec;
+}
+
+inline void sleep_until(int64_t t) {
+  timespec ts{static_cast<time_t>(t / kNs), static_cast<long>(t % kNs)};
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) != 0) {
+  }
+}
+
+double kinetic(const Model& m, const State& s) {
+  double e = 0;
+  for (int32_t i = 0; i < m.fem.num_nodes; ++i) {
+    const double* v = &s.tissue.v[3 * i];
+    e += 0.5 * m.fem.mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  }
+  return e;
+}
+
+}  // namespace
+
+PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions options)
+    : state_out(StateFrame{0, 0.0, model->fem.rest}),
+      model_(std::move(model)),
+      opt_(options),
+      state_(State::initial(*model_)),
+      initial_(state_),
+      work_(*model_) {}
+
+void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown) {
+  ControlEvent ev;
+  while (controls.pop(ev)) {
+    switch (ev.kind) {
+      case ControlEvent::Pause: rs = RunState::Paused; break;
+      case ControlEvent::Resume: rs = RunState::Running; steps_pending = 0; break;
+      case ControlEvent::Reset: state_ = initial_; break;  // same-size copy: no allocation
+      case ControlEvent::Step:
+        rs = RunState::Paused;
+        steps_pending += ev.steps;
+        break;
+      case ControlEvent::Shutdown: shutdown = true; break;
+    }
+  }
+}
+
+void PhysicsLoop::run(const std::atomic<bool>& stop) {
+  const Model& m = *model_;
+  const int64_t period = static_cast<int64_t>(m.time_step * 1e9 + 0.5);
+  RunState rs = opt_.start_paused ? RunState::Paused : RunState::Running;
+  uint32_t steps_pending = 0;
+  bool shutdown = false;
+  uint64_t frame = 0, controls_seen = 0;
+  double running_wall = 0;  // wall time spent in the Running state (for the lag)
+  double elastic = 0;
+  uint64_t cg_window = 0, ticks_window = 0;
+  int recent = 0;
+  StatusFrame* status = &status_out.write_slot();
+
+  const int64_t t0 = now_ns();
+  int64_t deadline = t0 + period;
+  int64_t last_done = t0;
+  while (!stop.load(std::memory_order_relaxed) && !shutdown) {
+    sleep_until(deadline);
+    const int64_t wake = now_ns();
+    stats_.wake.record(wake - deadline);
+    ++stats_.loops;
+
+    const RunState before = rs;
+    handle_controls(rs, steps_pending, shutdown);
+    controls_seen += (rs != before);
+    const bool do_tick = rs == RunState::Running || steps_pending > 0;
+    if (do_tick) {
+      if (rs != RunState::Running) --steps_pending;
+      const TickReport r = tick(m, state_, work_);
+      ++stats_.ticks;
+      stats_.cg_iterations_total += static_cast<uint64_t>(r.solve.iterations);
+      stats_.cg_iterations_max = std::max(stats_.cg_iterations_max, r.solve.iterations);
+      for (int s = 0; s < kStageCount; ++s) stats_.stage_ns_total[s] += r.stage_ns[s];
+      if (r.status == TickStatus::SolverNotConverged) ++stats_.not_converged;
+      if (r.status == TickStatus::NonFinite) {
+        ++stats_.non_finite;
+        rs = RunState::Fault;  // state kept finite (not advanced); clients see FAULT
+      }
+      elastic = r.elastic_energy;
+      cg_window += static_cast<uint64_t>(r.solve.iterations);
+      ++ticks_window;
+    }
+    const int64_t done = now_ns();
+    const int64_t busy = done - wake;
+    stats_.tick.record(busy);
+    if (rs == RunState::Running) running_wall += static_cast<double>(done - last_done) * 1e-9;
+    last_done = done;
+
+    // Hand-offs: copies into pre-sized slots, then one atomic exchange each.
+    if (do_tick && state_wanted.load(std::memory_order_relaxed) &&
+        state_.step % opt_.publish_every == 0) {
+      StateFrame& f = state_out.write_slot();
+      f.frame = ++frame;
+      f.sim_time = state_.time;
+      std::copy(state_.tissue.x.begin(), state_.tissue.x.end(), f.x.begin());
+      state_out.publish();
+      outputs_published.fetch_add(1, std::memory_order_release);
+      outputs_published.notify_one();
+    }
+    if (recent < kRecentTicks) {
+      status->tick_us[recent] = static_cast<float>(busy * 1e-3);
+      status->wake_us[recent] = static_cast<float>((wake - deadline) * 1e-3);
+      ++recent;
+    }
+    if (stats_.loops % opt_.status_every == 0) {
+      status->state = rs;
+      status->sim_time = state_.time;
+      status->wall_time = static_cast<double>(done - t0) * 1e-9;
+      status->lag = running_wall - state_.time;
+      status->ticks = stats_.ticks;
+      status->missed_deadlines = stats_.missed_deadlines;
+      status->controls = controls_seen;
+      status->cg_iterations_mean = ticks_window ? static_cast<double>(cg_window) / static_cast<double>(ticks_window) : 0.0;
+      status->kinetic_energy = kinetic(m, state_);
+      status->elastic_energy = elastic;
+      status->recent = recent;
+      status_out.publish();
+      outputs_published.fetch_add(1, std::memory_order_release);
+      outputs_published.notify_one();
+      status = &status_out.write_slot();
+      recent = 0;
+      cg_window = ticks_window = 0;
+    }
+
+    // Next deadline: on time → one period later; late → start at once and re-anchor.
+    deadline += period;
+    if (done > deadline) {
+      ++stats_.missed_deadlines;
+      deadline = done;
+    }
+  }
+  stats_.sim_time = state_.time;
+  stats_.wall_time = static_cast<double>(now_ns() - t0) * 1e-9;
+  stats_.lag = running_wall - state_.time;
+  finished.store(true);
+  outputs_published.fetch_add(1, std::memory_order_release);
+  outputs_published.notify_all();
+}
+
+}  // namespace stroma

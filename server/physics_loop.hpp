@@ -1,0 +1,105 @@
+#pragma once
+/// \file physics_loop.hpp
+/// The fixed-rate physics thread of `stroma serve`: one tick per time step of wall time, slept
+/// to absolute deadlines (clock_nanosleep, TIMER_ABSTIME). A late tick is counted, the next one
+/// starts at once and the schedule re-anchors — never a burst of catch-up ticks. Inputs arrive
+/// through a lock-free queue; outputs leave through lock-free triple buffers. The loop never
+/// blocks on anything but its own deadline, never allocates, locks or logs.
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "engine/model.hpp"
+#include "engine/spsc_queue.hpp"
+#include "engine/state.hpp"
+#include "engine/tick.hpp"
+#include "engine/timing_stats.hpp"
+#include "engine/triple_buffer.hpp"
+
+namespace stroma {
+
+/// A control command from a client (stroma_Control).
+struct ControlEvent {
+  enum Kind : uint8_t { Pause, Resume, Reset, Step, Shutdown } kind = Pause;
+  uint32_t steps = 0;
+};
+
+/// Run state as published in SimStatus.
+enum class RunState : uint8_t { Running, Paused, Stopping, Fault };
+
+/// Full positions for the publisher (which extracts surfaces and stresses off the physics
+/// thread). Sized once.
+struct StateFrame {
+  uint64_t frame = 0;
+  double sim_time = 0;
+  std::vector<double> x;
+};
+
+/// Number of recent ticks whose times travel with each status frame (percentiles are computed
+/// by the publisher, not the physics thread).
+inline constexpr int kRecentTicks = 1024;
+
+/// Live statistics for SimStatus (~10 Hz).
+struct StatusFrame {
+  RunState state = RunState::Running;
+  double sim_time = 0, wall_time = 0, lag = 0;
+  uint64_t ticks = 0, missed_deadlines = 0, controls = 0;
+  double cg_iterations_mean = 0;  ///< over the last status period
+  double kinetic_energy = 0, elastic_energy = 0;
+  int recent = 0;                               ///< valid entries below
+  std::array<float, kRecentTicks> tick_us{};    ///< tick compute times (µs), recent window
+  std::array<float, kRecentTicks> wake_us{};    ///< wake-up latencies (µs)
+};
+
+/// Settings of the loop.
+struct PhysicsLoopOptions {
+  int publish_every = 17;  ///< ticks between state frames (≈ 60 Hz at 1 kHz)
+  int status_every = 100;  ///< ticks between status frames (10 Hz at 1 kHz)
+  bool start_paused = false;
+};
+
+/// Final statistics after run() returns (read by the main thread after join).
+struct PhysicsLoopStats {
+  LatencyHistogram wake;        ///< actual wake-up − deadline
+  LatencyHistogram tick;        ///< tick compute time
+  uint64_t ticks = 0, loops = 0, missed_deadlines = 0, not_converged = 0, non_finite = 0;
+  uint64_t cg_iterations_total = 0;
+  int cg_iterations_max = 0;
+  std::array<int64_t, kStageCount> stage_ns_total{};
+  double sim_time = 0, wall_time = 0, lag = 0;
+};
+
+/// The physics thread's state and its lock-free ports.
+class PhysicsLoop {
+ public:
+  PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions options);
+
+  /// Runs until `stop` becomes true or a Shutdown control arrives. Call from the physics thread.
+  void run(const std::atomic<bool>& stop);
+
+  // ---- ports (lock-free) ----
+  SpscQueue<ControlEvent, 64> controls;      ///< DDS-in thread → physics
+  TripleBuffer<StateFrame> state_out;        ///< physics → publisher
+  TripleBuffer<StatusFrame> status_out;      ///< physics → publisher
+  std::atomic<bool> state_wanted{false};     ///< publisher: a renderer is listening
+  std::atomic<uint64_t> outputs_published{0};  ///< bumped (and notified) on every hand-off
+  std::atomic<bool> finished{false};         ///< set when run() returns
+
+  const PhysicsLoopStats& stats() const { return stats_; }
+  const State& state() const { return state_; }
+  const Model& model() const { return *model_; }
+
+ private:
+  void handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown);
+  std::shared_ptr<const Model> model_;
+  PhysicsLoopOptions opt_;
+  State state_;
+  State initial_;
+  TickWorkspace work_;
+  PhysicsLoopStats stats_;
+};
+
+}  // namespace stroma

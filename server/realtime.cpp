@@ -1,0 +1,46 @@
+#include "server/realtime.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include <fmt/format.h>
+
+namespace stroma {
+
+namespace {
+void prefault_stack(size_t bytes) {
+  volatile char* buf = static_cast<volatile char*>(__builtin_alloca(bytes));
+  for (size_t i = 0; i < bytes; i += 4096) buf[i] = 0;
+}
+}  // namespace
+
+RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority, size_t stack_bytes) {
+  RealtimeResult r;
+  if (cpu >= 0) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(cpu, &set);
+    const int rc = pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
+    r.pinned = rc == 0;
+    if (rc != 0) r.problems += fmt::format("cannot pin to CPU {} ({}); ", cpu, std::strerror(rc));
+  }
+  if (mode == RealtimeMode::Off) return r;
+  sched_param sp{};
+  sp.sched_priority = priority;
+  const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+  r.fifo = rc == 0;
+  if (rc != 0) r.problems += fmt::format("SCHED_FIFO denied ({}); ", std::strerror(rc));
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
+    r.memory_locked = true;
+  } else {
+    r.problems += fmt::format("mlockall denied ({}); ", std::strerror(errno));
+  }
+  prefault_stack(stack_bytes);
+  return r;
+}
+
+}  // namespace stroma

@@ -1,0 +1,26 @@
+#pragma once
+/// \file realtime.hpp
+/// Real-time set-up of the calling thread: SCHED_FIFO, locked and pre-faulted memory, CPU pin.
+
+#include <string>
+
+namespace stroma {
+
+/// --realtime: auto (try, warn once and go on if denied), fifo (required), off.
+enum class RealtimeMode { Auto, Fifo, Off };
+
+/// What was obtained.
+struct RealtimeResult {
+  bool fifo = false;
+  bool memory_locked = false;
+  bool pinned = false;
+  std::string problems;  ///< empty when everything asked for was granted
+};
+
+/// Applies `mode` to the calling thread (priority `priority` for SCHED_FIFO) and pins it to
+/// `cpu` if cpu ≥ 0. Locks all current and future memory and pre-faults `stack_bytes` of stack
+/// so the first ticks do not page-fault. Never throws; the caller decides what a problem means.
+RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority = 80,
+                                     size_t stack_bytes = 512 * 1024);
+
+}  // namespace stroma

@@ -1,0 +1,26 @@
+#pragma once
+/// \file serve.hpp
+/// `stroma serve`: the real-time scenario server. No DDS header here: the CLI includes this.
+
+#include <string>
+
+namespace stroma {
+
+/// Command-line options of `stroma serve`.
+struct ServeOptions {
+  std::string scenario;
+  std::string dds_config;      ///< Cyclone XML file; empty: CYCLONEDDS_URI or built-in loopback
+  int domain = 0;
+  std::string realtime = "auto";  ///< auto | fifo | off
+  int cpu = -1;                ///< pin the physics thread to this CPU (−1: no pinning)
+  double duration = 0;         ///< wall seconds, 0 = until SIGINT/SIGTERM or Control SHUTDOWN
+  std::string stats_file;      ///< JSON statistics written at exit
+  double publish_hz = 60;      ///< TissueState rate
+  bool start_paused = false;
+};
+
+/// Runs the server; returns the process exit code (0 clean, 1 runtime fault, 2 bad input).
+/// Throws InputError on a bad scenario.
+int run_serve(const ServeOptions& options);
+
+}  // namespace stroma
