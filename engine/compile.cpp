@@ -155,6 +155,24 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
     for (int32_t& nidx : pmod.where.node) nidx += model->fem.bodies[body].node_begin;
     model->probes.push_back(pmod);
   }
+  for (size_t ti = 0; ti < spec.tools.size(); ++ti) {
+    const ToolEntry& t = spec.tools[ti];
+    const ToolSpec& ts = t.spec;
+    for (int k = 0; k < 3; ++k)
+      if (ts.workspace_min[k] > ts.workspace_max[k])
+        throw InputError(t.where.file, t.where.line, fmt::format("tools[{}].workspace", ti),
+                         "min must not exceed max");
+    model->tools.push_back(ts);
+    Trajectory tr;
+    if (!ts.script.empty()) {
+      try {
+        tr = load_trajectory(ts.script);
+      } catch (const InputError& e) {
+        throw InputError(t.where.file, t.where.line, fmt::format("tools[{}].script", ti), e.what());
+      }
+    }
+    model->tool_scripts.push_back(std::move(tr));
+  }
   return model;
 }
 

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "engine/session_log.hpp"
 #include "engine/state_io.hpp"
 #include "engine/vtu_writer.hpp"
 
@@ -20,6 +21,7 @@ namespace fs = std::filesystem;
 
 long resolve_steps(const Model& m, const RunOptions& o) {
   if (m.stepper.integrator == Integrator::Static) return 0;
+  if (!o.replay.empty()) return static_cast<long>(read_session_log(o.replay).back().tick);
   if (o.steps) return *o.steps;
   if (o.duration) return std::lround(*o.duration / m.time_step);
   if (m.spec.run.steps) return *m.spec.run.steps;
@@ -87,6 +89,12 @@ RunResult run_headless(const Model& m, const RunOptions& o) {
   TimeStepper& stepper = w.stepper();
   const bool write = !o.out_dir.empty();
   const long steps = resolve_steps(m, o);
+  // Tool inputs: a replayed session, else each scripted tool sampled at the tick's start time.
+  std::vector<SessionEvent> replay;
+  if (!o.replay.empty()) replay = read_session_log(o.replay);
+  size_t next_event = 0;
+  std::vector<ToolInput> inputs;
+  inputs.reserve(m.tools.size() + 16);
   std::unique_ptr<MetricsWriter> metrics;
   std::vector<std::pair<double, std::string>> series;
   double io_ms = 0;
@@ -131,7 +139,25 @@ RunResult run_headless(const Model& m, const RunOptions& o) {
   } else {
     if (write && o.vtu_every > 0) write_frame(0);
     for (long k = 0; k < steps; ++k) {
-      const TickReport r = tick(m, s, w);
+      inputs.clear();
+      if (!o.replay.empty()) {
+        for (; next_event < replay.size() && replay[next_event].tick == k; ++next_event) {
+          const SessionEvent& e = replay[next_event];
+          if (e.kind == SessionEvent::Reset) {
+            const State init = State::initial(m);
+            s = init;
+            inputs.clear();  // commands before a reset in the same tick were overwritten
+          } else if (e.kind == SessionEvent::Tool) {
+            inputs.push_back(e.input);
+          }
+        }
+      } else {
+        for (size_t t = 0; t < m.tools.size(); ++t)
+          if (!m.tool_scripts[t].keys.empty())
+            inputs.push_back(ToolInput{static_cast<int32_t>(t), static_cast<uint64_t>(k + 1), 0,
+                                       m.tool_scripts[t].sample(s.time)});
+      }
+      const TickReport r = tick(m, s, w, inputs.data(), static_cast<int>(inputs.size()));
       const double ms = static_cast<double>(r.total_ns) * 1e-6;
       step_ms.push_back(ms);
       for (int st = 0; st < kStageCount; ++st) stage_total[st] += static_cast<double>(r.stage_ns[st]) * 1e-6;

@@ -23,6 +23,7 @@ struct RunOptions {
   int vtu_every = 0;                ///< > 0: also write a .vtu every K ticks and a .pvd
   bool progress = true;             ///< log progress for runs longer than a few seconds
   bool metrics = true;              ///< per-tick metrics (costs an energy pass per tick)
+  std::string replay;               ///< session log to re-execute (overrides steps/duration)
 };
 
 /// Percentiles of a sample (milliseconds).

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "engine/scenario_spec.hpp"
+#include "engine/trajectory.hpp"
 #include "tissue/barycentric.hpp"
 #include "tissue/fem_model.hpp"
 #include "tissue/time_stepper.hpp"
@@ -28,6 +29,8 @@ struct Model {
   StepperSettings stepper;         ///< integrator and solver settings
   double time_step = 0.001;        ///< s
   std::vector<ProbeModel> probes;
+  std::vector<ToolSpec> tools;            ///< the scenario's tools, in order
+  std::vector<Trajectory> tool_scripts;   ///< per tool; empty keys when it has no script
   std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
   std::vector<std::string> notes;  ///< load-time observations worth logging (reoriented, unused)
 };

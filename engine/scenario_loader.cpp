@@ -601,6 +601,26 @@ CheckSpec parse_check(const Field& f) {
   return c;
 }
 
+const Choices<InvalidCommandPolicy> kInvalidPolicies = {{"reject", InvalidCommandPolicy::Reject},
+                                                        {"clamp", InvalidCommandPolicy::Clamp}};
+
+ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
+  ToolEntry t;
+  t.where = m.location();
+  m.require("name", t.spec.name);
+  std::string script;
+  if (m.read("script", script)) t.spec.script = resolve_path(script, ctx.base_dir);
+  if (auto w = m.opt("workspace")) {
+    const BoxSpec b = parse_box(*w);
+    t.spec.workspace_min = b.min;
+    t.spec.workspace_max = b.max;
+  }
+  m.read("max_speed", t.spec.max_speed, greater_than(0));
+  m.read("timeout", t.spec.timeout, greater_than(0));
+  m.read("on_invalid", t.spec.on_invalid, kInvalidPolicies);
+  return t;
+}
+
 /// Names must be unique within a list; reports the second occurrence.
 void check_unique_name(std::map<std::string, int>& seen, const std::string& name,
                        const Field& name_field, const char* what) {
@@ -643,6 +663,13 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
     }
   }
 
+  std::map<std::string, int> tool_names;
+  for (const auto& item : m.list("tools")) {
+    const MapReader tm = item.map({"name", "script", "workspace", "max_speed", "timeout", "on_invalid"});
+    s.tools.push_back(parse_tool(tm, ctx));
+    check_unique_name(tool_names, s.tools.back().spec.name, tm.req("name"), "tool");
+  }
+
   if (auto f = m.opt("run")) s.run = parse_run(*f);
   if (auto f = m.opt("check")) s.check = parse_check(*f);
   return s;
@@ -672,7 +699,7 @@ ScenarioSpec parse_scenario(const std::string& yaml_text, const std::string& fil
   const int root_line = root.Mark().line >= 0 ? root.Mark().line + 1 : 1;
   const Field root_field(&ctx.file, root, "", root_line);
   const MapReader m = root_field.map(
-      {"name", "time_step", "gravity", "solver", "bodies", "probes", "run", "check"});
+      {"name", "time_step", "gravity", "solver", "bodies", "probes", "tools", "run", "check"});
   return parse_root(m, ctx);
 }
 

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/tool.hpp"
 #include "tissue/options.hpp"
 #include "tissue/tet_mesh.hpp"
 
@@ -87,6 +88,12 @@ struct ProbeSpec {
   SourceLocation where;
 };
 
+/// `tools:` entry: a tool with its limits (ToolSpec) and where it is in the file.
+struct ToolEntry {
+  ToolSpec spec;
+  SourceLocation where;
+};
+
 /// `run:` section: how long a headless run lasts. Exactly one of duration/steps is used;
 /// steps wins when both are given (the loader rejects giving both).
 struct RunSpec {
@@ -109,6 +116,7 @@ struct ScenarioSpec {
   SolverSpec solver;
   std::vector<BodySpec> bodies;
   std::vector<ProbeSpec> probes;
+  std::vector<ToolEntry> tools;
   RunSpec run;
   CheckSpec check;
 };

@@ -13,11 +13,15 @@ namespace stroma {
 /// Simulation state at one instant.
 struct State {
   TissueState tissue;  ///< positions, velocities, solver warm start
+  std::vector<ToolState> tools;  ///< one per scenario tool
   double time = 0;     ///< simulated time (s)
   int64_t step = 0;    ///< ticks done
 
   /// The initial state of a model: every body at rest in its rest configuration.
-  static State initial(const Model& m) { return State{TissueState::at_rest(m.fem), 0.0, 0}; }
+  static State initial(const Model& m) {
+    State s{TissueState::at_rest(m.fem), std::vector<ToolState>(m.tools.size()), 0.0, 0};
+    return s;
+  }
 };
 
 /// Displacement of a probe in state s.

@@ -50,12 +50,29 @@ bool all_finite(const std::vector<double>& a) {
 
 }  // namespace
 
-TickReport tick(const Model& m, State& s, TickWorkspace& w) {
+TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs,
+                int input_count) {
   TickReport r;
   const int64_t t0 = now_ns();
   const double h = m.time_step;
   TimeStepper& stepper = w.stepper();
-  // read_inputs, collide: no tools yet in this scene type → skipped.
+  if (!m.tools.empty()) {
+    StageTimer t(r, Stage::ReadInputs);
+    for (int i = 0; i < input_count; ++i) {
+      const ToolInput& in = inputs[i];
+      ToolState& ts = s.tools[in.tool];
+      ts.pose = in.pose;
+      ts.seq = in.seq;
+      ts.client_time_ns = in.client_time_ns;
+      ts.last_command_time = s.time;
+      ts.active = true;
+    }
+    // A silent client: the tool holds its last accepted pose, then goes idle.
+    for (size_t k = 0; k < s.tools.size(); ++k)
+      if (s.tools[k].active && s.time - s.tools[k].last_command_time > m.tools[k].timeout)
+        s.tools[k].active = false;
+  }
+  // collide: tools touch nothing until contact exists (issue 4) → skipped.
   {
     StageTimer t(r, Stage::Assemble);
     r.elastic_energy = stepper.assemble(s.tissue, h);

@@ -51,7 +51,9 @@ class TickWorkspace {
   TimeStepper stepper_;
 };
 
-/// Advances `s` by one time step of the model.
-TickReport tick(const Model& m, State& s, TickWorkspace& w);
+/// Advances `s` by one time step of the model. `inputs` are tool commands that take effect at
+/// the start of this tick (read_inputs stage; skipped when the scene has no tools).
+TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs = nullptr,
+                int input_count = 0);
 
 }  // namespace stroma

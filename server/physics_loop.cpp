@@ -39,11 +39,19 @@ PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions 
       opt_(options),
       state_(State::initial(*model_)),
       initial_(state_),
-      work_(*model_) {}
+      work_(*model_) {
+  for (size_t t = 0; t < model_->tools.size(); ++t)
+    tool_in.push_back(std::make_unique<TripleBuffer<ToolInput>>());
+}
 
 void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown) {
   ControlEvent ev;
   while (controls.pop(ev)) {
+    SessionEvent se;
+    se.tick = static_cast<int64_t>(stats_.ticks);
+    se.kind = static_cast<SessionEvent::Kind>(static_cast<int>(ev.kind) + 1);  // Pause..Shutdown
+    se.steps = ev.steps;
+    log(se);
     switch (ev.kind) {
       case ControlEvent::Pause: rs = RunState::Paused; break;
       case ControlEvent::Resume: rs = RunState::Running; steps_pending = 0; break;
@@ -85,7 +93,20 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
     const bool do_tick = rs == RunState::Running || steps_pending > 0;
     if (do_tick) {
       if (rs != RunState::Running) --steps_pending;
-      const TickReport r = tick(m, state_, work_);
+      // read inputs: the newest accepted command of each tool (validated by the DDS thread).
+      std::array<ToolInput, kMaxTools> inputs;
+      int n_in = 0;
+      for (size_t t = 0; t < tool_in.size() && n_in < kMaxTools; ++t)
+        if (tool_in[t]->update()) {
+          inputs[n_in] = tool_in[t]->read_slot();
+          SessionEvent se;
+          se.tick = static_cast<int64_t>(stats_.ticks);
+          se.kind = SessionEvent::Tool;
+          se.input = inputs[n_in];
+          log(se);
+          ++n_in;
+        }
+      const TickReport r = tick(m, state_, work_, inputs.data(), n_in);
       ++stats_.ticks;
       stats_.cg_iterations_total += static_cast<uint64_t>(r.solve.iterations);
       stats_.cg_iterations_max = std::max(stats_.cg_iterations_max, r.solve.iterations);
@@ -98,6 +119,24 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       elastic = r.elastic_energy;
       cg_window += static_cast<uint64_t>(r.solve.iterations);
       ++ticks_window;
+    }
+    if (do_tick && !state_.tools.empty()) {
+      FeedbackBatch& fb = feedback_out.write_slot();
+      fb.count = 0;
+      for (size_t t = 0; t < state_.tools.size() && fb.count < kMaxTools; ++t) {
+        const ToolState& ts = state_.tools[t];
+        ToolFeedbackFrame& f = fb.frames[fb.count++];
+        f = ToolFeedbackFrame{};
+        f.tool = static_cast<int32_t>(t);
+        f.seq = ts.seq;
+        f.client_time_ns = ts.client_time_ns;
+        f.server_time_ns = now_ns();
+        f.sim_time = state_.time;
+        f.active = ts.active;
+      }
+      feedback_out.publish();
+      feedback_published.fetch_add(1, std::memory_order_release);
+      feedback_published.notify_one();
     }
     const int64_t done = now_ns();
     const int64_t busy = done - wake;
@@ -148,12 +187,18 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       deadline = done;
     }
   }
+  SessionEvent end;
+  end.kind = SessionEvent::End;
+  end.tick = static_cast<int64_t>(stats_.ticks);
+  log(end);
   stats_.sim_time = state_.time;
   stats_.wall_time = static_cast<double>(now_ns() - t0) * 1e-9;
   stats_.lag = running_wall - state_.time;
   finished.store(true);
   outputs_published.fetch_add(1, std::memory_order_release);
   outputs_published.notify_all();
+  feedback_published.fetch_add(1, std::memory_order_release);
+  feedback_published.notify_all();
 }
 
 }  // namespace stroma

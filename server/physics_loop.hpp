@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "engine/model.hpp"
+#include "engine/session_log.hpp"
 #include "engine/spsc_queue.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
@@ -54,11 +55,19 @@ struct StatusFrame {
   std::array<float, kRecentTicks> wake_us{};    ///< wake-up latencies (µs)
 };
 
+/// Feedback of every tool for one tick (zero force until contact exists, issue 4).
+inline constexpr int kMaxTools = 8;
+struct FeedbackBatch {
+  int count = 0;
+  std::array<ToolFeedbackFrame, kMaxTools> frames{};
+};
+
 /// Settings of the loop.
 struct PhysicsLoopOptions {
   int publish_every = 17;  ///< ticks between state frames (≈ 60 Hz at 1 kHz)
   int status_every = 100;  ///< ticks between status frames (10 Hz at 1 kHz)
   bool start_paused = false;
+  bool record = false;     ///< push applied inputs and controls to `record` (session log)
 };
 
 /// Final statistics after run() returns (read by the main thread after join).
@@ -67,6 +76,7 @@ struct PhysicsLoopStats {
   LatencyHistogram tick;        ///< tick compute time
   uint64_t ticks = 0, loops = 0, missed_deadlines = 0, not_converged = 0, non_finite = 0;
   uint64_t cg_iterations_total = 0;
+  uint64_t record_dropped = 0;  ///< session-log events lost because the recorder fell behind
   int cg_iterations_max = 0;
   std::array<int64_t, kStageCount> stage_ns_total{};
   double sim_time = 0, wall_time = 0, lag = 0;
@@ -87,6 +97,10 @@ class PhysicsLoop {
   std::atomic<bool> state_wanted{false};     ///< publisher: a renderer is listening
   std::atomic<uint64_t> outputs_published{0};  ///< bumped (and notified) on every hand-off
   std::atomic<bool> finished{false};         ///< set when run() returns
+  std::vector<std::unique_ptr<TripleBuffer<ToolInput>>> tool_in;  ///< per tool: latest command
+  TripleBuffer<FeedbackBatch> feedback_out;  ///< physics → feedback writer, every tick
+  std::atomic<uint64_t> feedback_published{0};
+  SpscQueue<SessionEvent, 8192> record;      ///< physics → recorder thread
 
   const PhysicsLoopStats& stats() const { return stats_; }
   const State& state() const { return state_; }
@@ -94,6 +108,9 @@ class PhysicsLoop {
 
  private:
   void handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown);
+  void log(const SessionEvent& e) {
+    if (opt_.record && !record.push(e)) ++stats_.record_dropped;
+  }
   std::shared_ptr<const Model> model_;
   PhysicsLoopOptions opt_;
   State state_;

@@ -18,6 +18,8 @@
 
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
+#include "engine/session_log.hpp"
+#include "engine/state_io.hpp"
 #include "server/dds_participant.hpp"
 #include "server/physics_loop.hpp"
 #include "server/realtime.hpp"
@@ -79,7 +81,13 @@ dds_qos_t* make_qos(bool reliable, bool transient_local) {
 /// Topics, readers and writers of the server.
 struct Endpoints {
   dds_entity_t mesh_writer = 0, state_writer = 0, status_writer = 0, control_reader = 0;
+  dds_entity_t command_reader = 0, feedback_writer = 0;
   dds_entity_t waitset = 0;
+};
+
+/// Counters of the input thread, published in SimStatus.
+struct InputCounters {
+  std::atomic<uint64_t> accepted{0}, clamped{0}, rejected{0}, controls{0}, controls_dropped{0};
 };
 
 Endpoints create_endpoints(dds_entity_t pp) {
@@ -88,6 +96,12 @@ Endpoints create_endpoints(dds_entity_t pp) {
   const dds_entity_t t_state = dds_check(dds_create_topic(pp, &stroma_TissueState_desc, "stroma_TissueState", nullptr, nullptr), "topic stroma_TissueState");
   const dds_entity_t t_status = dds_check(dds_create_topic(pp, &stroma_SimStatus_desc, "stroma_SimStatus", nullptr, nullptr), "topic stroma_SimStatus");
   const dds_entity_t t_control = dds_check(dds_create_topic(pp, &stroma_Control_desc, "stroma_Control", nullptr, nullptr), "topic stroma_Control");
+  const dds_entity_t t_command = dds_check(dds_create_topic(pp, &stroma_ToolCommand_desc, "stroma_ToolCommand", nullptr, nullptr), "topic stroma_ToolCommand");
+  const dds_entity_t t_feedback = dds_check(dds_create_topic(pp, &stroma_ToolFeedback_desc, "stroma_ToolFeedback", nullptr, nullptr), "topic stroma_ToolFeedback");
+  dds_qos_t* q_fast = make_qos(false, false);  // best effort, keep last 1
+  e.command_reader = dds_check(dds_create_reader(pp, t_command, q_fast, nullptr), "reader stroma_ToolCommand");
+  e.feedback_writer = dds_check(dds_create_writer(pp, t_feedback, q_fast, nullptr), "writer stroma_ToolFeedback");
+  dds_delete_qos(q_fast);
   dds_qos_t* q_mesh = make_qos(true, true);
   dds_qos_t* q_state = make_qos(false, false);
   dds_qos_t* q_status = make_qos(true, false);
@@ -102,6 +116,8 @@ Endpoints create_endpoints(dds_entity_t pp) {
   e.waitset = dds_check(dds_create_waitset(pp), "waitset");
   const dds_entity_t rc = dds_check(dds_create_readcondition(e.control_reader, DDS_ANY_STATE), "read condition");
   dds_check(dds_waitset_attach(e.waitset, rc, e.control_reader), "waitset attach");
+  const dds_entity_t rc2 = dds_check(dds_create_readcondition(e.command_reader, DDS_ANY_STATE), "read condition");
+  dds_check(dds_waitset_attach(e.waitset, rc2, e.command_reader), "waitset attach");
   return e;
 }
 
@@ -135,7 +151,7 @@ double percentile(std::vector<float> v, int n, double q) {
 /// Publisher thread: state frames (per body: surface positions, von Mises per vertex) and
 /// status. Runs until the physics loop has finished.
 void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, std::vector<Surface>& surfaces,
-                      const std::atomic<bool>& stop, std::atomic<uint64_t>& status_sent) {
+                      const InputCounters& in, std::atomic<uint64_t>& status_sent) {
   const Model& m = loop.model();
   std::vector<double> vm(m.fem.elements.size());
   uint64_t seen = 0;
@@ -186,21 +202,29 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, std::vector<Surfac
       msg.cg_iterations_mean = st.cg_iterations_mean;
       msg.kinetic_energy = st.kinetic_energy;
       msg.elastic_energy = st.elastic_energy;
-      msg.controls_received = st.controls;
+      msg.controls_received = in.controls.load();
+      msg.commands_accepted = in.accepted.load();
+      msg.commands_rejected = in.rejected.load();
       if (dds_write(ep.status_writer, &msg) >= 0) status_sent.fetch_add(1);
     }
-    (void)stop;
   }
 }
 
-/// DDS-in thread: Control samples → the physics loop's queue.
-void control_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool>& stop,
-                    std::atomic<uint64_t>& received, std::atomic<uint64_t>& dropped) {
+/// DDS-in thread: Control samples → the physics loop's queue; ToolCommand samples validated
+/// (never reaching physics when invalid) → each tool's latest-command slot. Latest writer wins
+/// when two clients command the same tool.
+void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool>& stop,
+                  InputCounters& cnt) {
+  const Model& m = loop.model();
+  std::vector<ToolPose> last(m.tools.size());
+  std::vector<std::chrono::steady_clock::time_point> last_time(m.tools.size());
+  std::vector<int64_t> last_client_ns(m.tools.size(), 0);
+  std::vector<bool> have_last(m.tools.size(), false);
   void* samples[16] = {nullptr};
   dds_sample_info_t infos[16];
   while (!stop.load() && !loop.finished.load()) {
     dds_waitset_wait(ep.waitset, nullptr, 0, DDS_MSECS(100));
-    const dds_return_t n = dds_take(ep.control_reader, samples, infos, 16, 16);
+    dds_return_t n = dds_take(ep.control_reader, samples, infos, 16, 16);
     for (dds_return_t i = 0; i < n; ++i) {
       if (!infos[i].valid_data) continue;
       const auto* c = static_cast<const stroma_Control*>(samples[i]);
@@ -213,11 +237,104 @@ void control_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bo
         case stroma_SHUTDOWN: ev.kind = ControlEvent::Shutdown; break;
         default: continue;
       }
-      received.fetch_add(1);
-      if (!loop.controls.push(ev)) dropped.fetch_add(1);
+      cnt.controls.fetch_add(1);
+      if (!loop.controls.push(ev)) cnt.controls_dropped.fetch_add(1);
     }
     if (n > 0) dds_return_loan(ep.control_reader, samples, n);
+
+    n = dds_take(ep.command_reader, samples, infos, 16, 16);
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      const auto* c = static_cast<const stroma_ToolCommand*>(samples[i]);
+      int tool = -1;
+      for (size_t t = 0; t < m.tools.size(); ++t)
+        if (m.tools[t].name == c->tool) tool = static_cast<int>(t);
+      if (tool < 0) {
+        cnt.rejected.fetch_add(1);
+        continue;
+      }
+      ToolPose pose;
+      for (int k = 0; k < 3; ++k) pose.position[k] = c->position[k];
+      for (int k = 0; k < 4; ++k) pose.orientation[k] = c->orientation[k];
+      pose.jaw = c->jaw;
+      pose.buttons = c->buttons;
+      // Speed check over the client's own clock (arrival times bunch up under network jitter);
+      // the arrival clock only when the client's timestamps do not advance.
+      const auto now = std::chrono::steady_clock::now();
+      double dt = 0.0;
+      if (have_last[tool]) {
+        const int64_t dc = c->client_time_ns - last_client_ns[tool];
+        dt = dc > 0 ? static_cast<double>(dc) * 1e-9
+                    : std::chrono::duration<double>(now - last_time[tool]).count();
+      }
+      const ToolCheck chk = validate_tool_command(m.tools[tool], last[tool], dt, pose);
+      if (chk.result == ToolCheck::Rejected) {
+        cnt.rejected.fetch_add(1);
+        continue;
+      }
+      (chk.result == ToolCheck::Clamped ? cnt.clamped : cnt.accepted).fetch_add(1);
+      last[tool] = chk.pose;
+      last_time[tool] = now;
+      last_client_ns[tool] = c->client_time_ns;
+      have_last[tool] = true;
+      ToolInput& slot = loop.tool_in[tool]->write_slot();
+      slot.tool = tool;
+      slot.seq = c->seq;
+      slot.client_time_ns = c->client_time_ns;
+      slot.pose = chk.pose;
+      loop.tool_in[tool]->publish();
+    }
+    if (n > 0) dds_return_loan(ep.command_reader, samples, n);
   }
+}
+
+/// Feedback thread: one ToolFeedback per active tool per tick, off the physics thread.
+void feedback_thread(PhysicsLoop& loop, const Endpoints& ep) {
+  const Model& m = loop.model();
+  uint64_t seen = 0;
+  stroma_ToolFeedback msg{};
+  while (!loop.finished.load()) {
+    loop.feedback_published.wait(seen);
+    seen = loop.feedback_published.load();
+    if (!loop.feedback_out.update()) continue;
+    const FeedbackBatch& b = loop.feedback_out.read_slot();
+    for (int i = 0; i < b.count; ++i) {
+      const ToolFeedbackFrame& f = b.frames[i];
+      if (!f.active) continue;  // no client: nothing to send
+      std::snprintf(msg.tool, sizeof(msg.tool), "%s", m.tools[f.tool].name.c_str());
+      msg.seq = f.seq;
+      msg.client_time_ns = f.client_time_ns;
+      msg.server_time_ns = f.server_time_ns;
+      msg.sim_time = f.sim_time;
+      for (int k = 0; k < 3; ++k) {
+        msg.force[k] = f.force[k];
+        msg.torque[k] = f.torque[k];
+      }
+      msg.in_contact = f.in_contact;
+      for (int k = 0; k < 9; ++k) msg.stiffness[k] = f.stiffness[k];
+      dds_write(ep.feedback_writer, &msg);
+    }
+  }
+}
+
+/// Recorder thread: drains the physics loop's session events into the log file.
+void recorder_thread(PhysicsLoop& loop, std::FILE* f, bool& io_error) {
+  SessionEvent e;
+  bool saw_end = false;
+  auto drain = [&] {
+    while (loop.record.pop(e)) {
+      saw_end = saw_end || e.kind == SessionEvent::End;
+      if (e.kind == SessionEvent::End && loop.stats().record_dropped > 0) continue;  // unreplayable
+      const std::string line = format_session_event(e);
+      if (std::fwrite(line.data(), 1, line.size(), f) != line.size()) io_error = true;
+    }
+  };
+  while (!loop.finished.load()) {
+    drain();
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  drain();
+  (void)saw_end;
 }
 
 nlohmann::ordered_json histogram_json(const LatencyHistogram& h) {
@@ -260,9 +377,21 @@ int run_serve(const ServeOptions& o) {
     lo.publish_every = std::max(1, static_cast<int>(std::lround(1.0 / (o.publish_hz * model->time_step))));
     lo.status_every = std::max(1, static_cast<int>(std::lround(0.1 / model->time_step)));
     lo.start_paused = o.start_paused;
+    lo.record = !o.record_file.empty();
+    if (model->tools.size() > static_cast<size_t>(kMaxTools))
+      throw std::runtime_error(fmt::format("at most {} tools are supported", kMaxTools));
+    std::FILE* record = nullptr;
+    if (lo.record) {
+      record = std::fopen(o.record_file.c_str(), "w");
+      if (!record) throw std::runtime_error(fmt::format("--record: cannot write '{}'", o.record_file));
+      std::fputs(kSessionLogHeader, record);
+      std::fprintf(record, "# scenario: %s\n", o.scenario.c_str());
+    }
     PhysicsLoop loop(model, lo);
     std::atomic<bool> stop{false};
-    std::atomic<uint64_t> status_sent{0}, controls_received{0}, controls_dropped{0};
+    std::atomic<uint64_t> status_sent{0};
+    InputCounters counters;
+    bool record_error = false;
     RealtimeResult rt;
     std::atomic<bool> rt_ready{false}, rt_failed{false};
 
@@ -281,8 +410,11 @@ int run_serve(const ServeOptions& o) {
       if (rt_mode == RealtimeMode::Fifo) spdlog::error("--realtime fifo: {}", rt.problems);
       else if (rt_mode == RealtimeMode::Auto) spdlog::warn("real time not fully available, running best effort: {}", rt.problems);
     }
-    std::thread publisher([&] { publisher_thread(loop, ep, surfaces, stop, status_sent); });
-    std::thread controls([&] { control_thread(loop, ep, stop, controls_received, controls_dropped); });
+    std::thread publisher([&] { publisher_thread(loop, ep, surfaces, counters, status_sent); });
+    std::thread inputs([&] { input_thread(loop, ep, stop, counters); });
+    std::thread feedback([&] { feedback_thread(loop, ep); });
+    std::thread recorder;
+    if (record) recorder = std::thread([&] { recorder_thread(loop, record, record_error); });
     spdlog::info("serving '{}' at {:.0f} Hz ({} nodes, {} tets); Ctrl-C to stop", model->spec.name,
                  1.0 / model->time_step, model->fem.num_nodes, model->fem.elements.size());
 
@@ -301,7 +433,24 @@ int run_serve(const ServeOptions& o) {
     stop = true;
     physics.join();
     publisher.join();
-    controls.join();
+    inputs.join();
+    feedback.join();
+    if (recorder.joinable()) recorder.join();
+    if (record) {
+      if (std::fclose(record) != 0) record_error = true;
+      if (record_error) {
+        spdlog::error("--record: error writing '{}'", o.record_file);
+        exit_code = 1;
+      } else if (loop.stats().record_dropped) {
+        spdlog::error("--record: {} events lost (recorder fell behind); '{}' is incomplete and will not replay",
+                      loop.stats().record_dropped, o.record_file);
+        exit_code = 1;
+      } else {
+        spdlog::info("session recorded in {} (replay: stroma run {} --replay {})", o.record_file,
+                     o.scenario, o.record_file);
+      }
+    }
+    if (!o.final_state_file.empty()) write_state_csv(o.final_state_file, loop.state());
     if (rt_failed) exit_code = 1;
 
     const PhysicsLoopStats& st = loop.stats();
@@ -334,7 +483,9 @@ int run_serve(const ServeOptions& o) {
       j["stage_ms_mean"] = stages;
       j["ticks_not_converged"] = st.not_converged;
       j["ticks_non_finite"] = st.non_finite;
-      j["controls"] = {{"received", controls_received.load()}, {"dropped", controls_dropped.load()}};
+      j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
+      j["tool_commands"] = {{"accepted", counters.accepted.load()}, {"clamped", counters.clamped.load()},
+                            {"rejected", counters.rejected.load()}};
       j["status_messages"] = status_sent.load();
       std::ofstream f(o.stats_file);
       f << j.dump(2) << '\n';

@@ -17,6 +17,8 @@ struct ServeOptions {
   std::string stats_file;      ///< JSON statistics written at exit
   double publish_hz = 60;      ///< TissueState rate
   bool start_paused = false;
+  std::string record_file;     ///< session log of accepted commands and controls (replayable)
+  std::string final_state_file;  ///< final state CSV written at exit (compare with a replay)
 };
 
 /// Runs the server; returns the process exit code (0 clean, 1 runtime fault, 2 bad input).

@@ -383,7 +383,7 @@ TEST(ScenarioLoaderErrors, UnknownKeyWithoutSuggestion) {
     EXPECT_EQ(e.line(), 9);
     EXPECT_EQ(e.field(), "solver_settings");
     EXPECT_NE(e.message().find("unknown key 'solver_settings'"), std::string::npos);
-    EXPECT_NE(e.message().find("name, time_step, gravity, solver, bodies, probes, run, check"),
+    EXPECT_NE(e.message().find("name, time_step, gravity, solver, bodies, probes, tools, run, check"),
               std::string::npos)
         << e.message();
     EXPECT_EQ(e.message().find("did you mean"), std::string::npos) << e.message();
@@ -609,6 +609,38 @@ TEST(ScenarioLoaderErrors, WhatIncludesFileLineAndField) {
               0u)
         << e.what();
   }
+}
+
+TEST(ScenarioLoaderTools, ParsesToolsWithLimitsAndResolvesScript) {
+  const ScenarioSpec s = parse_scenario(kMinimal +
+                                            "tools:\n"
+                                            "  - name: probe\n"
+                                            "    script: traj/press.yaml\n"
+                                            "    workspace: {min: [-1, -2, -3], max: [1, 2, 3]}\n"
+                                            "    max_speed: 2.5\n"
+                                            "    timeout: 0.25\n"
+                                            "    on_invalid: clamp\n",
+                                        "dir/s.yaml", "dir");
+  ASSERT_EQ(s.tools.size(), 1u);
+  const ToolSpec& t = s.tools[0].spec;
+  EXPECT_EQ(t.name, "probe");
+  EXPECT_EQ(t.script, "dir/traj/press.yaml");
+  EXPECT_EQ(t.workspace_min, (Vec3{-1, -2, -3}));
+  EXPECT_EQ(t.workspace_max, (Vec3{1, 2, 3}));
+  EXPECT_DOUBLE_EQ(t.max_speed, 2.5);
+  EXPECT_DOUBLE_EQ(t.timeout, 0.25);
+  EXPECT_EQ(t.on_invalid, InvalidCommandPolicy::Clamp);
+}
+
+TEST(ScenarioLoaderTools, ToolErrors) {
+  expect_error(kMinimal + "tools:\n  - name: probe\n    max_speed: -1\n", 11, "tools[0].max_speed",
+               {"out of range"});
+  expect_error(kMinimal + "tools:\n  - name: probe\n  - name: probe\n", 11, "tools[1].name",
+               {"duplicate tool name 'probe'"});
+  expect_error(kMinimal + "tools:\n  - name: probe\n    on_invalid: ignore\n", 11, "tools[0].on_invalid",
+               {"unknown on_invalid 'ignore'", "reject", "clamp"});
+  expect_error(kMinimal + "tools:\n  - name: probe\n    shape: capsule\n", 11, "tools[0].shape",
+               {"unknown key 'shape'"});
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 #include "engine/scenario_spec.hpp"
 #include "engine/state_io.hpp"
 #include "server/serve.hpp"
+#include "server/tool_client.hpp"
 #include "tissue/input_error.hpp"
 
 namespace fs = std::filesystem;
@@ -91,6 +92,9 @@ int main(int argc, char** argv) {
   run->add_option("--vtu-every", vtu_every, "Also write a VTU every K ticks and series.pvd")->check(CLI::NonNegativeNumber);
   run->add_flag("--quiet", quiet, "No progress messages");
   run->add_flag("--no-metrics", no_metrics, "Skip metrics.csv (saves an energy pass per tick)");
+  std::string replay_file;
+  run->add_option("--replay", replay_file, "Re-execute a session recorded by 'stroma serve --record' (ticks and inputs)")
+      ->check(CLI::ExistingFile)->excludes(o_steps);
   run->footer("Writes summary.json, metrics.csv, final.vtu and final_state.csv into the output directory.");
 
   // ---- check ----
@@ -119,11 +123,26 @@ int main(int argc, char** argv) {
   serve->add_option("--stats", srv.stats_file, "Write timing statistics (JSON) here at exit");
   serve->add_option("--publish-hz", srv.publish_hz, "TissueState rate")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
   serve->add_flag("--paused", srv.start_paused, "Start paused (resume or step with stroma_Control)");
+  serve->add_option("--record", srv.record_file, "Log every accepted tool command and control with its tick (replay: stroma run --replay)");
+  serve->add_option("--final-state", srv.final_state_file, "Write the final state (node,x,y,z CSV) at exit");
   serve->footer(
       "Network: by default every DDS participant is on the loopback interface only, without multicast\n"
       "(secure by default). To serve on a LAN, copy server/cyclonedds-loopback.xml, replace \"lo\" by\n"
       "your interface and pass it with --dds-config FILE (or set CYCLONEDDS_URI).\n"
       "Topics: stroma_TissueMesh, stroma_TissueState, stroma_SimStatus (out), stroma_Control (in); see docs/DDS.md.");
+
+  // ---- tool ----
+  ToolClientOptions tco;
+  auto* tool = app.add_subcommand("tool", "Drive a tool of a running server over DDS from a trajectory or stdin, and log force feedback");
+  tool->add_option("--name", tco.name, "Tool name (as in the scenario's tools:)")->capture_default_str();
+  tool->add_option("--script", tco.script, "Trajectory (YAML keyframes or CSV t,x,y,z[,qw,qx,qy,qz][,jaw]); default: read 'x y z [qw qx qy qz] [jaw]' lines from stdin")
+      ->check(CLI::ExistingFile);
+  tool->add_option("--rate", tco.rate, "Command rate in Hz (script mode)")->capture_default_str()->check(CLI::Range(1.0, 10000.0));
+  tool->add_option("--duration", tco.duration, "Seconds (default: the script's length / until end of stdin)")->check(CLI::NonNegativeNumber);
+  tool->add_option("--out", tco.out_csv, "CSV log: seq, sent, received, round trip (ms), force");
+  tool->add_option("--dds-config", tco.dds_config, "Cyclone DDS XML (default: CYCLONEDDS_URI, else built-in loopback-only)")->check(CLI::ExistingFile);
+  tool->add_option("--domain", tco.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
+  tool->add_option("--wait", tco.wait_server, "Seconds to wait for a server")->capture_default_str();
 
   try {
     app.parse(argc, argv);
@@ -145,6 +164,8 @@ int main(int argc, char** argv) {
       o.vtu_every = vtu_every;
       o.progress = !quiet;
       o.metrics = !no_metrics;
+      o.replay = replay_file;
+      if (!replay_file.empty()) resolve_steps(*model, o);  // validates the log before any output
       ensure_writable_dir(o.out_dir);
       const RunResult r = run_headless(*model, o);
       print_summary(*model, r);
@@ -153,6 +174,7 @@ int main(int argc, char** argv) {
       return healthy ? 0 : 1;
     }
     if (*serve) return run_serve(srv);
+    if (*tool) return run_tool_client(tco);
     if (*check) {
       auto model = load(chk_scenario);
       std::vector<double> ref;

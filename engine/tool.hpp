@@ -1,0 +1,85 @@
+#pragma once
+/// \file tool.hpp
+/// Virtual surgical tools as the engine sees them: what a scenario declares (ToolSpec), the
+/// pose a device or script commands (ToolPose), the checks every command passes before it may
+/// reach physics (validate_tool_command), and the tool's part of the simulation state.
+/// Contact and force feedback come with issue 4; until then a tool moves but touches nothing.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tissue/tet_mesh.hpp"
+
+namespace stroma {
+
+/// A commanded device pose.
+struct ToolPose {
+  Vec3 position{0, 0, 0};                       ///< m
+  std::array<double, 4> orientation{1, 0, 0, 0};  ///< unit quaternion (w, x, y, z)
+  double jaw = 0;                               ///< jaw opening (rad)
+  uint32_t buttons = 0;
+};
+
+/// What to do with a command that fails a check.
+enum class InvalidCommandPolicy {
+  Reject,  ///< drop it; the tool keeps its last accepted pose
+  Clamp    ///< bring it into the workspace / speed limit (non-finite values are always rejected)
+};
+
+/// `tools:` entry of a scenario.
+struct ToolSpec {
+  std::string name;
+  std::string script;            ///< trajectory file (YAML or CSV) for headless runs; may be empty
+  Vec3 workspace_min{-1e3, -1e3, -1e3};
+  Vec3 workspace_max{1e3, 1e3, 1e3};
+  double max_speed = 5.0;        ///< m/s: faster jumps are rejected or clamped
+  double timeout = 0.5;          ///< s without commands before the tool goes idle
+  InvalidCommandPolicy on_invalid = InvalidCommandPolicy::Reject;
+};
+
+/// Outcome of validating one command.
+struct ToolCheck {
+  enum Result : uint8_t { Accepted, Clamped, Rejected } result = Accepted;
+  const char* reason = "";  ///< static string, for counters and logs
+  ToolPose pose;            ///< the pose to apply (clamped if Clamped)
+};
+
+/// Checks a command against the tool's limits: finite values, unit quaternion (|q| within
+/// 1e-3 of 1; renormalised), position inside the workspace, speed since the last accepted
+/// command (`dt` seconds ago; dt ≤ 0 skips the speed check) at most max_speed.
+ToolCheck validate_tool_command(const ToolSpec& spec, const ToolPose& last, double dt,
+                                const ToolPose& command);
+
+/// A tool's part of the simulation state (copied with the state: replay reproduces it).
+struct ToolState {
+  ToolPose pose;
+  uint64_t seq = 0;              ///< seq of the last applied command
+  int64_t client_time_ns = 0;    ///< its client timestamp (echoed in feedback)
+  double last_command_time = -1; ///< sim time of the last applied command (−1: never)
+  bool active = false;           ///< a client is driving it (false after `timeout`)
+};
+
+/// A command that physics applies at the start of a tick (read_inputs stage).
+struct ToolInput {
+  int32_t tool = 0;   ///< index into the scenario's tools
+  uint64_t seq = 0;
+  int64_t client_time_ns = 0;
+  ToolPose pose;
+};
+
+/// Force feedback of one tool for one tick (zero until contact exists, issue 4).
+struct ToolFeedbackFrame {
+  int32_t tool = 0;
+  uint64_t seq = 0;
+  int64_t client_time_ns = 0;
+  int64_t server_time_ns = 0;
+  double sim_time = 0;
+  Vec3 force{0, 0, 0}, torque{0, 0, 0};
+  bool in_contact = false;
+  std::array<double, 9> stiffness{};
+  bool active = false;
+};
+
+}  // namespace stroma

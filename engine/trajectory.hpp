@@ -1,0 +1,39 @@
+#pragma once
+/// \file trajectory.hpp
+/// Timed tool trajectories: keyframes of (time, position, orientation, jaw, buttons), sampled
+/// with linear interpolation of position and jaw and slerp of orientation. The same files drive
+/// `stroma tool --script` over DDS and `tools: [{script}]` in headless runs.
+///
+/// YAML:  keyframes: [{t: 0, position: [x, y, z], orientation: [w, x, y, z], jaw: 0, buttons: 0}, ...]
+/// CSV:   header naming the columns, any order: t,x,y,z (required), qw,qx,qy,qz, jaw, buttons.
+
+#include <string>
+#include <vector>
+
+#include "engine/tool.hpp"
+
+namespace stroma {
+
+/// One keyframe.
+struct Keyframe {
+  double t = 0;
+  ToolPose pose;
+};
+
+/// A trajectory: keyframes with strictly increasing times (at least one).
+class Trajectory {
+ public:
+  std::vector<Keyframe> keys;
+  /// Pose at time t: held at the first/last keyframe outside their range; buttons are those of
+  /// the keyframe at or before t.
+  ToolPose sample(double t) const;
+  double end_time() const { return keys.empty() ? 0.0 : keys.back().t; }
+};
+
+/// Reads a .yaml/.yml or .csv trajectory. Throws InputError (file, line, field) on bad input:
+/// missing column, non-numeric value, non-increasing time, non-unit quaternion.
+Trajectory load_trajectory(const std::string& path);
+/// Parses CSV text (`source` names it in errors).
+Trajectory parse_trajectory_csv(const std::string& text, const std::string& source);
+
+}  // namespace stroma

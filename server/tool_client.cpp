@@ -1,0 +1,201 @@
+#include "server/tool_client.hpp"
+
+#include <time.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "engine/trajectory.hpp"
+#include "server/dds_participant.hpp"
+#include "stroma.h"
+
+namespace stroma {
+
+namespace {
+
+int64_t mono_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
+
+/// Per command: when it was sent and when its seq first came back in a feedback.
+struct Sent {
+  int64_t sent_ns = 0;
+  std::atomic<int64_t> received_ns{0};
+  std::atomic<double> force[3] = {0, 0, 0};
+};
+
+/// Parses a stdin command line: "x y z [qw qx qy qz] [jaw]". False if malformed.
+bool parse_line(const std::string& line, ToolPose& p) {
+  std::istringstream ss(line);
+  std::vector<double> v;
+  double d;
+  while (ss >> d) v.push_back(d);
+  if (!ss.eof() || (v.size() != 3 && v.size() != 4 && v.size() != 7 && v.size() != 8)) return false;
+  p.position = {v[0], v[1], v[2]};
+  if (v.size() >= 7) p.orientation = {v[3], v[4], v[5], v[6]};
+  if (v.size() == 4) p.jaw = v[3];
+  if (v.size() == 8) p.jaw = v[7];
+  return true;
+}
+
+}  // namespace
+
+int run_tool_client(const ToolClientOptions& o) {
+  Trajectory traj;
+  if (!o.script.empty()) traj = load_trajectory(o.script);  // InputError → exit 2 in the CLI
+  const DdsParticipant pp = create_participant(o.domain, o.dds_config);
+  spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
+  const dds_entity_t t_cmd = dds_check(dds_create_topic(pp.participant, &stroma_ToolCommand_desc, "stroma_ToolCommand", nullptr, nullptr), "topic");
+  const dds_entity_t t_fb = dds_check(dds_create_topic(pp.participant, &stroma_ToolFeedback_desc, "stroma_ToolFeedback", nullptr, nullptr), "topic");
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t writer = dds_check(dds_create_writer(pp.participant, t_cmd, q, nullptr), "writer");
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 64);
+  const dds_entity_t reader = dds_check(dds_create_reader(pp.participant, t_fb, q, nullptr), "reader");
+  dds_delete_qos(q);
+
+  // Wait for the server's command reader: commands sent before matching are lost.
+  const int64_t wait_end = mono_ns() + static_cast<int64_t>(o.wait_server * 1e9);
+  dds_publication_matched_status_t ms{};
+  while ((dds_get_publication_matched_status(writer, &ms), ms.current_count == 0) && mono_ns() < wait_end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (ms.current_count == 0) {
+    spdlog::error("no server is reading stroma_ToolCommand on domain {} after {:.0f} s", o.domain, o.wait_server);
+    dds_delete(pp.participant);
+    return 1;
+  }
+
+  const double duration = o.duration > 0 ? o.duration : traj.keys.empty() ? 0.0 : traj.end_time();
+  const size_t capacity = traj.keys.empty() ? 1000000 : static_cast<size_t>(duration * o.rate) + 2;
+  std::vector<Sent> sent(capacity + 1);
+  std::atomic<bool> done{false};
+  std::atomic<uint64_t> feedback_msgs{0};
+
+  std::thread receiver([&] {
+    const dds_entity_t ws = dds_create_waitset(pp.participant);
+    const dds_entity_t rc = dds_create_readcondition(reader, DDS_ANY_STATE);
+    dds_waitset_attach(ws, rc, reader);
+    void* samples[64] = {nullptr};
+    dds_sample_info_t infos[64];
+    uint64_t acked = 0;
+    while (!done.load()) {
+      dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(50));
+      const dds_return_t n = dds_take(reader, samples, infos, 64, 64);
+      const int64_t now = mono_ns();
+      for (dds_return_t i = 0; i < n; ++i) {
+        if (!infos[i].valid_data) continue;
+        const auto* f = static_cast<const stroma_ToolFeedback*>(samples[i]);
+        if (o.name != f->tool) continue;
+        feedback_msgs.fetch_add(1);
+        // Every command up to the echoed seq that has no arrival yet arrives now.
+        const uint64_t s = std::min<uint64_t>(f->seq, capacity);
+        for (uint64_t k = std::max<uint64_t>(acked + 1, 1); k <= s; ++k) {
+          if (sent[k].sent_ns == 0) continue;
+          if (k == s) {
+            sent[k].received_ns.store(now);
+            for (int c = 0; c < 3; ++c) sent[k].force[c].store(f->force[c]);
+          }
+        }
+        acked = std::max(acked, s);
+      }
+      if (n > 0) dds_return_loan(reader, samples, n);
+    }
+  });
+
+  stroma_ToolCommand msg{};
+  std::snprintf(msg.tool, sizeof(msg.tool), "%s", o.name.c_str());
+  uint64_t seq = 0;
+  const int64_t t0 = mono_ns();
+  auto send = [&](const ToolPose& p) {
+    if (seq >= capacity) return;
+    msg.seq = ++seq;
+    msg.client_time_ns = mono_ns();
+    for (int k = 0; k < 3; ++k) msg.position[k] = p.position[k];
+    for (int k = 0; k < 4; ++k) msg.orientation[k] = p.orientation[k];
+    msg.jaw = p.jaw;
+    msg.buttons = p.buttons;
+    sent[seq].sent_ns = msg.client_time_ns;
+    dds_write(writer, &msg);
+  };
+  if (!traj.keys.empty()) {
+    const int64_t period = static_cast<int64_t>(1e9 / o.rate);
+    int64_t next = t0;
+    int64_t last_report = t0;
+    while (next - t0 <= static_cast<int64_t>(duration * 1e9)) {
+      timespec ts{static_cast<time_t>(next / 1000000000LL), static_cast<long>(next % 1000000000LL)};
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+      send(traj.sample(static_cast<double>(next - t0) * 1e-9));
+      next += period;
+      if (next - last_report > 2000000000LL) {
+        last_report = next;
+        spdlog::info("sent {} commands, {:.1f} s of {:.1f} s", seq, (next - t0) * 1e-9, duration);
+      }
+    }
+  } else {
+    std::string line;
+    int ln = 0;
+    while (std::getline(std::cin, line)) {
+      ++ln;
+      if (line.empty() || line[0] == '#') continue;
+      ToolPose p;
+      if (!parse_line(line, p)) {
+        spdlog::error("stdin:{}: expected 'x y z [qw qx qy qz] [jaw]', got '{}'", ln, line);
+        continue;
+      }
+      send(p);
+      if (o.duration > 0 && mono_ns() - t0 > static_cast<int64_t>(o.duration * 1e9)) break;
+    }
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // last feedback in flight
+  done = true;
+  receiver.join();
+
+  std::vector<double> rtt;
+  uint64_t echoed = 0;
+  std::FILE* csv = o.out_csv.empty() ? nullptr : std::fopen(o.out_csv.c_str(), "w");
+  if (!o.out_csv.empty() && !csv) spdlog::error("cannot write '{}'", o.out_csv);
+  if (csv) std::fputs("seq,sent_s,received_s,round_trip_ms,fx,fy,fz\n", csv);
+  for (uint64_t k = 1; k <= seq; ++k) {
+    const int64_t r = sent[k].received_ns.load();
+    if (r) {
+      ++echoed;
+      rtt.push_back(static_cast<double>(r - sent[k].sent_ns) * 1e-6);
+    }
+    if (csv)
+      std::fprintf(csv, "%llu,%.9f,%s,%s,%.9g,%.9g,%.9g\n", static_cast<unsigned long long>(k),
+                   static_cast<double>(sent[k].sent_ns - t0) * 1e-9,
+                   r ? fmt::format("{:.9f}", static_cast<double>(r - t0) * 1e-9).c_str() : "",
+                   r ? fmt::format("{:.4f}", static_cast<double>(r - sent[k].sent_ns) * 1e-6).c_str() : "",
+                   sent[k].force[0].load(), sent[k].force[1].load(), sent[k].force[2].load());
+  }
+  if (csv) std::fclose(csv);
+  auto pct = [&](double q) {
+    if (rtt.empty()) return 0.0;
+    std::vector<double> v = rtt;
+    const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+    std::nth_element(v.begin(), v.begin() + k, v.end());
+    return v[k];
+  };
+  fmt::print("tool '{}': {} commands sent, {} feedback messages, {} commands echoed ({} superseded or lost, {:.2f} %); "
+             "round trip ms p50 {:.3f} p99 {:.3f} max {:.3f}\n",
+             o.name, seq, feedback_msgs.load(), echoed, seq - echoed,
+             seq ? 100.0 * static_cast<double>(seq - echoed) / static_cast<double>(seq) : 0.0, pct(0.5), pct(0.99),
+             pct(1.0));
+  dds_delete(pp.participant);
+  return feedback_msgs.load() > 0 ? 0 : 1;
+}
+
+}  // namespace stroma

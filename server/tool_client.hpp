@@ -1,0 +1,25 @@
+#pragma once
+/// \file tool_client.hpp
+/// `stroma tool`: a DDS tool client. Publishes stroma_ToolCommand from a timed trajectory
+/// (YAML/CSV, interpolated) or from stdin lines, receives stroma_ToolFeedback, logs round trips.
+
+#include <string>
+
+namespace stroma {
+
+/// Options of `stroma tool`.
+struct ToolClientOptions {
+  std::string name = "probe";
+  std::string script;        ///< trajectory; empty: read commands from stdin
+  double rate = 1000;        ///< Hz (script mode)
+  double duration = 0;       ///< s; 0: the script's length (script mode) or until EOF (stdin)
+  std::string out_csv;       ///< per-command log: seq, sent, received, round trip, force
+  std::string dds_config;
+  int domain = 0;
+  double wait_server = 10;   ///< s to wait for the server's command reader before starting
+};
+
+/// Runs the client; returns the exit code (0 ok, 1 no server / no feedback, 2 bad input).
+int run_tool_client(const ToolClientOptions& o);
+
+}  // namespace stroma
