@@ -251,6 +251,7 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
         if (m.tools[t].name == c->tool) tool = static_cast<int>(t);
       if (tool < 0) {
         cnt.rejected.fetch_add(1);
+        spdlog::debug("command for unknown tool '{}' rejected", c->tool);
         continue;
       }
       ToolPose pose;
@@ -270,6 +271,7 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
       const ToolCheck chk = validate_tool_command(m.tools[tool], last[tool], dt, pose);
       if (chk.result == ToolCheck::Rejected) {
         cnt.rejected.fetch_add(1);
+        spdlog::debug("tool '{}' command {} rejected: {}", c->tool, c->seq, chk.reason);
         continue;
       }
       (chk.result == ToolCheck::Clamped ? cnt.clamped : cnt.accepted).fetch_add(1);

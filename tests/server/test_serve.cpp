@@ -14,6 +14,9 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <sstream>
+#include <array>
+#include <cmath>
 #include <string>
 #include <thread>
 #include <vector>
@@ -31,20 +34,16 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-/// A `stroma serve` child process.
-class Server {
+/// A child process (posix_spawn), killed on destruction if still running.
+class Process {
  public:
-  Server(int domain, std::vector<std::string> extra) {
-    std::vector<std::string> args = {STROMA_BINARY, "serve",
-                                     std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml",
-                                     "--domain", std::to_string(domain), "--realtime", "off"};
-    args.insert(args.end(), extra.begin(), extra.end());
+  explicit Process(std::vector<std::string> args) {
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
     EXPECT_EQ(posix_spawn(&pid_, argv[0], nullptr, nullptr, argv.data(), environ), 0);
   }
-  ~Server() {
+  ~Process() {
     if (pid_ > 0) {
       kill(pid_, SIGKILL);
       waitpid(pid_, nullptr, 0);
@@ -69,6 +68,23 @@ class Server {
   pid_t pid_ = -1;
 };
 
+const std::string kLiver = std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml";
+const std::string kPress = std::string(STROMA_SOURCE_DIR) + "/scenarios/trajectories/liver_press.yaml";
+
+/// `stroma serve` on the liver scenario in domain `domain`.
+class Server : public Process {
+ public:
+  Server(int domain, std::vector<std::string> extra) : Process(args(domain, std::move(extra))) {}
+
+ private:
+  static std::vector<std::string> args(int domain, std::vector<std::string> extra) {
+    std::vector<std::string> a = {STROMA_BINARY, "serve", kLiver, "--domain", std::to_string(domain),
+                                  "--realtime", "off"};
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  }
+};
+
 /// A test-side DDS client (loopback config, like the server's default).
 class Client {
  public:
@@ -79,11 +95,25 @@ class Client {
     dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
     dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
     status_reader_ = dds_create_reader(pp_, status_topic_, q, nullptr);
+    command_topic_ = dds_create_topic(pp_, &stroma_ToolCommand_desc, "stroma_ToolCommand", nullptr, nullptr);
     dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
     control_writer_ = dds_create_writer(pp_, control_topic_, q, nullptr);
     dds_delete_qos(q);
   }
   ~Client() { dds_delete(pp_); }
+  /// A best-effort ToolCommand writer, matched with the server before it returns.
+  dds_entity_t command_writer() {
+    dds_qos_t* q = dds_create_qos();
+    dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+    dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+    const dds_entity_t w = dds_create_writer(pp_, command_topic_, q, nullptr);
+    dds_delete_qos(q);
+    const auto end = Clock::now() + std::chrono::seconds(10);
+    dds_publication_matched_status_t m{};
+    while (Clock::now() < end && (dds_get_publication_matched_status(w, &m), m.current_count == 0))
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    return w;
+  }
   dds_entity_t participant() const { return pp_; }
 
   /// Newest status that satisfies `pred`, waiting up to `seconds`.
@@ -96,9 +126,9 @@ class Client {
       if (dds_take(status_reader_, samples, &info, 1, 1) > 0) {
         const stroma_SimStatus s = *static_cast<stroma_SimStatus*>(samples[0]);
         dds_return_loan(status_reader_, samples, 1);
-        if (info.valid_data && pred(s)) {
-          if (out) *out = s;
-          return true;
+        if (info.valid_data) {
+          if (out) *out = s;  // the last status seen, also for failure messages
+          if (pred(s)) return true;
         }
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -119,7 +149,7 @@ class Client {
   }
 
  private:
-  dds_entity_t pp_, status_topic_, control_topic_, status_reader_, control_writer_;
+  dds_entity_t pp_, status_topic_, control_topic_, status_reader_, control_writer_, command_topic_;
   uint64_t seq_ = 0;
 };
 
@@ -243,4 +273,173 @@ TEST(Serve, StateIsPublishedOnlyToSubscribersAndMoves) {
   EXPECT_NE(first_y, last_y) << "the liver sags under gravity";
   server.signal(SIGINT);
   EXPECT_EQ(server.wait_exit(15), 0) << "SIGINT: clean shutdown";
+}
+
+namespace {
+std::string read_file(const std::string& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
+// The whole loop over DDS: `stroma tool` drives the probe and gets feedback every tick; the
+// session (commands + pause/step/resume) is recorded; `stroma run --replay` reproduces the
+// server's final state bit for bit.
+TEST(Serve, ToolClientFeedbackAndBitExactReplay) {
+  const fs::path dir = fs::temp_directory_path() / "stroma_replay_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string rec = (dir / "session.log").string(), fin = (dir / "server_final.csv").string();
+  const std::string stats = (dir / "stats.json").string(), csv = (dir / "tool.csv").string();
+  Server server(114, {"--duration", "60", "--record", rec, "--final-state", fin, "--stats", stats});
+  Client client(114);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  Process tool({STROMA_BINARY, "tool", "--name", "probe", "--script", kPress, "--rate", "500",
+                "--duration", "1.5", "--domain", "114", "--out", csv});
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  client.control(stroma_PAUSE);
+  client.control(stroma_STEP, 25);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  client.control(stroma_RESUME);
+  EXPECT_EQ(tool.wait_exit(30), 0) << "tool client: feedback must arrive";
+  client.control(stroma_SHUTDOWN);
+  ASSERT_EQ(server.wait_exit(15), 0);
+
+  // Tool log: most commands echoed, round trips positive and below 100 ms on loopback.
+  std::ifstream f(csv);
+  std::string line;
+  std::getline(f, line);
+  int rows = 0, echoed = 0;
+  while (std::getline(f, line)) {
+    ++rows;
+    std::stringstream ss(line);
+    std::string seq, sent, recv, rtt;
+    std::getline(ss, seq, ',');
+    std::getline(ss, sent, ',');
+    std::getline(ss, recv, ',');
+    std::getline(ss, rtt, ',');
+    if (!rtt.empty()) {
+      ++echoed;
+      EXPECT_GT(std::stod(rtt), 0.0);
+      EXPECT_LT(std::stod(rtt), 100.0);
+    }
+  }
+  EXPECT_GT(rows, 500);
+  EXPECT_GT(echoed, rows / 2);
+  const auto j = nlohmann::json::parse(read_file(stats));
+  EXPECT_GT(j["tool_commands"]["accepted"].get<int>(), 500);
+
+  // Replay headless: bit-identical final state.
+  Process replay({STROMA_BINARY, "run", kLiver, "--replay", rec, "--out", (dir / "replay").string(),
+                  "--quiet", "--no-metrics"});
+  ASSERT_EQ(replay.wait_exit(60), 0);
+  const std::string a = read_file(fin), b = read_file((dir / "replay" / "final_state.csv").string());
+  EXPECT_FALSE(a.empty());
+  EXPECT_TRUE(a == b) << "replayed final state differs from the server's";
+  fs::remove_all(dir);
+}
+
+// Malformed commands are rejected and counted; they never reach physics.
+TEST(Serve, MalformedCommandsAreCountedAndPhysicsStaysFinite) {
+  Server server(115, {"--duration", "60"});
+  Client client(115);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  const dds_entity_t w = client.command_writer();
+  auto send = [&](const char* tool, double x, double y, double z, std::array<double, 4> q, int64_t t_ns, uint64_t seq) {
+    stroma_ToolCommand c{};
+    std::snprintf(c.tool, sizeof(c.tool), "%s", tool);
+    c.seq = seq;
+    c.client_time_ns = t_ns;
+    c.position[0] = x; c.position[1] = y; c.position[2] = z;
+    for (int k = 0; k < 4; ++k) c.orientation[k] = q[k];
+    dds_write(w, &c);
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));  // keep-last-1: one at a time
+  };
+  const double nan = std::nan("");
+  // Discovery is asymmetric: repeat a valid command until the server has accepted one.
+  stroma_SimStatus s{};
+  for (int i = 0; i < 100 && !(client.wait_status(0.05, [](const stroma_SimStatus& st) { return st.commands_accepted > 0; }, &s)); ++i)
+    send("probe", 0, 7, 0, {1, 0, 0, 0}, 1000000, 1);          // valid: becomes the last pose
+  ASSERT_GT(s.commands_accepted, 0u);
+  const uint64_t accepted0 = s.commands_accepted;
+  send("probe", nan, 7, 0, {1, 0, 0, 0}, 2000000, 2);          // NaN
+  send("probe", 0, 7, 0, {0.5, 0.5, 0, 0}, 3000000, 3);        // not a unit quaternion
+  send("probe", 0, 70, 0, {1, 0, 0, 0}, 4000000, 4);           // outside the workspace
+  send("probe", 4, 7, 0, {1, 0, 0, 0}, 5000000, 5);            // 4 units in 1 ms: too fast
+  send("scalpel", 0, 7, 0, {1, 0, 0, 0}, 6000000, 6);          // unknown tool
+  send("probe", 0.01, 7, 0, {1, 0, 0, 0}, 16000000, 7);        // valid again
+  ASSERT_TRUE(client.wait_status(5, [&](const stroma_SimStatus& st) { return st.commands_rejected >= 5 && st.commands_accepted > accepted0; }, &s))
+      << "rejected " << s.commands_rejected << ", accepted " << s.commands_accepted;
+  EXPECT_EQ(s.commands_rejected, 5u);
+  EXPECT_EQ(s.commands_accepted, accepted0 + 1);
+  EXPECT_EQ(s.state, stroma_RUNNING);
+  EXPECT_TRUE(std::isfinite(s.kinetic_energy));
+  EXPECT_TRUE(std::isfinite(s.elastic_energy));
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+
+// A client that dies mid-run does not disturb the server.
+TEST(Serve, KillingTheToolClientLeavesTheServerHealthy) {
+  Server server(116, {"--duration", "60"});
+  Client client(116);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  Process tool({STROMA_BINARY, "tool", "--name", "probe", "--script", kPress, "--duration", "30", "--domain", "116"});
+  stroma_SimStatus s{};
+  ASSERT_TRUE(client.wait_status(10, [](const stroma_SimStatus& st) { return st.commands_accepted > 200; }, &s));
+  tool.signal(SIGKILL);
+  EXPECT_EQ(tool.wait_exit(5), 128 + SIGKILL);
+  stroma_SimStatus later{};
+  ASSERT_TRUE(client.wait_status(5, [&](const stroma_SimStatus& st) { return st.ticks > s.ticks + 1000; }, &later))
+      << "server stopped ticking after the client died";
+  EXPECT_EQ(later.state, stroma_RUNNING);
+  EXPECT_TRUE(std::isfinite(later.kinetic_energy));
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+
+// Two clients commanding the same tool: the documented policy is "latest writer wins" — every
+// valid command is applied in arrival order, whoever sent it.
+TEST(Serve, SecondClientOnTheSameToolLatestWriterWins) {
+  Server server(117, {"--duration", "60"});
+  Client a(117), b(117);
+  ASSERT_TRUE(a.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  const dds_entity_t wa = a.command_writer(), wb = b.command_writer();
+  const dds_entity_t t_fb = dds_create_topic(a.participant(), &stroma_ToolFeedback_desc, "stroma_ToolFeedback", nullptr, nullptr);
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t fb = dds_create_reader(a.participant(), t_fb, q, nullptr);
+  dds_delete_qos(q);
+  int64_t t_ns = 1000000;
+  auto drive_until_echoed = [&](dds_entity_t w, uint64_t seq, double z) {
+    const auto end = Clock::now() + std::chrono::seconds(10);
+    while (Clock::now() < end) {
+      stroma_ToolCommand c{};
+      std::snprintf(c.tool, sizeof(c.tool), "probe");
+      c.seq = seq;
+      c.client_time_ns = (t_ns += 10000000);  // 10 ms apart: well under max_speed
+      c.position[1] = 7;
+      c.position[2] = z;
+      c.orientation[0] = 1;
+      dds_write(w, &c);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      void* samples[1] = {nullptr};
+      dds_sample_info_t info;
+      while (dds_take(fb, samples, &info, 1, 1) > 0) {
+        const uint64_t got = static_cast<const stroma_ToolFeedback*>(samples[0])->seq;
+        const bool valid = info.valid_data;
+        dds_return_loan(fb, samples, 1);
+        if (valid && got == seq) return true;
+      }
+    }
+    return false;
+  };
+  EXPECT_TRUE(drive_until_echoed(wa, 10, 0.0)) << "client A's command applied";
+  EXPECT_TRUE(drive_until_echoed(wb, 2000, 0.001)) << "client B takes over (latest writer wins)";
+  EXPECT_TRUE(drive_until_echoed(wa, 11, 0.0)) << "and A again";
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
 }
