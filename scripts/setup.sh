@@ -13,6 +13,8 @@ PACKAGES=(
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   # DDS (Eclipse Cyclone DDS C API + idlc)
   cyclonedds-dev cyclonedds-tools
+  # DDS interoperability test (a Fast DDS client from the same IDL)
+  libfastrtps-dev fastddsgen
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # images

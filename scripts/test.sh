@@ -7,3 +7,8 @@ scripts/setup.sh
 scripts/build.sh
 jobs=$(nproc 2>/dev/null || echo 2)
 ctest --test-dir build --output-on-failure -j "$jobs"
+# The lock-free hand-offs and the physics loop's threads again, under ThreadSanitizer.
+cmake --preset tsan >/dev/null
+cmake --build build-tsan -j "$jobs" --target stroma_tests
+build-tsan/tests/stroma_tests --gtest_filter='TripleBuffer*:SpscQueue*:PhysicsLoop*'
+

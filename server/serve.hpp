@@ -17,6 +17,7 @@ struct ServeOptions {
   std::string stats_file;      ///< JSON statistics written at exit
   double publish_hz = 60;      ///< TissueState rate
   bool start_paused = false;
+  int spin_us = 100;           ///< spin this long before each deadline (0: pure sleep)
   std::string record_file;     ///< session log of accepted commands and controls (replayable)
   std::string final_state_file;  ///< final state CSV written at exit (compare with a replay)
 };

@@ -123,6 +123,8 @@ int main(int argc, char** argv) {
   serve->add_option("--stats", srv.stats_file, "Write timing statistics (JSON) here at exit");
   serve->add_option("--publish-hz", srv.publish_hz, "TissueState rate")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
   serve->add_flag("--paused", srv.start_paused, "Start paused (resume or step with stroma_Control)");
+  serve->add_option("--spin-us", srv.spin_us, "Wake this many microseconds early and spin to each deadline (0: sleep only)")
+      ->capture_default_str()->check(CLI::Range(0, 900));
   serve->add_option("--record", srv.record_file, "Log every accepted tool command and control with its tick (replay: stroma run --replay)");
   serve->add_option("--final-state", srv.final_state_file, "Write the final state (node,x,y,z CSV) at exit");
   serve->footer(

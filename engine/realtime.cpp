@@ -1,4 +1,4 @@
-#include "server/realtime.hpp"
+#include "engine/realtime.hpp"
 
 #include <pthread.h>
 #include <sched.h>

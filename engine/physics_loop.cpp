@@ -1,4 +1,4 @@
-#include "server/physics_loop.hpp"
+#include "engine/physics_loop.hpp"
 
 #include <time.h>
 
@@ -82,7 +82,12 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
   int64_t deadline = t0 + period;
   int64_t last_done = t0;
   while (!stop.load(std::memory_order_relaxed) && !shutdown) {
-    sleep_until(deadline);
+    if (opt_.spin_us > 0) {
+      sleep_until(deadline - 1000LL * opt_.spin_us);
+      while (now_ns() < deadline) __builtin_ia32_pause();
+    } else {
+      sleep_until(deadline);
+    }
     const int64_t wake = now_ns();
     stats_.wake.record(wake - deadline);
     ++stats_.loops;

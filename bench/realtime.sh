@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Real-time benchmark of docs/REALTIME.md: the liver scenario served at 1 kHz for DURATION s,
+# a tool client commanding at 1 kHz, and (unless --idle) a busy loop on the other core.
+# Everything on loopback (the server's default DDS configuration).
+# Usage: bench/realtime.sh [DURATION=60] [--idle]      (after scripts/build.sh)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+dur="${1:-60}"
+idle="${2:-}"
+out=$(mktemp -d /tmp/stroma_rt.XXXX)
+domain=$(( 150 + RANDOM % 50 ))
+hog=""
+if [ "$idle" != "--idle" ]; then
+  timeout $((dur + 10)) sh -c 'while :; do :; done' & hog=$!
+fi
+./build/stroma serve scenarios/liver.yaml --domain "$domain" --duration "$((dur + 2))" \
+  --stats "$out/stats.json" > "$out/serve.log" 2>&1 & srv=$!
+sleep 1
+./build/stroma tool --name probe --script scenarios/trajectories/liver_press.yaml --rate 1000 \
+  --duration "$dur" --domain "$domain" --out "$out/tool.csv" 2> "$out/tool.log" | tee "$out/tool_summary.txt"
+wait $srv
+[ -n "$hog" ] && kill $hog 2>/dev/null || true
+python3 - "$out/stats.json" <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+w, t = j["wake_latency"], j["tick_time"]
+print(f"realtime: {j['realtime']}")
+print(f"loops {j['loops']}, ticks {j['ticks']}, missed deadlines {j['missed_deadlines']} ({100*j['missed_ratio']:.3f} %), lag {j['lag']*1e3:.2f} ms")
+print(f"wake-up latency us: p50 {w['p50_us']} p99 {w['p99_us']} p99.9 {w['p999_us']} max {w['max_us']:.0f}")
+print(f"tick time us:       p50 {t['p50_us']} p99 {t['p99_us']} p99.9 {t['p999_us']} max {t['max_us']:.0f}")
+print(f"CG iterations mean {j['cg_iterations']['mean']:.1f} max {j['cg_iterations']['max']}; tool commands {j['tool_commands']}")
+PY
+echo "files in $out"
