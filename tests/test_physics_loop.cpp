@@ -70,24 +70,27 @@ TEST(PhysicsLoop, TicksAtTheStepRateAndObeysControlsFromAnotherThread) {
       std::this_thread::sleep_for(std::chrono::microseconds(200));
     }
   };
-  consume_for(0.3);
+  // Let it run for at least 50 ticks (a sanitizer build or a loaded machine runs slower).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (loop.status_out.read_slot().ticks < 50 && std::chrono::steady_clock::now() < deadline)
+    consume_for(0.05);
+  ASSERT_GE(loop.status_out.read_slot().ticks, 50u);
   ASSERT_TRUE(loop.controls.push({ControlEvent::Pause, 0}));
-  consume_for(0.1);
+  consume_for(0.3);
   const uint64_t paused_at = loop.status_out.read_slot().ticks;
-  consume_for(0.1);
+  consume_for(0.3);
   EXPECT_EQ(loop.status_out.read_slot().ticks, paused_at) << "paused: no ticks";
   ASSERT_TRUE(loop.controls.push({ControlEvent::Step, 3}));
-  consume_for(0.1);
+  consume_for(0.3);
   EXPECT_EQ(loop.status_out.read_slot().ticks, paused_at + 3);
   ASSERT_TRUE(loop.controls.push({ControlEvent::Shutdown, 0}));
   physics.join();
   EXPECT_TRUE(loop.finished.load());
   const PhysicsLoopStats& st = loop.stats();
-  EXPECT_GT(frames, 10u);
-  EXPECT_GT(statuses, 5u);
-  // ~1 tick per ms of wall time while running (0.3 s + a little); generous for a loaded machine.
-  EXPECT_GT(st.ticks, 100u);
-  EXPECT_LE(st.ticks, st.loops);
+  EXPECT_GE(frames, 5u);  // every 5th tick of ≥ 50
+  EXPECT_GE(statuses, 3u);
+  EXPECT_EQ(st.ticks, paused_at + 3);
+  EXPECT_GT(st.loops, st.ticks);  // the paused loops kept their schedule without ticking
   EXPECT_EQ(st.wake.count(), static_cast<int64_t>(st.loops));
   EXPECT_DOUBLE_EQ(st.sim_time, static_cast<double>(loop.state().step) * m->time_step);
 }
