@@ -443,3 +443,27 @@ TEST(Serve, SecondClientOnTheSameToolLatestWriterWins) {
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(15), 0);
 }
+
+// `stroma tool` reading commands from stdin lines ("x y z [qw qx qy qz] [jaw]").
+TEST(Serve, ToolClientFromStdinLines) {
+  Server server(118, {"--duration", "60"});
+  Client client(118);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  std::string cmd = "i=0; while [ $i -lt 200 ]; do echo \"-1.5 7 0.5 1 0 0 0 0.1\"; echo 'not a command'; "
+                    "sleep 0.002; i=$((i+1)); done | " + std::string(STROMA_BINARY) +
+                    " tool --name probe --domain 118 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string out;
+  char buf[512];
+  while (fgets(buf, sizeof buf, p)) out += buf;
+  const int rc = pclose(p);
+  EXPECT_EQ(WEXITSTATUS(rc), 0) << out;
+  EXPECT_NE(out.find("200 commands sent"), std::string::npos) << out;
+  EXPECT_NE(out.find("stdin:2: expected 'x y z"), std::string::npos) << "bad lines are reported: " << out;
+  stroma_SimStatus s{};
+  EXPECT_TRUE(client.wait_status(5, [](const stroma_SimStatus& st) { return st.commands_accepted > 50; }, &s))
+      << s.commands_accepted;
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
