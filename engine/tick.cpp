@@ -81,7 +81,7 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
     StageTimer t(r, Stage::Solve);
     r.solve = stepper.solve(s.tissue);
   }
-  if (!all_finite(s.tissue.dv)) {
+  if (!std::isfinite(r.solve.relative_residual) || !all_finite(s.tissue.dv)) {
     r.status = TickStatus::NonFinite;
     std::fill(s.tissue.dv.begin(), s.tissue.dv.end(), 0.0);  // keep the warm start usable
     r.total_ns = now_ns() - t0;

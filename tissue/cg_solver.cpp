@@ -63,6 +63,11 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
   const int32_t m = 3 * n_;
   SolveStats st;
   const double bnorm = std::sqrt(dotn(b, b, m));
+  if (!std::isfinite(bnorm)) {  // NaN/Inf in the system: report it, leave x alone
+    st.converged = false;
+    st.relative_residual = bnorm;
+    return st;
+  }
   if (bnorm == 0.0) {
     for (int32_t i = 0; i < m; ++i) x[i] = 0.0;
     return st;
