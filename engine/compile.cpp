@@ -163,6 +163,14 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
         throw InputError(t.where.file, t.where.line, fmt::format("tools[{}].workspace", ti),
                          "min must not exceed max");
     model->tools.push_back(ts);
+    if (ts.shape != ToolShape::None) {
+      model->has_contact = true;
+      if (ts.contact_stiffness == 0) {  // automatic: stiff against the stiffest body at this size
+        double e_max = 0;
+        for (const BodySpec& b : spec.bodies) e_max = std::max(e_max, b.material.young_modulus);
+        model->tools.back().contact_stiffness = 100.0 * e_max / ts.radius;
+      }
+    }
     Trajectory tr;
     if (!ts.script.empty()) {
       try {
@@ -172,6 +180,27 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
       }
     }
     model->tool_scripts.push_back(std::move(tr));
+  }
+  if (model->has_contact) {
+    for (const BodyRange& b : model->fem.bodies)
+      for (const Tri& t : b.boundary) {
+        model->collision_triangles.push_back({t[0], t[1], t[2]});
+        std::array<int32_t, 9> sl;
+        for (int a = 0; a < 3; ++a)
+          for (int c = 0; c < 3; ++c) sl[3 * a + c] = model->fem.pattern.find(t[a], t[c]);
+        model->collision_slots.push_back(sl);
+        double e = 0;
+        for (int a = 0; a < 3; ++a) {
+          const int32_t p = t[a], q = t[(a + 1) % 3];
+          double d2 = 0;
+          for (int k = 0; k < 3; ++k) {
+            const double dk = model->fem.rest[3 * p + k] - model->fem.rest[3 * q + k];
+            d2 += dk * dk;
+          }
+          e = std::max(e, std::sqrt(d2));
+        }
+        model->collision_edge.push_back(e);
+      }
   }
   return model;
 }

@@ -59,6 +59,7 @@ class MetricsWriter {
            "external_potential,total_energy,status";
     for (int s = 0; s < kStageCount; ++s) buf_ += fmt::format(",{}_ms", stage_name(static_cast<Stage>(s)));
     for (const ProbeModel& p : m.probes) buf_ += fmt::format(",{0}_dx,{0}_dy,{0}_dz", p.name);
+    for (const ToolSpec& t : m.tools) buf_ += fmt::format(",{0}_fx,{0}_fy,{0}_fz,{0}_contacts", t.name);
     buf_ += '\n';
   }
   ~MetricsWriter() {
@@ -184,6 +185,8 @@ RunResult run_headless(const Model& m, const RunOptions& o) {
           const Vec3 d = probe_displacement(m, s, p);
           fmt::format_to(std::back_inserter(b), ",{:.12e},{:.12e},{:.12e}", d[0], d[1], d[2]);
         }
+        for (const ToolState& t : s.tools)
+          fmt::format_to(std::back_inserter(b), ",{:.9e},{:.9e},{:.9e},{}", t.force[0], t.force[1], t.force[2], t.contacts);
         b += '\n';
         metrics->maybe_flush();
         add_io(t0);

@@ -3,6 +3,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace stroma {
 
@@ -138,6 +139,13 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
         f.server_time_ns = now_ns();
         f.sim_time = state_.time;
         f.active = ts.active;
+        // Device force: the tissue's force on the tool, clamped to what the device may render.
+        const ToolSpec& spec = model_->tools[t];
+        const double fn = std::sqrt(ts.force[0] * ts.force[0] + ts.force[1] * ts.force[1] + ts.force[2] * ts.force[2]);
+        const double scale = fn > spec.max_force ? spec.max_force / fn : 1.0;
+        for (int k = 0; k < 3; ++k) f.force[k] = scale * ts.force[k];
+        f.stiffness = ts.stiffness;
+        f.in_contact = ts.contacts > 0;
       }
       feedback_out.publish();
       feedback_published.fetch_add(1, std::memory_order_release);

@@ -604,6 +604,8 @@ CheckSpec parse_check(const Field& f) {
 const Choices<InvalidCommandPolicy> kInvalidPolicies = {{"reject", InvalidCommandPolicy::Reject},
                                                         {"clamp", InvalidCommandPolicy::Clamp}};
 
+const Choices<ToolShape> kToolShapes = {{"sphere", ToolShape::Sphere}};
+
 ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   ToolEntry t;
   t.where = m.location();
@@ -618,6 +620,17 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   m.read("max_speed", t.spec.max_speed, greater_than(0));
   m.read("timeout", t.spec.timeout, greater_than(0));
   m.read("on_invalid", t.spec.on_invalid, kInvalidPolicies);
+  if (auto f = m.opt("shape")) {
+    const MapReader sm = f->map({"type", "radius"});
+    sm.require("type", t.spec.shape, kToolShapes);
+    sm.require("radius", t.spec.radius, greater_than(0));
+  }
+  if (auto f = m.opt("contact")) {
+    const MapReader cm = f->map({"stiffness", "damping"});
+    cm.read("stiffness", t.spec.contact_stiffness, greater_than(0));
+    cm.read("damping", t.spec.contact_damping, at_least(0));
+  }
+  m.read("max_force", t.spec.max_force, greater_than(0));
   return t;
 }
 
@@ -665,7 +678,8 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
 
   std::map<std::string, int> tool_names;
   for (const auto& item : m.list("tools")) {
-    const MapReader tm = item.map({"name", "script", "workspace", "max_speed", "timeout", "on_invalid"});
+    const MapReader tm = item.map({"name", "script", "workspace", "max_speed", "timeout", "on_invalid",
+                                   "shape", "contact", "max_force"});
     s.tools.push_back(parse_tool(tm, ctx));
     check_unique_name(tool_names, s.tools.back().spec.name, tm.req("name"), "tool");
   }

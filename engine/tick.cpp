@@ -1,5 +1,6 @@
 #include "engine/tick.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -48,6 +49,91 @@ bool all_finite(const std::vector<double>& a) {
   return acc == 0.0;
 }
 
+/// Collide stage: each shaped tool against the surface triangles (BVH-culled). Each candidate
+/// triangle is sampled at the centroids of its s² sub-triangles (composite midpoint rule); a
+/// sample inside the sphere gets a penalty pressure k·depth over its share of the area, pushing
+/// it out along the sphere's radius (the gradient of the sphere's distance field, so the force
+/// field is conservative), or along the inward surface normal when the sphere's centre is
+/// already below that point (deep penetration).
+void collide(const Model& m, State& s, TickWorkspace& w) {
+  const double* x = s.tissue.x.data();
+  w.bvh.refit(x);
+  w.springs.clear();  // keeps its capacity: no allocation
+  for (size_t k = 0; k < m.tools.size(); ++k) {
+    const ToolSpec& spec = m.tools[k];
+    ToolState& ts = s.tools[k];
+    ts.force = {0, 0, 0};
+    ts.stiffness.fill(0.0);
+    ts.contacts = 0;
+    ts.contacts_dropped = 0;
+    if (spec.shape != ToolShape::Sphere || ts.last_command_time < 0) continue;
+    const double* c = ts.pose.position.data();
+    const double R = spec.radius;
+    w.bvh.query_sphere(c, R, x, [&](int32_t t) {
+      const auto& tri = m.collision_triangles[t];
+      const double* p0 = x + 3 * tri[0];
+      const double* p1 = x + 3 * tri[1];
+      const double* p2 = x + 3 * tri[2];
+      const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+      const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+      double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+      const double twice_area = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+      if (twice_area <= 0) return;
+      for (double& v : nrm) v /= twice_area;
+      const int ns = std::clamp(static_cast<int>(std::ceil(m.collision_edge[t] * Model::kContactSamplesPerRadius / R)), 1, 24);
+      const double inv_ns = 1.0 / ns;
+      const double sample_area = 0.5 * twice_area * inv_ns * inv_ns;
+      const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;
+      // Sub-triangle centroids in barycentric coordinates (u, v): upward and downward cells.
+      for (int i = 0; i < ns; ++i)
+        for (int j = 0; j < ns - i; ++j)
+          for (int up = 0; up < 2; ++up) {
+            if (up && j == ns - i - 1) continue;
+            const double u = up ? (i + 2.0 / 3.0) * inv_ns : (i + 1.0 / 3.0) * inv_ns;
+            const double v = up ? (j + 2.0 / 3.0) * inv_ns : (j + 1.0 / 3.0) * inv_ns;
+            const double w0 = 1.0 - u - v;
+            double q[3], d[3];
+            for (int a = 0; a < 3; ++a) {
+              q[a] = w0 * p0[a] + u * p1[a] + v * p2[a];
+              d[a] = q[a] - c[a];
+            }
+            const double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            if (dist2 >= R * R) continue;
+            if (w.springs.size() == w.springs.capacity()) {
+              ++ts.contacts_dropped;
+              continue;
+            }
+            const double dist = std::sqrt(dist2);
+            double dir[3];
+            if (d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2] <= 0 && dist > 1e-12 * R) {
+              for (int a = 0; a < 3; ++a) dir[a] = d[a] / dist;
+            } else {
+              for (int a = 0; a < 3; ++a) dir[a] = -nrm[a];
+            }
+            ContactSpring sp;
+            for (int a = 0; a < 3; ++a) sp.node[a] = tri[a];
+            sp.w[0] = w0;
+            sp.w[1] = u;
+            sp.w[2] = v;
+            for (int a = 0; a < 9; ++a) sp.slot[a] = m.collision_slots[t][a];
+            const double fmag = kc * (R - dist);
+            for (int a = 0; a < 3; ++a) {
+              sp.force[a] = fmag * dir[a];
+              ts.force[a] -= sp.force[a];
+              for (int b = 0; b < 3; ++b) {
+                sp.K[3 * a + b] = kc * dir[a] * dir[b];
+                sp.C[3 * a + b] = cc * dir[a] * dir[b];
+                ts.stiffness[3 * a + b] -= sp.K[3 * a + b];
+              }
+            }
+            w.springs.push_back(sp);
+            ++ts.contacts;
+          }
+    });
+  }
+  w.stepper().set_contact_springs(w.springs.data(), static_cast<int>(w.springs.size()));
+}
+
 }  // namespace
 
 TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs,
@@ -72,7 +158,10 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
       if (s.tools[k].active && s.time - s.tools[k].last_command_time > m.tools[k].timeout)
         s.tools[k].active = false;
   }
-  // collide: tools touch nothing until contact exists (issue 4) → skipped.
+  if (m.has_contact) {
+    StageTimer t(r, Stage::Collide);
+    collide(m, s, w);
+  }
   {
     StageTimer t(r, Stage::Assemble);
     r.elastic_energy = stepper.assemble(s.tissue, h);

@@ -12,6 +12,7 @@
 #include <string_view>
 
 #include "engine/model.hpp"
+#include "collision/triangle_bvh.hpp"
 #include "engine/state.hpp"
 #include "tissue/time_stepper.hpp"
 
@@ -43,9 +44,20 @@ struct TickReport {
 /// Per-thread scratch of the tick (the TimeStepper's work arrays). Not part of the state.
 class TickWorkspace {
  public:
-  explicit TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) { stepper_.prepare(m.time_step); }
+  explicit TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
+    stepper_.prepare(m.time_step);
+    if (m.has_contact) {  // pay only for use: no tool shape, no BVH
+      bvh.build(m.collision_triangles, m.fem.rest.data());
+      springs.reserve(kMaxContacts);
+    }
+  }
   TimeStepper& stepper() { return stepper_; }
   const TimeStepper& stepper() const { return stepper_; }
+
+  /// Contact points per tick at most (further ones are dropped and counted in ToolState).
+  static constexpr size_t kMaxContacts = 16384;
+  TriangleBvh bvh;                      ///< surface triangles, refitted every tick
+  std::vector<ContactSpring> springs;   ///< this tick's contacts (capacity fixed at load)
 
  private:
   TimeStepper stepper_;

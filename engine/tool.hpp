@@ -28,6 +28,12 @@ enum class InvalidCommandPolicy {
   Clamp    ///< bring it into the workspace / speed limit (non-finite values are always rejected)
 };
 
+/// Geometry of a tool that touches tissue.
+enum class ToolShape {
+  None,   ///< moves, gets feedback, touches nothing
+  Sphere  ///< a sphere (a probe's tip) centred on the tool position
+};
+
 /// `tools:` entry of a scenario.
 struct ToolSpec {
   std::string name;
@@ -37,6 +43,12 @@ struct ToolSpec {
   double max_speed = 5.0;        ///< m/s: faster jumps are rejected or clamped
   double timeout = 0.5;          ///< s without commands before the tool goes idle
   InvalidCommandPolicy on_invalid = InvalidCommandPolicy::Reject;
+  ToolShape shape = ToolShape::None;
+  double radius = 0;             ///< sphere radius (m)
+  double contact_stiffness = 0;  ///< contact pressure per penetration (Pa/m = N/m³);
+                                 ///< 0 = automatic: 100·E/radius of the stiffest body
+  double contact_damping = 0;    ///< pressure per penetration rate (Pa·s/m), normal direction
+  double max_force = 10;         ///< N: the feedback force is clamped to this magnitude
 };
 
 /// Outcome of validating one command.
@@ -59,6 +71,11 @@ struct ToolState {
   int64_t client_time_ns = 0;    ///< its client timestamp (echoed in feedback)
   double last_command_time = -1; ///< sim time of the last applied command (−1: never)
   bool active = false;           ///< a client is driving it (false after `timeout`)
+  // Contact outputs of the last collide stage (zero when the tool touches nothing):
+  Vec3 force{0, 0, 0};                ///< force of the tissue on the tool (N), unclamped
+  std::array<double, 9> stiffness{};  ///< dF/dx of that force w.r.t. the tool position (N/m)
+  int contacts = 0;                   ///< contact points (surface samples inside the tool)
+  int contacts_dropped = 0;           ///< beyond the per-tick capacity (should stay 0)
 };
 
 /// A command that physics applies at the start of a tick (read_inputs stage).

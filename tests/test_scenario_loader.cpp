@@ -639,8 +639,14 @@ TEST(ScenarioLoaderTools, ToolErrors) {
                {"duplicate tool name 'probe'"});
   expect_error(kMinimal + "tools:\n  - name: probe\n    on_invalid: ignore\n", 11, "tools[0].on_invalid",
                {"unknown on_invalid 'ignore'", "reject", "clamp"});
-  expect_error(kMinimal + "tools:\n  - name: probe\n    shape: capsule\n", 11, "tools[0].shape",
-               {"unknown key 'shape'"});
+  expect_error(kMinimal + "tools:\n  - name: probe\n    handle: long\n", 11, "tools[0].handle",
+               {"unknown key 'handle'"});
+  expect_error(kMinimal + "tools:\n  - name: probe\n    shape: {type: capsule, radius: 0.01}\n", 11,
+               "tools[0].shape.type", {"unknown type 'capsule'", "sphere"});
+  expect_error(kMinimal + "tools:\n  - name: probe\n    shape: {type: sphere, radius: -0.01}\n", 11,
+               "tools[0].shape.radius", {"out of range"});
+  expect_error(kMinimal + "tools:\n  - name: probe\n    contact: {stiffness: 0}\n", 11,
+               "tools[0].contact.stiffness", {"out of range"});
 }
 
 }  // namespace

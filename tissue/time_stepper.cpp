@@ -131,6 +131,28 @@ double TimeStepper::assemble(const TissueState& s, double h) {
     p.kv_const = 0.0;
   }
   const double energy = elastic_pass(m_, p);
+  // Contact: forces join the elastic ones; stiffness and damping join the system matrix, so
+  // the SpMV below also forms their −h(hK + C)v terms of the right-hand side.
+  for (int c = 0; c < n_springs_; ++c) {
+    const ContactSpring& sp = springs_[c];
+    double f[3] = {sp.force[0], sp.force[1], sp.force[2]};
+    if (!implicit) {  // explicit damping at the contact point's velocity
+      double vc[3] = {0, 0, 0};
+      for (int a = 0; a < 3; ++a)
+        for (int k = 0; k < 3; ++k) vc[k] += sp.w[a] * s.v[3 * sp.node[a] + k];
+      for (int k = 0; k < 3; ++k) f[k] -= sp.C[3 * k] * vc[0] + sp.C[3 * k + 1] * vc[1] + sp.C[3 * k + 2] * vc[2];
+    }
+    for (int a = 0; a < 3; ++a)
+      for (int k = 0; k < 3; ++k) force_[3 * sp.node[a] + k] += sp.w[a] * f[k];
+    if (implicit) {
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          const double ww = sp.w[a] * sp.w[b];
+          double* B = A_.data() + 9 * sp.slot[3 * a + b];
+          for (int k = 0; k < 9; ++k) B[k] += ww * (h * h * sp.K[k] + h * sp.C[k]);
+        }
+    }
+  }
 
   const int32_t n = m_.num_nodes;
   const double* fe = m_.f_ext.data();

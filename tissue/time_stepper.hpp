@@ -14,6 +14,7 @@
 
 #include "tissue/cg_solver.hpp"
 #include "tissue/cholmod_solver.hpp"
+#include "tissue/contact_spring.hpp"
 #include "tissue/fem_model.hpp"
 #include "tissue/options.hpp"
 #include "tissue/tissue_state.hpp"
@@ -49,6 +50,13 @@ class TimeStepper {
   /// Load-time work that depends on the step size (the warped preconditioner's rest-pose
   /// factorisation), so the first tick is not slower than the others. Optional.
   void prepare(double h);
+
+  /// Contact springs for the next assemble (the collide stage's output). The array must stay
+  /// valid until assemble() has run; n = 0 clears them.
+  void set_contact_springs(const ContactSpring* springs, int n) {
+    springs_ = springs;
+    n_springs_ = n;
+  }
 
   /// Stage "assemble": element pass at the current state and the step's right-hand side.
   /// Returns the elastic energy at s.x (before the step).
@@ -88,6 +96,8 @@ class TimeStepper {
   const FemModel& m_;
   StepperSettings cfg_;
   bool any_beta_ = false;
+  const ContactSpring* springs_ = nullptr;
+  int n_springs_ = 0;
   std::vector<double> force_, kv_, rhs_, A_, rot_, tmp_;
   CgSolver cg_;
   std::unique_ptr<CholmodSolver> cholmod_;

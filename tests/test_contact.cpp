@@ -1,0 +1,120 @@
+// Tool–tissue contact (first slice of issue 4): BVH culling is exact, no contact means zero
+// force, and a sphere pressing a clamped beam reaches a global force equilibrium with the
+// clamp's reaction.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "collision/triangle_bvh.hpp"
+#include "engine/model.hpp"
+#include "engine/state.hpp"
+#include "engine/tick.hpp"
+
+using namespace stroma;
+
+TEST(TriangleBvh, SphereQueryAfterRefitEqualsBruteForceOnBoxes) {
+  std::mt19937 g(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const int n = 3000;
+  std::vector<double> x(3 * n);
+  for (double& v : x) v = u(g);
+  std::vector<TriangleBvh::Triangle> tris;
+  for (int i = 0; i + 2 < n; i += 3) tris.push_back({i, i + 1, (i + 7) % n});
+  TriangleBvh bvh;
+  bvh.build(tris, x.data());
+  for (double& v : x) v += 0.3 * u(g);  // deform: the topology stays, the boxes must follow
+  bvh.refit(x.data());
+  for (int q = 0; q < 200; ++q) {
+    const double c[3] = {u(g), u(g), u(g)};
+    const double r = 0.02 + 0.2 * std::fabs(u(g));
+    std::set<int32_t> got, want;
+    bvh.query_sphere(c, r, x.data(), [&](int32_t t) { got.insert(t); });
+    for (size_t t = 0; t < tris.size(); ++t) {
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        double lo = 1e300, hi = -1e300;
+        for (int a = 0; a < 3; ++a) {
+          lo = std::min(lo, x[3 * tris[t][a] + k]);
+          hi = std::max(hi, x[3 * tris[t][a] + k]);
+        }
+        const double v = c[k] < lo ? lo - c[k] : (c[k] > hi ? c[k] - hi : 0.0);
+        d2 += v * v;
+      }
+      if (d2 <= r * r) want.insert(static_cast<int32_t>(t));
+    }
+    EXPECT_EQ(got, want) << "query " << q;
+  }
+}
+
+namespace {
+
+ScenarioSpec beam_with_probe() {
+  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  s.gravity = {0, 0, 0};
+  s.bodies[0].material.young_modulus = 1e5;
+  s.bodies[0].material.rayleigh_mass = 60;  // settle quickly to equilibrium
+  s.solver.preconditioner = Preconditioner::Jacobi;
+  s.solver.tolerance = 1e-10;
+  s.solver.max_iterations = 2000;
+  ToolEntry t;
+  t.spec.name = "probe";
+  t.spec.shape = ToolShape::Sphere;
+  t.spec.radius = 0.003;
+  t.spec.timeout = 10;
+  s.tools.push_back(t);
+  return s;
+}
+
+}  // namespace
+
+TEST(Contact, NoContactNoForceButTheCollideStageRuns) {
+  auto m = compile_model(beam_with_probe());
+  ASSERT_TRUE(m->has_contact);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  ToolInput in;
+  in.pose.position = {0.05, 0.05, 0.005};  // 4 cm above the beam
+  for (int k = 0; k < 20; ++k) {
+    const TickReport r = tick(*m, s, w, &in, 1);
+    EXPECT_TRUE(r.stage_ran[static_cast<int>(Stage::Collide)]);
+  }
+  EXPECT_EQ(s.tools[0].contacts, 0);
+  EXPECT_EQ(s.tools[0].force, (Vec3{0, 0, 0}));
+  for (double v : s.tissue.v) EXPECT_LT(std::fabs(v), 1e-12);  // nothing moved (round-off only)
+}
+
+TEST(Contact, SpherePressingTheBeamBalancesTheClampReaction) {
+  auto m = compile_model(beam_with_probe());
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  ToolInput in;
+  // Sphere over the tip, 1 mm into the top face (y = 0.01).
+  in.pose.position = {0.095, 0.01 + 0.003 - 0.001, 0.005};
+  tick(*m, s, w, &in, 1);
+  for (int k = 0; k < 3000; ++k) ASSERT_NE(tick(*m, s, w).status, TickStatus::NonFinite);
+  const ToolState& ts = s.tools[0];
+  ASSERT_GT(ts.contacts, 0);
+  EXPECT_GT(ts.force[1], 0.0) << "the tissue pushes the tool up";
+  const double F = std::sqrt(ts.force[0] * ts.force[0] + ts.force[1] * ts.force[1] + ts.force[2] * ts.force[2]);
+  EXPECT_LT(std::fabs(ts.force[0]) + std::fabs(ts.force[2]), 0.2 * F);
+  // Feedback stiffness dF/dx is negative semidefinite along the press direction.
+  EXPECT_LT(ts.stiffness[4], 0.0);
+  // The beam bent down under the probe.
+  EXPECT_LT(probe_displacement(*m, s, m->probes[0])[1], -1e-4);
+
+  // Global equilibrium at rest: clamp reaction (elastic force on the fixed nodes) + tool force.
+  const double vmax = *std::max_element(s.tissue.v.begin(), s.tissue.v.end(),
+                                        [](double a, double b) { return std::fabs(a) < std::fabs(b); });
+  ASSERT_LT(std::fabs(vmax), 1e-5) << "not settled";
+  std::vector<double> f(m->fem.dofs());
+  w.stepper().elastic_force(s.tissue, f.data());
+  Vec3 reaction{0, 0, 0};
+  for (int32_t i : m->fem.constrained_nodes)
+    for (int k = 0; k < 3; ++k) reaction[k] += f[3 * i + k];
+  // Forces on the beam: contact (−tool force) + clamp support (−reaction) sum to zero.
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(-ts.force[k] - reaction[k], 0.0, 0.01 * F) << "component " << k;
+}
