@@ -24,6 +24,7 @@
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "tissue/cholmod_solver.hpp"
+#include "tissue/constraints.hpp"
 
 using namespace stroma;
 
@@ -70,19 +71,14 @@ double bending_f1(const Model& m) {
   std::vector<double> K;
   st.stiffness(State::initial(m).tissue, K);
   const FemModel& f = m.fem;
-  for (int32_t s : f.constrained_offdiag_slots) std::fill(&K[9 * s], &K[9 * s] + 9, 0.0);
-  for (int32_t i : f.constrained_nodes) {
-    double* D = &K[9 * f.pattern.diag[i]];
-    std::fill(D, D + 9, 0.0);
-    D[0] = D[4] = D[8] = 1.0;
-  }
+  project_constraints(f, K.data(), 1.0, false);
   CholmodSolver chol(f.pattern);
   chol.factor(K.data());
   std::vector<double> x(f.f_ext), y(x.size());
   double lambda = 0;
   for (int it = 0; it < 200; ++it) {
     for (int32_t i = 0; i < f.num_nodes; ++i)
-      for (int k = 0; k < 3; ++k) y[3 * i + k] = f.constrained[i] ? 0.0 : f.mass[i] * x[3 * i + k];
+      for (int k = 0; k < 3; ++k) y[3 * i + k] = dof_constrained(f, i, k) ? 0.0 : f.mass[i] * x[3 * i + k];
     chol.solve(y.data(), x.data());
     // Rayleigh-type estimate of ω² from two successive iterates.
     double num = 0, den = 0;

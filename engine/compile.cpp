@@ -106,7 +106,7 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
     in.rayleigh_stiffness = mat.rayleigh_stiffness;
     for (size_t k = 0; k < b.fixed.size(); ++k) {
       auto sel = select_nodes(b.fixed[k], pm.mesh, fmt::format("{}.fixed[{}]", field, k));
-      in.fixed_nodes.insert(in.fixed_nodes.end(), sel.begin(), sel.end());
+      for (int32_t i : sel) in.fixed.push_back({i, b.fixed[k].axes});
     }
     for (size_t k = 0; k < b.loads.size(); ++k) {
       const NodalLoadSpec& l = b.loads[k];

@@ -544,7 +544,23 @@ NodeSelection parse_selection(const MapReader& m) {
   return sel;
 }
 
-NodeSelection parse_fixed(const Field& f) { return parse_selection(f.map({"box", "nodes"})); }
+NodeSelection parse_fixed(const Field& f) {
+  const MapReader m = f.map({"box", "nodes", "axes"});
+  NodeSelection sel = parse_selection(m);
+  if (auto a = m.opt("axes")) {
+    const auto items = a->list();
+    if (items.empty()) a->fail("empty axes list: give some of x, y, z (or omit axes to fix all)");
+    sel.axes = 0;
+    for (const auto& item : items) {
+      const std::string name = item.string();
+      if (name == "x") sel.axes |= 1;
+      else if (name == "y") sel.axes |= 2;
+      else if (name == "z") sel.axes |= 4;
+      else item.fail("unknown axis '" + name + "': expected x, y or z");
+    }
+  }
+  return sel;
+}
 
 NodalLoadSpec parse_load(const Field& f) {
   const MapReader m = f.map({"box", "nodes", "force", "per_node"});

@@ -57,6 +57,7 @@ struct BoxSpec {
 struct NodeSelection {
   std::optional<BoxSpec> box;
   std::vector<int> nodes;
+  uint8_t axes = 7;  ///< `fixed:` only: constrained axes (bit 0 x, 1 y, 2 z), default all
   SourceLocation where;
 };
 

@@ -565,7 +565,7 @@ TEST(Element, LumpedMassIsQuarterOfElementMassPerNode) {
 
   const int32_t unused = nbox + 4;
   EXPECT_EQ(m.mass[unused], 0.0);
-  EXPECT_EQ(m.constrained[unused], 1);
+  EXPECT_EQ(m.constrained[unused], 7);  // all three DOFs fixed
   EXPECT_EQ(m.inv_mass[unused], 0.0);
   for (int32_t i = 0; i < m.num_nodes; ++i)
     if (i != unused) {

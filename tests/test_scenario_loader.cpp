@@ -649,5 +649,15 @@ TEST(ScenarioLoaderTools, ToolErrors) {
                "tools[0].contact.stiffness", {"out of range"});
 }
 
+TEST(ScenarioLoaderTools, FixedAxes) {
+  const ScenarioSpec s = parse_scenario(kMinimal + "    fixed:\n      - {box: {min: [0, 0, 0], max: [1, 1, 1]}, axes: [x, z]}\n      - {nodes: [3]}\n",
+                                        "a.yaml", "");
+  ASSERT_EQ(s.bodies[0].fixed.size(), 2u);
+  EXPECT_EQ(s.bodies[0].fixed[0].axes, 1 | 4);
+  EXPECT_EQ(s.bodies[0].fixed[1].axes, 7);
+  expect_error(kMinimal + "    fixed:\n      - {nodes: [3], axes: [w]}\n", 10, "bodies[0].fixed[0].axes[0]",
+               {"unknown axis 'w'"});
+}
+
 }  // namespace
 }  // namespace stroma

@@ -73,8 +73,8 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
       m.alpha[i] = b.rayleigh_mass;
       for (int k = 0; k < 3; ++k) m.f_ext[3 * i + k] += m.mass[i] * gravity[k];
     }
-    for (int32_t i : b.fixed_nodes) m.constrained[i + node_off] = 1;
-    for (int32_t i : b.mesh->unused_nodes) m.constrained[i + node_off] = 1;
+    for (const auto& [i, mask] : b.fixed) m.constrained[i + node_off] |= mask;
+    for (int32_t i : b.mesh->unused_nodes) m.constrained[i + node_off] = 7;
     for (const auto& [i, f] : b.nodal_forces)
       for (int k = 0; k < 3; ++k) m.f_ext[3 * (i + node_off) + k] += f[k];
     m.bodies.push_back(std::move(br));
@@ -84,13 +84,13 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
   m.inv_mass.resize(nn);
   for (int32_t i = 0; i < nn; ++i) {
     if (m.constrained[i]) m.constrained_nodes.push_back(i);
-    m.inv_mass[i] = (m.constrained[i] || m.mass[i] <= 0) ? 0.0 : 1.0 / m.mass[i];
+    m.inv_mass[i] = m.mass[i] <= 0 ? 0.0 : 1.0 / m.mass[i];
   }
   m.pattern = build_bsr_pattern(nn, all_tets, m.slots);
   for (int32_t i = 0; i < nn; ++i)
     for (int32_t s = m.pattern.row_ptr[i]; s < m.pattern.row_ptr[i + 1]; ++s) {
       const int32_t j = m.pattern.col[s];
-      if (i != j && (m.constrained[i] || m.constrained[j])) m.constrained_offdiag_slots.push_back(s);
+      if (i != j && (m.constrained[i] || m.constrained[j])) m.constrained_offdiag.push_back({s, i, j});
     }
   return m;
 }

@@ -17,7 +17,8 @@ struct FemBodyInput {
   RotationMethod rotation = RotationMethod::Polar;
   double young_modulus = 0, poisson_ratio = 0, density = 0;
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
-  std::vector<int32_t> fixed_nodes;      ///< local (file-order) node indices
+  /// Fixed DOFs: local (file-order) node index and axis mask (bit 0 x, 1 y, 2 z; 7 = all).
+  std::vector<std::pair<int32_t, uint8_t>> fixed;
   std::vector<std::pair<int32_t, Vec3>> nodal_forces;  ///< local node, force (N)
 };
 

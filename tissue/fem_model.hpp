@@ -52,14 +52,17 @@ struct FemModel {
   std::vector<ElementRange> ranges;         ///< kernels by range, covering all elements
   std::vector<std::array<double, 9>> rest_frame;  ///< per element, QR rotation only (else empty)
   std::vector<double> mass;                 ///< lumped mass per node (kg); 0 for unused nodes
-  std::vector<double> inv_mass;             ///< 1/mass, 0 for constrained nodes
+  std::vector<double> inv_mass;             ///< 1/mass (0 for nodes without mass)
   std::vector<double> alpha;                ///< Rayleigh mass coefficient per node
-  std::vector<uint8_t> constrained;         ///< 1: node does not move (fixed or unused)
-  std::vector<int32_t> constrained_nodes;   ///< list of the above
+  /// Per node, bit k set: DOF k (x, y, z) is fixed. 7: the node does not move (fixed or
+  /// unused by any tetrahedron).
+  std::vector<uint8_t> constrained;
+  std::vector<int32_t> constrained_nodes;   ///< nodes with any constrained DOF
   std::vector<double> f_ext;                ///< 3n constant external force (gravity + loads)
   BsrPattern pattern;
   std::vector<ElementSlots> slots;          ///< per element
-  std::vector<int32_t> constrained_offdiag_slots;  ///< slots zeroed to project constraints
+  /// Off-diagonal blocks (slot, row node, column node) touching a constrained DOF.
+  std::vector<std::array<int32_t, 3>> constrained_offdiag;
   std::vector<BodyRange> bodies;
 
   /// Number of degrees of freedom (3 per node, constrained included).

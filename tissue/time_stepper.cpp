@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "tissue/constraints.hpp"
 #include "tissue/fem_forces.hpp"
 #include "tissue/mat3.hpp"
 
@@ -54,12 +55,7 @@ void TimeStepper::build_rest_factor(double h_mass, double k_beta, double k_const
     D[4] += md;
     D[8] += md;
   }
-  for (int32_t s : m_.constrained_offdiag_slots) std::fill(A0.begin() + 9 * s, A0.begin() + 9 * s + 9, 0.0);
-  for (int32_t i : m_.constrained_nodes) {
-    double* D = A0.data() + 9 * m_.pattern.diag[i];
-    std::fill(D, D + 9, 0.0);
-    D[0] = D[4] = D[8] = 1.0;
-  }
+  stroma::project_constraints(m_, A0.data(), 1.0, false);
   if (!rest_factor_) rest_factor_ = std::make_unique<CholmodSolver>(m_.pattern);
   rest_factor_->factor(A0.data());
   rest_factor_key_[0] = h_mass;
@@ -77,7 +73,7 @@ void TimeStepper::update_node_rotations() {
   for (int32_t i = 0; i < m_.num_nodes; ++i) {
     double* R = node_rot_.data() + 9 * i;
     const int32_t e = node_element_[i];
-    if (e < 0 || m_.constrained[i]) {
+    if (e < 0 || m_.constrained[i] == 7) {
       std::fill(R, R + 9, 0.0);
       R[0] = R[4] = R[8] = 1.0;
     } else {
@@ -100,13 +96,7 @@ void TimeStepper::apply_warped(void* self, const double* r, double* z) {
 TimeStepper::~TimeStepper() = default;
 
 void TimeStepper::project_constraints(double* A, double diag_scale) {
-  for (int32_t s : m_.constrained_offdiag_slots) std::fill(A + 9 * s, A + 9 * s + 9, 0.0);
-  for (int32_t i : m_.constrained_nodes) {
-    double* D = A + 9 * m_.pattern.diag[i];
-    const double d = m_.mass[i] > 0 ? m_.mass[i] * diag_scale : diag_scale;
-    std::fill(D, D + 9, 0.0);
-    D[0] = D[4] = D[8] = d;
-  }
+  stroma::project_constraints(m_, A, diag_scale, true);
 }
 
 double TimeStepper::assemble(const TissueState& s, double h) {
@@ -170,7 +160,7 @@ double TimeStepper::assemble(const TissueState& s, double h) {
       const double mi = m_.mass[i];
       for (int k = 0; k < 3; ++k) {
         const int32_t d = 3 * i + k;
-        rhs_[d] = m_.constrained[i] ? 0.0 : h * (fe[d] + force_[d]) + mi * s.v[d] - tmp_[d];
+        rhs_[d] = dof_constrained(m_, i, k) ? 0.0 : h * (fe[d] + force_[d]) + mi * s.v[d] - tmp_[d];
       }
     }
     project_constraints(A_.data(), 1.0);
@@ -185,7 +175,7 @@ double TimeStepper::assemble(const TissueState& s, double h) {
       for (int k = 0; k < 3; ++k) {
         const int32_t d = 3 * i + k;
         const double f = fe[d] + force_[d] - am * s.v[d] - (any_beta_ ? kv_[d] : 0.0);
-        rhs_[d] = m_.constrained[i] ? 0.0 : h * f * m_.inv_mass[i];
+        rhs_[d] = dof_constrained(m_, i, k) ? 0.0 : h * f * m_.inv_mass[i];
       }
     }
   }
@@ -217,7 +207,9 @@ SolveStats TimeStepper::solve(TissueState& s) {
       }
       break;
   }
-  for (int32_t i : m_.constrained_nodes) dv[3 * i] = dv[3 * i + 1] = dv[3 * i + 2] = 0.0;
+  for (int32_t i : m_.constrained_nodes)
+    for (int k = 0; k < 3; ++k)
+      if (dof_constrained(m_, i, k)) dv[3 * i + k] = 0.0;
   if (cfg_.linear_solver == LinearSolverKind::Cholmod) {
     st.converged = cholmod_->factor(A_.data());
     if (st.converged) cholmod_->solve(rhs_.data(), dv);
@@ -231,12 +223,13 @@ SolveStats TimeStepper::solve(TissueState& s) {
 void TimeStepper::integrate(TissueState& s, double h) {
   const int32_t n = m_.num_nodes;
   for (int32_t i = 0; i < n; ++i) {
-    if (m_.constrained[i]) {
-      s.v[3 * i] = s.v[3 * i + 1] = s.v[3 * i + 2] = 0.0;
-      continue;
-    }
+    const uint8_t mask = m_.constrained[i];
     for (int k = 0; k < 3; ++k) {
       const int32_t d = 3 * i + k;
+      if ((mask >> k) & 1) {
+        s.v[d] = 0.0;  // fixed DOF: stays at its rest value
+        continue;
+      }
       s.v[d] += s.dv[d];
       s.x[d] += h * s.v[d];
     }
@@ -249,8 +242,8 @@ StaticResult TimeStepper::solve_static(TissueState& s) {
   std::fill(s.v.begin(), s.v.end(), 0.0);
   double fref = 0;
   for (int32_t i = 0; i < n; ++i)
-    if (!m_.constrained[i])
-      for (int k = 0; k < 3; ++k) fref += m_.f_ext[3 * i + k] * m_.f_ext[3 * i + k];
+    for (int k = 0; k < 3; ++k)
+      if (!dof_constrained(m_, i, k)) fref += m_.f_ext[3 * i + k] * m_.f_ext[3 * i + k];
   fref = std::sqrt(fref);
   if (fref == 0) fref = 1.0;
   CholmodSolver* direct = cholmod_.get();
@@ -274,14 +267,15 @@ StaticResult TimeStepper::solve_static(TissueState& s) {
     for (int32_t i = 0; i < n; ++i) {
       for (int k = 0; k < 3; ++k) {
         const int32_t d = 3 * i + k;
-        rhs_[d] = m_.constrained[i] ? 0.0 : m_.f_ext[d] + force_[d];
+        rhs_[d] = dof_constrained(m_, i, k) ? 0.0 : m_.f_ext[d] + force_[d];
         rn += rhs_[d] * rhs_[d];
       }
-      if (!m_.constrained[i]) {
-        const double* D = A_.data() + 9 * m_.pattern.diag[i];
-        dsum += D[0] + D[4] + D[8];
-        dcount += 3;
-      }
+      const double* D = A_.data() + 9 * m_.pattern.diag[i];
+      for (int k = 0; k < 3; ++k)
+        if (!dof_constrained(m_, i, k)) {
+          dsum += D[4 * k];
+          ++dcount;
+        }
     }
     res.relative_residual = std::sqrt(rn) / fref;
     if (!std::isfinite(res.relative_residual)) return res;
@@ -292,12 +286,7 @@ StaticResult TimeStepper::solve_static(TissueState& s) {
     if (it == cfg_.static_max_newton) break;
     // Constrained rows get the mean free diagonal: keeps CG's conditioning; rhs there is 0.
     const double scale = dcount ? dsum / dcount : 1.0;
-    for (int32_t sl : m_.constrained_offdiag_slots) std::fill(&A_[9 * sl], &A_[9 * sl] + 9, 0.0);
-    for (int32_t i : m_.constrained_nodes) {
-      double* D = A_.data() + 9 * m_.pattern.diag[i];
-      std::fill(D, D + 9, 0.0);
-      D[0] = D[4] = D[8] = scale;
-    }
+    stroma::project_constraints(m_, A_.data(), scale, false);
     std::fill(tmp_.begin(), tmp_.end(), 0.0);
     if (direct) {
       if (!direct->factor(A_.data())) return res;
