@@ -125,7 +125,16 @@ RunResult run_headless(const Model& m, const RunOptions& o) {
 
   if (m.stepper.integrator == Integrator::Static) {
     const auto t0 = Clock::now();
-    const StaticResult sr = stepper.solve_static(s.tissue);
+    // Tools hold their scripted pose at t = 0; contacts are recomputed every Newton iteration.
+    for (size_t t = 0; t < m.tools.size(); ++t)
+      if (!m.tool_scripts[t].keys.empty()) {
+        s.tools[t].pose = m.tool_scripts[t].sample(0.0);
+        s.tools[t].last_command_time = 0;
+        s.tools[t].active = true;
+      }
+    std::function<void(const TissueState&)> contacts;
+    if (m.has_contact) contacts = [&](const TissueState&) { collide(m, s, w); };
+    const StaticResult sr = stepper.solve_static(s.tissue, contacts);
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     step_ms.push_back(ms);
     stage_total[static_cast<int>(Stage::Solve)] = ms;

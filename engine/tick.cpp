@@ -55,6 +55,8 @@ bool all_finite(const std::vector<double>& a) {
 /// it out along the sphere's radius (the gradient of the sphere's distance field, so the force
 /// field is conservative), or along the inward surface normal when the sphere's centre is
 /// already below that point (deep penetration).
+}  // namespace
+
 void collide(const Model& m, State& s, TickWorkspace& w) {
   const double* x = s.tissue.x.data();
   w.bvh.refit(x);
@@ -133,8 +135,6 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   }
   w.stepper().set_contact_springs(w.springs.data(), static_cast<int>(w.springs.size()));
 }
-
-}  // namespace
 
 TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs,
                 int input_count) {

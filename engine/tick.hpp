@@ -63,6 +63,10 @@ class TickWorkspace {
   TimeStepper stepper_;
 };
 
+/// Collide stage on its own: contacts of every shaped tool at s.x into w (and the tools'
+/// contact outputs into s.tools). tick() calls it; the static solver calls it per iteration.
+void collide(const Model& m, State& s, TickWorkspace& w);
+
 /// Advances `s` by one time step of the model. `inputs` are tool commands that take effect at
 /// the start of this tick (read_inputs stage; skipped when the scene has no tools).
 TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs = nullptr,

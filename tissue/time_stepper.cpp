@@ -236,7 +236,8 @@ void TimeStepper::integrate(TissueState& s, double h) {
   }
 }
 
-StaticResult TimeStepper::solve_static(TissueState& s) {
+StaticResult TimeStepper::solve_static(TissueState& s,
+                                       const std::function<void(const TissueState&)>& before_iteration) {
   StaticResult res;
   const int32_t n = m_.num_nodes;
   std::fill(s.v.begin(), s.v.end(), 0.0);
@@ -261,7 +262,18 @@ StaticResult TimeStepper::solve_static(TissueState& s) {
     p.kvals = A_.data();
     p.k_const = 1.0;
     p.rotations = rot_.data();
+    if (before_iteration) before_iteration(s);
     elastic_pass(m_, p);
+    for (int c = 0; c < n_springs_; ++c) {  // contact: force and stiffness at this iterate
+      const ContactSpring& sp = springs_[c];
+      for (int a = 0; a < 3; ++a)
+        for (int k = 0; k < 3; ++k) force_[3 * sp.node[a] + k] += sp.w[a] * sp.force[k];
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          double* B = A_.data() + 9 * sp.slot[3 * a + b];
+          for (int k = 0; k < 9; ++k) B[k] += sp.w[a] * sp.w[b] * sp.K[k];
+        }
+    }
     double rn = 0, dsum = 0;
     int dcount = 0;
     for (int32_t i = 0; i < n; ++i) {

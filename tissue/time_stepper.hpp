@@ -9,6 +9,7 @@
 /// Symplectic Euler: v ← v + h M⁻¹ (f_ext + f(x) − C v),   x ← x + h v.
 /// Static: Newton on f_ext + f(x) = 0 with the tangent R·Ke·Rᵀ.
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -66,8 +67,11 @@ class TimeStepper {
   /// Stage "integrate": update v and x; constrained nodes keep v = 0.
   void integrate(TissueState& s, double h);
 
-  /// Newton iterations to static equilibrium from s.x (velocities zeroed).
-  StaticResult solve_static(TissueState& s);
+  /// Newton iterations to static equilibrium from s.x (velocities zeroed). `before_iteration`,
+  /// if given, runs before each iteration's assembly with the current iterate — the engine
+  /// uses it to recompute contacts (set_contact_springs) as the active set changes.
+  StaticResult solve_static(TissueState& s,
+                            const std::function<void(const TissueState&)>& before_iteration = {});
 
   /// ½ vᵀ M v.
   double kinetic_energy(const TissueState& s) const;
