@@ -68,6 +68,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
     ts.stiffness.fill(0.0);
     ts.contacts = 0;
     ts.contacts_dropped = 0;
+    ts.contact_energy = 0;
     if (spec.shape != ToolShape::Sphere || ts.last_command_time < 0) continue;
     const double* c = ts.pose.position.data();
     const double R = spec.radius;
@@ -119,6 +120,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
             sp.w[2] = v;
             for (int a = 0; a < 9; ++a) sp.slot[a] = m.collision_slots[t][a];
             const double fmag = kc * (R - dist);
+            ts.contact_energy += 0.5 * kc * (R - dist) * (R - dist);
             for (int a = 0; a < 3; ++a) {
               sp.force[a] = fmag * dir[a];
               ts.force[a] -= sp.force[a];

@@ -76,6 +76,7 @@ struct ToolState {
   std::array<double, 9> stiffness{};  ///< dF/dx of that force w.r.t. the tool position (N/m)
   int contacts = 0;                   ///< contact points (surface samples inside the tool)
   int contacts_dropped = 0;           ///< beyond the per-tick capacity (should stay 0)
+  double contact_energy = 0;          ///< penalty potential Σ ½ k (penetration)² (J)
 };
 
 /// A command that physics applies at the start of a tick (read_inputs stage).

@@ -118,3 +118,72 @@ TEST(Contact, SpherePressingTheBeamBalancesTheClampReaction) {
   // Forces on the beam: contact (−tool force) + clamp support (−reaction) sum to zero.
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(-ts.force[k] - reaction[k], 0.0, 0.01 * F) << "component " << k;
 }
+
+namespace {
+/// The liver with its probe, pressed `depth` below the top surface at (x, z) (mesh units).
+struct LiverProbe {
+  std::shared_ptr<const Model> m;
+  State s;
+  std::unique_ptr<TickWorkspace> w;
+  LiverProbe() {
+    ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+    spec.tools.at(0).spec.timeout = 100;
+    spec.tools.at(0).spec.max_speed = 1e3;
+    m = compile_model(spec);
+    s = State::initial(*m);
+    w = std::make_unique<TickWorkspace>(*m);
+  }
+  TickReport step_to(double x, double y, double z) {
+    ToolInput in;
+    in.pose.position = {x, y, z};
+    return tick(*m, s, *w, &in, 1);
+  }
+  double total_energy() const {
+    const TimeStepper& st = w->stepper();
+    return st.kinetic_energy(s.tissue) + st.elastic_energy(s.tissue) + st.external_potential(s.tissue) +
+           s.tools[0].contact_energy;
+  }
+};
+}  // namespace
+
+// Tool held still in contact for 10 s: the total energy (kinetic + elastic + gravity + contact
+// potential) does not grow.
+TEST(Contact, PassiveWhenTheToolIsHeldStill) {
+  LiverProbe lp;
+  // Come down onto the upper surface at (-1.5, ·, 0.5) and press ~0.5 units in.
+  for (int k = 0; k <= 1000; ++k) lp.step_to(-1.5, 6.0 - 1.2 * k / 1000.0, 0.5);
+  ASSERT_GT(lp.s.tools[0].contacts, 0) << "probe did not reach the liver";
+  for (int k = 0; k < 500; ++k) lp.step_to(-1.5, 4.8, 0.5);  // let the press transient pass
+  const double e0 = lp.total_energy();
+  double e_max = e0;
+  for (int k = 0; k < 10000; ++k) {
+    ASSERT_EQ(lp.step_to(-1.5, 4.8, 0.5).status == TickStatus::NonFinite, false);
+    e_max = std::max(e_max, lp.total_energy());
+  }
+  const double scale = std::fabs(e0) + lp.s.tools[0].contact_energy + 1e-12;
+  EXPECT_LE(e_max - e0, 1e-6 * scale) << "energy grew while the tool was held still";
+  EXPECT_GT(lp.s.tools[0].contacts, 0);
+}
+
+// Sliding across the surface at constant height: the force changes smoothly from tick to tick.
+TEST(Contact, ForceIsContinuousWhileSliding) {
+  LiverProbe lp;
+  for (int k = 0; k <= 1000; ++k) lp.step_to(-1.5, 6.0 - 1.2 * k / 1000.0, 0.5);
+  for (int k = 0; k < 300; ++k) lp.step_to(-1.5, 4.8, 0.5);
+  ASSERT_GT(lp.s.tools[0].contacts, 0);
+  double prev = 0, max_jump = 0, sum = 0;
+  int n = 0;
+  for (int k = 0; k <= 1000; ++k) {  // 1 unit in 1 s along x (1 mm-scale per tick)
+    lp.step_to(-1.5 + 1.0 * k / 1000.0, 4.8, 0.5);
+    const Vec3& f = lp.s.tools[0].force;
+    const double fm = std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+    if (k > 0) max_jump = std::max(max_jump, std::fabs(fm - prev));
+    prev = fm;
+    sum += fm;
+    ++n;
+  }
+  const double mean = sum / n;
+  ASSERT_GT(mean, 0.0);
+  // Stated bound: no tick-to-tick change larger than 5 % of the mean contact force.
+  EXPECT_LT(max_jump, 0.05 * mean) << "max jump " << max_jump << ", mean force " << mean;
+}
