@@ -414,8 +414,17 @@ int run_serve(const ServeOptions& o) {
       else if (rt_mode == RealtimeMode::Auto) spdlog::warn("real time not fully available, running best effort: {}", rt.problems);
     }
     std::thread publisher([&] { publisher_thread(loop, ep, surfaces, counters, status_sent); });
-    std::thread inputs([&] { input_thread(loop, ep, stop, counters); });
-    std::thread feedback([&] { feedback_thread(loop, ep); });
+    // The command and feedback paths are latency-critical too: real-time priority below the
+    // physics thread (so a busy machine delays them less), best effort if denied.
+    const RealtimeMode io_mode = rt_mode == RealtimeMode::Off ? RealtimeMode::Off : RealtimeMode::Auto;
+    std::thread inputs([&] {
+      setup_realtime_thread(io_mode, -1, 60, 64 * 1024);
+      input_thread(loop, ep, stop, counters);
+    });
+    std::thread feedback([&] {
+      setup_realtime_thread(io_mode, -1, 60, 64 * 1024);
+      feedback_thread(loop, ep);
+    });
     std::thread recorder;
     if (record) recorder = std::thread([&] { recorder_thread(loop, record, record_error); });
     spdlog::info("serving '{}' at {:.0f} Hz ({} nodes, {} tets); Ctrl-C to stop", model->spec.name,

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "engine/realtime.hpp"
 #include "engine/trajectory.hpp"
 #include "server/dds_participant.hpp"
 #include "stroma.h"
@@ -84,7 +85,11 @@ int run_tool_client(const ToolClientOptions& o) {
   std::atomic<bool> done{false};
   std::atomic<uint64_t> feedback_msgs{0};
 
+  // A haptic bridge is a real-time client: ask for SCHED_FIFO (silently best effort if denied)
+  // so the round trips measure the server, not the client's scheduling.
+  const RealtimeMode rt = o.realtime ? RealtimeMode::Auto : RealtimeMode::Off;
   std::thread receiver([&] {
+    setup_realtime_thread(rt, -1, 55, 64 * 1024);
     const dds_entity_t ws = dds_create_waitset(pp.participant);
     const dds_entity_t rc = dds_create_readcondition(reader, DDS_ANY_STATE);
     dds_waitset_attach(ws, rc, reader);
@@ -115,6 +120,7 @@ int run_tool_client(const ToolClientOptions& o) {
     }
   });
 
+  setup_realtime_thread(rt, -1, 55, 64 * 1024);
   stroma_ToolCommand msg{};
   std::snprintf(msg.tool, sizeof(msg.tool), "%s", o.name.c_str());
   uint64_t seq = 0;

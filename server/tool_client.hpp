@@ -17,6 +17,7 @@ struct ToolClientOptions {
   std::string dds_config;
   int domain = 0;
   double wait_server = 10;   ///< s to wait for the server's command reader before starting
+  bool realtime = true;      ///< try SCHED_FIFO for the send and receive threads
 };
 
 /// Runs the client; returns the exit code (0 ok, 1 no server / no feedback, 2 bad input).

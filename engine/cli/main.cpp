@@ -145,6 +145,7 @@ int main(int argc, char** argv) {
   tool->add_option("--dds-config", tco.dds_config, "Cyclone DDS XML (default: CYCLONEDDS_URI, else built-in loopback-only)")->check(CLI::ExistingFile);
   tool->add_option("--domain", tco.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
   tool->add_option("--wait", tco.wait_server, "Seconds to wait for a server")->capture_default_str();
+  tool->add_flag("!--no-realtime", tco.realtime, "Do not ask for SCHED_FIFO for the send/receive threads");
 
   try {
     app.parse(argc, argv);
