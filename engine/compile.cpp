@@ -170,6 +170,9 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
         for (const BodySpec& b : spec.bodies) e_max = std::max(e_max, b.material.young_modulus);
         model->tools.back().contact_stiffness = 100.0 * e_max / ts.radius;
       }
+      ToolSpec& t2 = model->tools.back();
+      if (t2.can_grasp && t2.grasp_stiffness == 0)
+        t2.grasp_stiffness = 0.25 * t2.contact_stiffness * t2.radius * t2.radius;
     }
     Trajectory tr;
     if (!ts.script.empty()) {

@@ -647,6 +647,19 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
     cm.read("damping", t.spec.contact_damping, at_least(0));
   }
   m.read("max_force", t.spec.max_force, greater_than(0));
+  if (auto f = m.opt("grasp")) {
+    const MapReader gm = f->map({"close", "open", "reach", "stiffness"});
+    t.spec.can_grasp = true;
+    gm.read("close", t.spec.grasp_close, at_least(0));
+    gm.read("open", t.spec.grasp_open, greater_than(0));
+    gm.read("reach", t.spec.grasp_reach, greater_than(0));
+    gm.read("stiffness", t.spec.grasp_stiffness, greater_than(0));
+    if (t.spec.grasp_open <= t.spec.grasp_close)
+      gm.req("open").fail("open must be greater than close (hysteresis), got open = " +
+                          format_number(t.spec.grasp_open) + ", close = " + format_number(t.spec.grasp_close));
+    if (t.spec.shape == ToolShape::None)
+      f->fail("a grasping tool needs a shape (shape: {type: sphere, radius: ...})");
+  }
   return t;
 }
 
@@ -695,7 +708,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   std::map<std::string, int> tool_names;
   for (const auto& item : m.list("tools")) {
     const MapReader tm = item.map({"name", "script", "workspace", "max_speed", "timeout", "on_invalid",
-                                   "shape", "contact", "max_force"});
+                                   "shape", "contact", "max_force", "grasp"});
     s.tools.push_back(parse_tool(tm, ctx));
     check_unique_name(tool_names, s.tools.back().spec.name, tm.req("name"), "tool");
   }

@@ -49,6 +49,117 @@ bool all_finite(const std::vector<double>& a) {
   return acc == 0.0;
 }
 
+namespace {
+
+/// Subdivision of collision triangle t for a tool of radius R (see Model::kContactSamplesPerRadius).
+inline int samples_per_edge(const Model& m, int32_t t, double R) {
+  return std::clamp(static_cast<int>(std::ceil(m.collision_edge[t] * Model::kContactSamplesPerRadius / R)), 1, 24);
+}
+
+/// Calls f(u, v) for the centroids of the s² sub-triangles of a triangle (composite midpoint
+/// rule), in barycentric coordinates of vertices 1 and 2.
+template <class F>
+inline void for_each_sample(int ns, F&& f) {
+  const double inv = 1.0 / ns;
+  for (int i = 0; i < ns; ++i)
+    for (int j = 0; j < ns - i; ++j) {
+      f((i + 1.0 / 3.0) * inv, (j + 1.0 / 3.0) * inv);
+      if (j < ns - i - 1) f((i + 2.0 / 3.0) * inv, (j + 2.0 / 3.0) * inv);
+    }
+}
+
+/// A spring pulling the surface point (triangle t, barycentric u, v) towards `target`.
+ContactSpring point_spring(const Model& m, int32_t t, double u, double v, const double* x,
+                           const double* target, double k) {
+  ContactSpring sp;
+  const auto& tri = m.collision_triangles[t];
+  sp.w[0] = 1.0 - u - v;
+  sp.w[1] = u;
+  sp.w[2] = v;
+  for (int a = 0; a < 3; ++a) sp.node[a] = tri[a];
+  for (int a = 0; a < 9; ++a) sp.slot[a] = m.collision_slots[t][a];
+  for (int k3 = 0; k3 < 3; ++k3) {
+    double p = 0;
+    for (int a = 0; a < 3; ++a) p += sp.w[a] * x[3 * tri[a] + k3];
+    sp.force[k3] = k * (target[k3] - p);
+    sp.K[4 * k3] = k;
+  }
+  return sp;
+}
+
+/// Grasp logic of one tool: on the open → closed jaw transition, attach the surface points
+/// within reach of the tip (closest first, offsets in the tool frame); on opening, release.
+/// While points are held, each gets a spring to its attachment point. Returns true while holding.
+bool grasp(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, TickWorkspace& w) {
+  const double* c = ts.pose.position.data();
+  double Rm[9];
+  quaternion_to_matrix(ts.pose.orientation, Rm);
+  const bool closed_now = ts.pose.jaw < spec.grasp_close;
+  const bool open_now = ts.pose.jaw > spec.grasp_open;
+  if (closed_now && !ts.jaw_closed) {
+    ts.jaw_closed = true;
+    ts.grasped = 0;
+    const double reach = spec.grasp_reach * spec.radius;
+    std::array<double, kMaxGrasped> dist2{};
+    w.bvh.query_sphere(c, reach, x, [&](int32_t t) {
+      const auto& tri = m.collision_triangles[t];
+      for_each_sample(samples_per_edge(m, t, spec.radius), [&](double u, double v) {
+        double d[3], d2 = 0;
+        for (int k = 0; k < 3; ++k) {
+          d[k] = (1 - u - v) * x[3 * tri[0] + k] + u * x[3 * tri[1] + k] + v * x[3 * tri[2] + k] - c[k];
+          d2 += d[k] * d[k];
+        }
+        if (d2 > reach * reach) return;
+        // Keep the kMaxGrasped closest points (insertion into a sorted fixed array).
+        int pos = ts.grasped;
+        if (pos == kMaxGrasped) {
+          if (d2 >= dist2[kMaxGrasped - 1]) return;
+          pos = kMaxGrasped - 1;
+        } else {
+          ++ts.grasped;
+        }
+        while (pos > 0 && dist2[pos - 1] > d2) {
+          dist2[pos] = dist2[pos - 1];
+          ts.grasp_triangle[pos] = ts.grasp_triangle[pos - 1];
+          ts.grasp_uv[pos] = ts.grasp_uv[pos - 1];
+          ts.grasp_offset[pos] = ts.grasp_offset[pos - 1];
+          --pos;
+        }
+        dist2[pos] = d2;
+        ts.grasp_triangle[pos] = t;
+        ts.grasp_uv[pos] = {u, v};
+        for (int k = 0; k < 3; ++k)  // offset in the tool frame: Rᵀ d
+          ts.grasp_offset[pos][k] = Rm[k] * d[0] + Rm[3 + k] * d[1] + Rm[6 + k] * d[2];
+      });
+    });
+  } else if (open_now && ts.jaw_closed) {
+    ts.jaw_closed = false;
+    ts.grasped = 0;  // release
+  }
+  if (ts.grasped == 0) return false;
+  const double kg = spec.grasp_stiffness;
+  for (int i = 0; i < ts.grasped; ++i) {
+    if (w.springs.size() == w.springs.capacity()) {
+      ++ts.contacts_dropped;
+      continue;
+    }
+    const Vec3& o = ts.grasp_offset[i];
+    double target[3];
+    for (int k = 0; k < 3; ++k) target[k] = c[k] + Rm[3 * k] * o[0] + Rm[3 * k + 1] * o[1] + Rm[3 * k + 2] * o[2];
+    const ContactSpring sp = point_spring(m, ts.grasp_triangle[i], ts.grasp_uv[i][0], ts.grasp_uv[i][1], x, target, kg);
+    for (int k = 0; k < 3; ++k) {
+      ts.force[k] -= sp.force[k];
+      ts.stiffness[4 * k] -= kg;
+      ts.contact_energy += 0.5 * sp.force[k] * sp.force[k] / kg;
+    }
+    w.springs.push_back(sp);
+    ++ts.contacts;
+  }
+  return true;
+}
+
+}  // namespace
+
 /// Collide stage: each shaped tool against the surface triangles (BVH-culled). Each candidate
 /// triangle is sampled at the centroids of its s² sub-triangles (composite midpoint rule); a
 /// sample inside the sphere gets a penalty pressure k·depth over its share of the area, pushing
@@ -72,6 +183,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
     if (spec.shape != ToolShape::Sphere || ts.last_command_time < 0) continue;
     const double* c = ts.pose.position.data();
     const double R = spec.radius;
+    if (spec.can_grasp && grasp(m, spec, ts, x, w)) continue;  // holding tissue: no tip contact
     w.bvh.query_sphere(c, R, x, [&](int32_t t) {
       const auto& tri = m.collision_triangles[t];
       const double* p0 = x + 3 * tri[0];
@@ -83,17 +195,10 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
       const double twice_area = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
       if (twice_area <= 0) return;
       for (double& v : nrm) v /= twice_area;
-      const int ns = std::clamp(static_cast<int>(std::ceil(m.collision_edge[t] * Model::kContactSamplesPerRadius / R)), 1, 24);
-      const double inv_ns = 1.0 / ns;
-      const double sample_area = 0.5 * twice_area * inv_ns * inv_ns;
+      const int ns = samples_per_edge(m, t, R);
+      const double sample_area = 0.5 * twice_area / (ns * ns);
       const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;
-      // Sub-triangle centroids in barycentric coordinates (u, v): upward and downward cells.
-      for (int i = 0; i < ns; ++i)
-        for (int j = 0; j < ns - i; ++j)
-          for (int up = 0; up < 2; ++up) {
-            if (up && j == ns - i - 1) continue;
-            const double u = up ? (i + 2.0 / 3.0) * inv_ns : (i + 1.0 / 3.0) * inv_ns;
-            const double v = up ? (j + 2.0 / 3.0) * inv_ns : (j + 1.0 / 3.0) * inv_ns;
+      for_each_sample(ns, [&](double u, double v) {
             const double w0 = 1.0 - u - v;
             double q[3], d[3];
             for (int a = 0; a < 3; ++a) {
@@ -101,10 +206,10 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
               d[a] = q[a] - c[a];
             }
             const double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            if (dist2 >= R * R) continue;
+            if (dist2 >= R * R) return;
             if (w.springs.size() == w.springs.capacity()) {
               ++ts.contacts_dropped;
-              continue;
+              return;
             }
             const double dist = std::sqrt(dist2);
             double dir[3];
@@ -132,7 +237,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
             }
             w.springs.push_back(sp);
             ++ts.contacts;
-          }
+      });
     });
   }
   w.stepper().set_contact_springs(w.springs.data(), static_cast<int>(w.springs.size()));

@@ -59,4 +59,11 @@ ToolCheck validate_tool_command(const ToolSpec& spec, const ToolPose& last, doub
   return c;
 }
 
+void quaternion_to_matrix(const std::array<double, 4>& q, double* R) {
+  const double w = q[0], x = q[1], y = q[2], z = q[3];
+  R[0] = 1 - 2 * (y * y + z * z); R[1] = 2 * (x * y - w * z);     R[2] = 2 * (x * z + w * y);
+  R[3] = 2 * (x * y + w * z);     R[4] = 1 - 2 * (x * x + z * z); R[5] = 2 * (y * z - w * x);
+  R[6] = 2 * (x * z - w * y);     R[7] = 2 * (y * z + w * x);     R[8] = 1 - 2 * (x * x + y * y);
+}
+
 }  // namespace stroma

@@ -49,7 +49,19 @@ struct ToolSpec {
                                  ///< 0 = automatic: 100·E/radius of the stiffest body
   double contact_damping = 0;    ///< pressure per penetration rate (Pa·s/m), normal direction
   double max_force = 10;         ///< N: the feedback force is clamped to this magnitude
+  // Grasping (`grasp:` section): closing the jaws (opening below `close`) attaches the surface
+  // points within `reach`·radius of the tip (the contact samples of the surface triangles,
+  // closest first), each by a spring to where it was in the tool's frame; opening above `open`
+  // releases them. While grasping, the tip's contact is off.
+  bool can_grasp = false;
+  double grasp_close = 0.05;     ///< rad
+  double grasp_open = 0.1;       ///< rad (hysteresis: > grasp_close)
+  double grasp_reach = 1.2;      ///< × radius
+  double grasp_stiffness = 0;    ///< N/m per point; 0 = automatic (contact stiffness × radius² / 4)
 };
+
+/// Surface points a tool can hold at once (fixed so the state has no heap memory per grasp).
+inline constexpr int kMaxGrasped = 64;
 
 /// Outcome of validating one command.
 struct ToolCheck {
@@ -77,7 +89,17 @@ struct ToolState {
   int contacts = 0;                   ///< contact points (surface samples inside the tool)
   int contacts_dropped = 0;           ///< beyond the per-tick capacity (should stay 0)
   double contact_energy = 0;          ///< penalty potential Σ ½ k (penetration)² (J)
+  // Grasp: attached surface points (collision triangle + barycentric u, v) and their offsets in
+  // the tool frame at the moment of grasping.
+  bool jaw_closed = false;  ///< for the open → closed transition that grasps
+  int grasped = 0;
+  std::array<int32_t, kMaxGrasped> grasp_triangle{};
+  std::array<std::array<double, 2>, kMaxGrasped> grasp_uv{};
+  std::array<Vec3, kMaxGrasped> grasp_offset{};
 };
+
+/// Rotation matrix (row-major) of a unit quaternion (w, x, y, z).
+void quaternion_to_matrix(const std::array<double, 4>& q, double* R);
 
 /// A command that physics applies at the start of a tick (read_inputs stage).
 struct ToolInput {

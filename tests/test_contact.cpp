@@ -187,3 +187,50 @@ TEST(Contact, ForceIsContinuousWhileSliding) {
   // Stated bound: no tick-to-tick change larger than 5 % of the mean contact force.
   EXPECT_LT(max_jump, 0.05 * mean) << "max jump " << max_jump << ", mean force " << mean;
 }
+
+// Grasp-and-lift keeps hold; opening the jaws lets go.
+TEST(Contact, GraspAndLiftHoldsAndReleaseLetsGo) {
+  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  spec.tools.at(0).spec.timeout = 100;
+  spec.tools.at(0).spec.max_speed = 1e3;
+  spec.tools.at(0).spec.can_grasp = true;
+  auto m = compile_model(spec);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  auto step = [&](double y, double jaw) {
+    ToolInput in;
+    in.pose.position = {-1.5, y, 0.5};
+    in.pose.jaw = jaw;
+    ASSERT_NE(tick(*m, s, w, &in, 1).status, TickStatus::NonFinite);
+  };
+  for (int k = 0; k <= 1000; ++k) step(6.0 - 1.2 * k / 1000.0, 0.3);  // press, jaws open
+  for (int k = 0; k < 300; ++k) step(4.8, 0.3);
+  ASSERT_GT(s.tools[0].contacts, 0);
+  EXPECT_EQ(s.tools[0].grasped, 0) << "open jaws hold nothing";
+  step(4.8, 0.0);  // close
+  const int held = s.tools[0].grasped;
+  ASSERT_GT(held, 0) << "closing on tissue grasps surface nodes";
+  const ToolState grasped = s.tools[0];
+  auto mean_y = [&] {  // mean height of the grasped surface points
+    double y = 0;
+    for (int i = 0; i < held; ++i) {
+      const auto& tri = m->collision_triangles[grasped.grasp_triangle[i]];
+      const double u = grasped.grasp_uv[i][0], v = grasped.grasp_uv[i][1];
+      y += (1 - u - v) * s.tissue.x[3 * tri[0] + 1] + u * s.tissue.x[3 * tri[1] + 1] + v * s.tissue.x[3 * tri[2] + 1];
+    }
+    return y / held;
+  };
+  const double y0 = mean_y();
+  const double lift = 1.0;
+  for (int k = 1; k <= 500; ++k) step(4.8 + lift * k / 500.0, 0.0);  // lift 1 unit in 0.5 s
+  for (int k = 0; k < 500; ++k) step(4.8 + lift, 0.0);
+  EXPECT_EQ(s.tools[0].grasped, held) << "hold kept while lifting";
+  EXPECT_GT(mean_y() - y0, 0.7 * lift) << "grasped tissue follows the lift";
+  EXPECT_LT(s.tools[0].force[1], 0.0) << "the lifted tissue pulls the tool down";
+  const double lifted = mean_y() - y0;
+  for (int k = 0; k < 4000; ++k) step(4.8 + lift, 0.3);  // open and wait (the liver is heavily damped)
+  EXPECT_EQ(s.tools[0].grasped, 0);
+  // Released, the tissue falls back towards its free shape (which is above y0: y0 was measured
+  // while the probe pressed it down), dropping well below the lifted height.
+  EXPECT_LT(mean_y() - y0, 0.5 * lifted) << "released tissue falls back";
+}

@@ -659,5 +659,18 @@ TEST(ScenarioLoaderTools, FixedAxes) {
                {"unknown axis 'w'"});
 }
 
+TEST(ScenarioLoaderTools, GraspSection) {
+  const ScenarioSpec s = parse_scenario(kMinimal + "tools:\n  - name: g\n    shape: {type: sphere, radius: 0.01}\n    grasp: {close: 0.02, open: 0.2, reach: 1.5}\n",
+                                        "a.yaml", "");
+  const ToolSpec& t = s.tools.at(0).spec;
+  EXPECT_TRUE(t.can_grasp);
+  EXPECT_DOUBLE_EQ(t.grasp_close, 0.02);
+  EXPECT_DOUBLE_EQ(t.grasp_open, 0.2);
+  EXPECT_DOUBLE_EQ(t.grasp_reach, 1.5);
+  expect_error(kMinimal + "tools:\n  - name: g\n    shape: {type: sphere, radius: 0.01}\n    grasp: {close: 0.2, open: 0.1}\n",
+               12, "tools[0].grasp.open", {"open must be greater than close"});
+  expect_error(kMinimal + "tools:\n  - name: g\n    grasp: {}\n", 11, "tools[0].grasp", {"needs a shape"});
+}
+
 }  // namespace
 }  // namespace stroma
