@@ -118,6 +118,10 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
   }
   for (size_t bi = 0; bi < inputs.size(); ++bi) inputs[bi].mesh = &meshes[bi];
   model->fem = build_fem_model(inputs, spec.gravity);
+  for (const BodySpec& b : spec.bodies) {
+    model->body_damage.push_back(b.material.damage);
+    model->has_damage = model->has_damage || b.material.damage.enabled;
+  }
 
   model->body_tets.resize(meshes.size());
   for (size_t bi = 0; bi < meshes.size(); ++bi) {

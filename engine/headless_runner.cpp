@@ -60,6 +60,7 @@ class MetricsWriter {
     for (int s = 0; s < kStageCount; ++s) buf_ += fmt::format(",{}_ms", stage_name(static_cast<Stage>(s)));
     for (const ProbeModel& p : m.probes) buf_ += fmt::format(",{0}_dx,{0}_dy,{0}_dz", p.name);
     for (const ToolSpec& t : m.tools) buf_ += fmt::format(",{0}_fx,{0}_fy,{0}_fz,{0}_contacts", t.name);
+    if (m.has_damage) buf_ += ",elements_warned,elements_damaged,elements_ruptured";
     buf_ += '\n';
   }
   ~MetricsWriter() {
@@ -196,6 +197,8 @@ RunResult run_headless(const Model& m, const RunOptions& o) {
         }
         for (const ToolState& t : s.tools)
           fmt::format_to(std::back_inserter(b), ",{:.9e},{:.9e},{:.9e},{}", t.force[0], t.force[1], t.force[2], t.contacts);
+        if (m.has_damage)
+          fmt::format_to(std::back_inserter(b), ",{},{},{}", s.damage_count[1], s.damage_count[2], s.damage_count[3]);
         b += '\n';
         metrics->maybe_flush();
         add_io(t0);
@@ -260,6 +263,11 @@ RunResult run_headless(const Model& m, const RunOptions& o) {
       probes[p.name] = {{"position", {pos[0], pos[1], pos[2]}}, {"displacement", {d[0], d[1], d[2]}}};
     }
     j["probes"] = probes;
+    if (m.has_damage)
+      j["damage"] = {{"elements_warned", s.damage_count[1]},
+                     {"elements_damaged", s.damage_count[2]},
+                     {"elements_ruptured", s.damage_count[3]},
+                     {"first_onset_time", s.first_damage_time}};
     std::ofstream f(fs::path(o.out_dir) / "summary.json");
     f << j.dump(2) << '\n';
     if (!f) throw std::runtime_error(fmt::format("cannot write '{}'", (fs::path(o.out_dir) / "summary.json").string()));

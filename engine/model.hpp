@@ -31,6 +31,8 @@ struct Model {
   std::vector<ProbeModel> probes;
   std::vector<ToolSpec> tools;            ///< the scenario's tools, in order
   std::vector<Trajectory> tool_scripts;   ///< per tool; empty keys when it has no script
+  std::vector<DamageSpec> body_damage;    ///< per body (enabled = false: no damage model)
+  bool has_damage = false;                ///< some body has a damage model: damage stage runs
   bool has_contact = false;               ///< some tool has a shape: collide stage and BVH exist
   std::vector<std::array<int32_t, 3>> collision_triangles;  ///< all bodies' surfaces (outward)
   std::vector<std::array<int32_t, 9>> collision_slots;      ///< BSR slots of each triangle's node pairs

@@ -176,6 +176,8 @@ const Choices<WarmStart> kWarmStarts = {{"extrapolate", WarmStart::Extrapolate},
                                         {"off", WarmStart::Off},
                                         {"true", WarmStart::Extrapolate},
                                         {"false", WarmStart::Off}};
+const Choices<DamageMeasure> kDamageMeasures = {{"von_mises", DamageMeasure::VonMises},
+                                                {"principal_strain", DamageMeasure::PrincipalStrain}};
 const Choices<ElementModel> kElementModels = {{"corotational", ElementModel::Corotational},
                                               {"linear", ElementModel::Linear}};
 const Choices<RotationMethod> kRotationMethods = {{"polar", RotationMethod::Polar},
@@ -490,7 +492,7 @@ SolverSpec parse_solver(const Field& f) {
 
 MaterialSpec parse_material(const Field& f) {
   const MapReader m = f.map({"model", "rotation", "young_modulus", "poisson_ratio", "density",
-                             "rayleigh_mass", "rayleigh_stiffness"});
+                             "rayleigh_mass", "rayleigh_stiffness", "damage"});
   MaterialSpec mat;
   mat.where = m.location();
   Range nu = open_interval(-1, 0.5);
@@ -502,6 +504,22 @@ MaterialSpec parse_material(const Field& f) {
   m.require("density", mat.density, greater_than(0));
   m.read("rayleigh_mass", mat.rayleigh_mass, at_least(0));
   m.read("rayleigh_stiffness", mat.rayleigh_stiffness, at_least(0));
+  if (auto f2 = m.opt("damage")) {
+    const MapReader dm = f2->map({"measure", "warning", "onset", "rupture"});
+    DamageSpec& d = mat.damage;
+    d.enabled = true;
+    dm.read("measure", d.measure, kDamageMeasures);
+    dm.require("onset", d.onset, greater_than(0));
+    dm.require("rupture", d.rupture, greater_than(0));
+    dm.read("warning", d.warning, greater_than(0));
+    if (d.rupture <= d.onset)
+      dm.req("rupture").fail("rupture = " + format_number(d.rupture) + " must be greater than onset = " +
+                             format_number(d.onset));
+    if (d.warning > d.onset)
+      dm.req("warning").fail("warning = " + format_number(d.warning) + " must not exceed onset = " +
+                             format_number(d.onset) + " (it warns before harm)");
+    if (d.warning == 0) d.warning = d.onset;
+  }
   return mat;
 }
 

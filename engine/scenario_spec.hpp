@@ -35,6 +35,23 @@ struct SolverSpec {
   int static_max_newton = 50;     ///< static: Newton iteration cap
 };
 
+/// Which per-element quantity damage thresholds apply to.
+enum class DamageMeasure {
+  VonMises,         ///< von Mises stress of the corotated small strain (Pa)
+  PrincipalStrain   ///< largest principal value of the corotated small strain (–)
+};
+
+/// `material.damage:` section: thresholds on a per-element measure. Between onset and rupture
+/// the damage variable d = (m − onset)/(rupture − onset) grows (never decreases) and scales the
+/// element's stiffness by (1 − d); at rupture (d = 1) the element carries no stiffness.
+struct DamageSpec {
+  bool enabled = false;
+  DamageMeasure measure = DamageMeasure::VonMises;
+  double warning = 0;  ///< reported before harm (≤ onset); 0 = onset
+  double onset = 0;
+  double rupture = 0;
+};
+
 /// `material:` section of a body.
 struct MaterialSpec {
   ElementModel model = ElementModel::Corotational;
@@ -44,6 +61,7 @@ struct MaterialSpec {
   double density = 0;              ///< kg/m^3, required, > 0
   double rayleigh_mass = 0;        ///< α in C = αM + βK, ≥ 0
   double rayleigh_stiffness = 0;   ///< β in C = αM + βK, ≥ 0
+  DamageSpec damage;
   SourceLocation where;
 };
 

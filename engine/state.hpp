@@ -3,6 +3,7 @@
 /// The small mutable simulation state (as MuJoCo's mjData): copy it to snapshot, assign it
 /// back to roll back. Scratch memory lives elsewhere (TimeStepper), so copies stay small.
 
+#include <array>
 #include <cstdint>
 
 #include "engine/model.hpp"
@@ -14,12 +15,25 @@ namespace stroma {
 struct State {
   TissueState tissue;  ///< positions, velocities, solver warm start
   std::vector<ToolState> tools;  ///< one per scenario tool
+  // Damage (empty when no body has a damage model):
+  std::vector<float> damage;          ///< per element d ∈ [0, 1]; stiffness × (1 − d)
+  std::vector<float> stiffness_scale; ///< per element 1 − d (what the element pass reads)
+  std::vector<uint8_t> damage_level;  ///< per element DamageLevel
+  std::array<int64_t, 4> damage_count{};  ///< elements that reached warned / damaged / ruptured
+  double first_damage_time = -1;      ///< sim time of the first onset (−1: none)
   double time = 0;     ///< simulated time (s)
   int64_t step = 0;    ///< ticks done
 
   /// The initial state of a model: every body at rest in its rest configuration.
   static State initial(const Model& m) {
-    State s{TissueState::at_rest(m.fem), std::vector<ToolState>(m.tools.size()), 0.0, 0};
+    State s;
+    s.tissue = TissueState::at_rest(m.fem);
+    s.tools.assign(m.tools.size(), ToolState{});
+    if (m.has_damage) {
+      s.damage.assign(m.fem.elements.size(), 0.0f);
+      s.stiffness_scale.assign(m.fem.elements.size(), 1.0f);
+      s.damage_level.assign(m.fem.elements.size(), 0);
+    }
     return s;
   }
 };

@@ -1,5 +1,7 @@
 #include "engine/tick.hpp"
 
+#include "engine/damage.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -249,6 +251,7 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
   const int64_t t0 = now_ns();
   const double h = m.time_step;
   TimeStepper& stepper = w.stepper();
+  stepper.set_element_scale(m.has_damage ? s.stiffness_scale.data() : nullptr);
   if (!m.tools.empty()) {
     StageTimer t(r, Stage::ReadInputs);
     for (int i = 0; i < input_count; ++i) {
@@ -287,9 +290,14 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
     StageTimer t(r, Stage::Integrate);
     stepper.integrate(s.tissue, h);
   }
-  // damage, hand_off: nothing to do headless without damage models or subscribers → skipped.
   s.time = static_cast<double>(s.step + 1) * h;
   ++s.step;
+  if (m.has_damage) {
+    StageTimer t(r, Stage::Damage);
+    r.damage_events = update_damage(m, s);
+    for (size_t e = 0; e < s.damage.size(); ++e) s.stiffness_scale[e] = 1.0f - s.damage[e];
+  }
+  // hand_off: the server's physics loop does it (headless: nothing to hand off).
   if (!r.solve.converged) r.status = TickStatus::SolverNotConverged;
   r.total_ns = now_ns() - t0;
   return r;

@@ -38,6 +38,7 @@ struct TickReport {
   double elastic_energy = 0;                ///< at the state the tick started from
   std::array<int64_t, kStageCount> stage_ns{};  ///< wall time per stage
   std::array<bool, kStageCount> stage_ran{};    ///< false: skipped (nothing to do)
+  int damage_events = 0;                        ///< elements reaching a new damage level
   int64_t total_ns = 0;
 };
 

@@ -672,5 +672,23 @@ TEST(ScenarioLoaderTools, GraspSection) {
   expect_error(kMinimal + "tools:\n  - name: g\n    grasp: {}\n", 11, "tools[0].grasp", {"needs a shape"});
 }
 
+TEST(ScenarioLoaderTools, DamageThresholds) {
+  const std::string mat = "      young_modulus: 1.0e7\n";
+  const ScenarioSpec s = parse_scenario(
+      replace(kMinimal, mat, mat + "      damage: {measure: von_mises, warning: 1000, onset: 2000, rupture: 8000}\n"), "a.yaml", "");
+  const DamageSpec& d = s.bodies[0].material.damage;
+  EXPECT_TRUE(d.enabled);
+  EXPECT_EQ(d.measure, DamageMeasure::VonMises);
+  EXPECT_DOUBLE_EQ(d.warning, 1000);
+  EXPECT_DOUBLE_EQ(d.onset, 2000);
+  EXPECT_DOUBLE_EQ(d.rupture, 8000);
+  expect_error(replace(kMinimal, mat, mat + "      damage: {onset: 8000, rupture: 2000}\n"), 7,
+               "bodies[0].material.damage.rupture", {"must be greater than onset"});
+  expect_error(replace(kMinimal, mat, mat + "      damage: {warning: 9000, onset: 2000, rupture: 8000}\n"), 7,
+               "bodies[0].material.damage.warning", {"must not exceed onset"});
+  expect_error(replace(kMinimal, mat, mat + "      damage: {measure: tresca, onset: 1, rupture: 2}\n"), 7,
+               "bodies[0].material.damage.measure", {"unknown measure 'tresca'", "principal_strain"});
+}
+
 }  // namespace
 }  // namespace stroma

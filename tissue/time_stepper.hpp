@@ -59,6 +59,9 @@ class TimeStepper {
     n_springs_ = n;
   }
 
+  /// Per-element stiffness multipliers (damage) for the following assemblies; null = none.
+  void set_element_scale(const float* scale) { scale_ = scale; }
+
   /// Stage "assemble": element pass at the current state and the step's right-hand side.
   /// Returns the elastic energy at s.x (before the step).
   double assemble(const TissueState& s, double h);
@@ -100,6 +103,7 @@ class TimeStepper {
   const FemModel& m_;
   StepperSettings cfg_;
   bool any_beta_ = false;
+  const float* scale_ = nullptr;
   const ContactSpring* springs_ = nullptr;
   int n_springs_ = 0;
   std::vector<double> force_, kv_, rhs_, A_, rot_, tmp_;

@@ -45,7 +45,8 @@ long allocations_during_ticks(ScenarioSpec spec, int ticks) {
     for (size_t t = 0; t < m->tools.size(); ++t) {
       inputs[n].tool = static_cast<int32_t>(t);
       inputs[n].seq = static_cast<uint64_t>(k + 1);
-      inputs[n].pose.position = {0.1 * k / ticks, 7.0, 0.5};
+      inputs[n].pose.position = {-1.5, 5.5 - 1.0 * k / ticks, 0.5};  // into the liver: contact
+      inputs[n].pose.jaw = k < ticks / 2 ? 0.3 : 0.0;                  // then grasp
       ++n;
     }
     tick(*m, s, w, inputs.data(), n);
@@ -73,6 +74,13 @@ TEST(NoAllocation, BlockJacobiQrRotationSymplectic) {
   s.solver.integrator = Integrator::SymplecticEuler;
   s.time_step = 1e-5;
   EXPECT_EQ(allocations_during_ticks(s, 100), 0);
+}
+
+TEST(NoAllocation, ContactGraspAndDamageStages) {
+  ScenarioSpec s = load_scenario(kDir + "regression/liver_probe_damage.yaml");
+  s.tools[0].spec.can_grasp = true;
+  s.tools[0].spec.max_speed = 1e3;
+  EXPECT_EQ(allocations_during_ticks(s, 300), 0);
 }
 
 // The counter works (so a zero above means something).

@@ -1,0 +1,80 @@
+#include "engine/damage.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "tissue/rotation.hpp"
+
+namespace stroma {
+
+double element_damage_measure(const Model& m, const double* x, int32_t e, DamageMeasure measure) {
+  const ElementParams& ep = m.fem.elements[e];
+  const double* x0 = x + 3 * ep.node[0];
+  double F[9];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      double v = 0;
+      for (int a = 0; a < 3; ++a) v += (x[3 * ep.node[a + 1] + i] - x0[i]) * ep.g[3 * a + j];
+      F[3 * i + j] = v;
+    }
+  double R[9];
+  polar_rotation(F, R);
+  double S[9];
+  m3::mul_tn(R, F, S);
+  double eps[9];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) eps[3 * i + j] = 0.5 * (S[3 * i + j] + S[3 * j + i]) - (i == j ? 1.0 : 0.0);
+  if (measure == DamageMeasure::VonMises) {
+    const double tr = eps[0] + eps[4] + eps[8];
+    double s[9];
+    for (int k = 0; k < 9; ++k) s[k] = 2.0 * ep.mu * eps[k];
+    s[0] += ep.lambda * tr;
+    s[4] += ep.lambda * tr;
+    s[8] += ep.lambda * tr;
+    const double a = s[0] - s[4], b = s[4] - s[8], c = s[8] - s[0];
+    return std::sqrt(0.5 * (a * a + b * b + c * c) + 3.0 * (s[1] * s[1] + s[2] * s[2] + s[5] * s[5]));
+  }
+  // Largest principal strain: eigenvalues of the symmetric ε by the fixed-sweep Jacobi kernel.
+  double E[9][1], V[9][1];
+  for (int k = 0; k < 9; ++k) {
+    E[k][0] = eps[k];
+    V[k][0] = (k % 4 == 0) ? 1.0 : 0.0;
+  }
+  for (int k = 0; k < kPolarSweeps; ++k) {
+    detail::jacobi_rotate<0, 1>(E, V);
+    detail::jacobi_rotate<0, 2>(E, V);
+    detail::jacobi_rotate<1, 2>(E, V);
+  }
+  return std::max(E[0][0], std::max(E[4][0], E[8][0]));
+}
+
+int update_damage(const Model& m, State& s) {
+  int events = 0;
+  const double* x = s.tissue.x.data();
+  for (size_t b = 0; b < m.body_damage.size(); ++b) {
+    const DamageSpec& d = m.body_damage[b];
+    if (!d.enabled) continue;
+    const BodyRange& br = m.fem.bodies[b];
+    for (int32_t e = br.element_begin; e < br.element_end; ++e) {
+      if (s.damage_level[e] == kRuptured) continue;
+      const double v = element_damage_measure(m, x, e, d.measure);
+      uint8_t level = s.damage_level[e];
+      if (v >= d.warning && level < kWarned) level = kWarned;
+      if (v >= d.onset) {
+        const float dd = static_cast<float>(std::min(1.0, (v - d.onset) / (d.rupture - d.onset)));
+        s.damage[e] = std::max(s.damage[e], dd);  // irreversible
+        if (level < kDamaged) level = kDamaged;
+        if (s.damage[e] >= 1.0f) level = kRuptured;
+      }
+      if (level != s.damage_level[e]) {
+        ++events;
+        for (uint8_t l = s.damage_level[e] + 1; l <= level; ++l) ++s.damage_count[l];
+        if (level >= kDamaged && s.first_damage_time < 0) s.first_damage_time = s.time;
+        s.damage_level[e] = level;
+      }
+    }
+  }
+  return events;
+}
+
+}  // namespace stroma

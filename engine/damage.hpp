@@ -1,0 +1,29 @@
+#pragma once
+/// \file damage.hpp
+/// Tissue damage (issue 4): per-element measures from the corotated strain — von Mises stress
+/// or the largest principal strain — compared with each body's thresholds after every tick
+/// (the "damage" stage). Above onset a damage variable d ∈ [0, 1] grows irreversibly and the
+/// element's stiffness is scaled by (1 − d); at rupture d = 1 and the element carries no load.
+/// Only bodies with a `damage:` section are visited: a scene pays only for what it uses.
+///
+/// Not yet: removing ruptured elements' mass and re-extracting the surface (so tools and the
+/// renderer see the cut); damage events on DDS.
+
+#include <cstdint>
+
+#include "engine/model.hpp"
+#include "engine/state.hpp"
+
+namespace stroma {
+
+/// Element damage levels, in the order they are reached.
+enum DamageLevel : uint8_t { kIntact = 0, kWarned = 1, kDamaged = 2, kRuptured = 3 };
+
+/// Per-element measure of the body's DamageMeasure at positions x (polar rotation recomputed).
+double element_damage_measure(const Model& m, const double* x, int32_t element, DamageMeasure measure);
+
+/// The damage stage: updates s.damage / s.damage_level / counters from the current positions.
+/// Returns how many elements reached a new level this tick. No allocation.
+int update_damage(const Model& m, State& s);
+
+}  // namespace stroma
