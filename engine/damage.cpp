@@ -48,7 +48,7 @@ double element_damage_measure(const Model& m, const double* x, int32_t e, Damage
   return std::max(E[0][0], std::max(E[4][0], E[8][0]));
 }
 
-int update_damage(const Model& m, State& s) {
+int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* records) {
   int events = 0;
   const double* x = s.tissue.x.data();
   for (size_t b = 0; b < m.body_damage.size(); ++b) {
@@ -71,6 +71,8 @@ int update_damage(const Model& m, State& s) {
         for (uint8_t l = s.damage_level[e] + 1; l <= level; ++l) ++s.damage_count[l];
         if (level >= kDamaged && s.first_damage_time < 0) s.first_damage_time = s.time;
         s.damage_level[e] = level;
+        if (records && records->size() < records->capacity())
+          records->push_back(DamageEventRecord{e, level, v, s.time, -1});
       }
     }
   }

@@ -10,6 +10,7 @@
 /// renderer see the cut); damage events on DDS.
 
 #include <cstdint>
+#include <vector>
 
 #include "engine/model.hpp"
 #include "engine/state.hpp"
@@ -22,8 +23,18 @@ enum DamageLevel : uint8_t { kIntact = 0, kWarned = 1, kDamaged = 2, kRuptured =
 /// Per-element measure of the body's DamageMeasure at positions x (polar rotation recomputed).
 double element_damage_measure(const Model& m, const double* x, int32_t element, DamageMeasure measure);
 
+/// An element reaching a new damage level (for events and logs).
+struct DamageEventRecord {
+  int32_t element = 0;   ///< global element index
+  uint8_t level = 0;     ///< DamageLevel reached (the highest, if several at once)
+  double value = 0;      ///< the measure at that moment
+  double time = 0;       ///< sim time
+  int32_t tool = -1;     ///< tool in contact at that moment (−1: none); set by the caller
+};
+
 /// The damage stage: updates s.damage / s.damage_level / counters from the current positions.
-/// Returns how many elements reached a new level this tick. No allocation.
-int update_damage(const Model& m, State& s);
+/// Returns how many elements reached a new level this tick; if `events` is given, appends
+/// their records while it has spare capacity (never reallocates). No allocation.
+int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* events = nullptr);
 
 }  // namespace stroma

@@ -35,7 +35,8 @@ double kinetic(const Model& m, const State& s) {
 }  // namespace
 
 PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions options)
-    : state_out(StateFrame{0, 0.0, model->fem.rest}),
+    : state_out(StateFrame{0, 0.0, model->fem.rest,
+                           std::vector<float>(model->has_damage ? model->fem.elements.size() : 0)}),
       model_(std::move(model)),
       opt_(options),
       state_(State::initial(*model_)),
@@ -123,6 +124,17 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
         rs = RunState::Fault;  // state kept finite (not advanced); clients see FAULT
       }
       elastic = r.elastic_energy;
+      if (r.damage_events > 0) {
+        int32_t touching = -1;
+        for (size_t t = 0; t < state_.tools.size() && touching < 0; ++t)
+          if (state_.tools[t].contacts > 0) touching = static_cast<int32_t>(t);
+        for (DamageEventRecord ev : work_.damage_events) {
+          ev.tool = touching;
+          if (!damage_out.push(ev)) damage_dropped.fetch_add(1, std::memory_order_relaxed);
+        }
+        outputs_published.fetch_add(1, std::memory_order_release);
+        outputs_published.notify_one();
+      }
       cg_window += static_cast<uint64_t>(r.solve.iterations);
       ++ticks_window;
     }
@@ -164,6 +176,7 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       f.frame = ++frame;
       f.sim_time = state_.time;
       std::copy(state_.tissue.x.begin(), state_.tissue.x.end(), f.x.begin());
+      std::copy(state_.damage.begin(), state_.damage.end(), f.damage.begin());
       state_out.publish();
       outputs_published.fetch_add(1, std::memory_order_release);
       outputs_published.notify_one();

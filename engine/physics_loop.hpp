@@ -37,6 +37,7 @@ struct StateFrame {
   uint64_t frame = 0;
   double sim_time = 0;
   std::vector<double> x;
+  std::vector<float> damage;  ///< per element (empty without damage models)
 };
 
 /// Number of recent ticks whose times travel with each status frame (percentiles are computed
@@ -104,6 +105,8 @@ class PhysicsLoop {
   TripleBuffer<FeedbackBatch> feedback_out;  ///< physics → feedback writer, every tick
   std::atomic<uint64_t> feedback_published{0};
   SpscQueue<SessionEvent, 8192> record;      ///< physics → recorder thread
+  SpscQueue<DamageEventRecord, 4096> damage_out;  ///< physics → publisher (reliable events)
+  std::atomic<uint64_t> damage_dropped{0};   ///< events lost because the publisher fell behind
 
   const PhysicsLoopStats& stats() const { return stats_; }
   const State& state() const { return state_; }

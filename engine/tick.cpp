@@ -294,7 +294,8 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
   ++s.step;
   if (m.has_damage) {
     StageTimer t(r, Stage::Damage);
-    r.damage_events = update_damage(m, s);
+    w.damage_events.clear();
+    r.damage_events = update_damage(m, s, &w.damage_events);
     for (size_t e = 0; e < s.damage.size(); ++e) s.stiffness_scale[e] = 1.0f - s.damage[e];
   }
   // hand_off: the server's physics loop does it (headless: nothing to hand off).

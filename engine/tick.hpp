@@ -13,6 +13,7 @@
 
 #include "engine/model.hpp"
 #include "collision/triangle_bvh.hpp"
+#include "engine/damage.hpp"
 #include "engine/state.hpp"
 #include "tissue/time_stepper.hpp"
 
@@ -47,6 +48,7 @@ class TickWorkspace {
  public:
   explicit TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     stepper_.prepare(m.time_step);
+    if (m.has_damage) damage_events.reserve(1024);
     if (m.has_contact) {  // pay only for use: no tool shape, no BVH
       bvh.build(m.collision_triangles, m.fem.rest.data());
       springs.reserve(kMaxContacts);
@@ -59,6 +61,8 @@ class TickWorkspace {
   static constexpr size_t kMaxContacts = 16384;
   TriangleBvh bvh;                      ///< surface triangles, refitted every tick
   std::vector<ContactSpring> springs;   ///< this tick's contacts (capacity fixed at load)
+  /// Elements that reached a new damage level this tick (capacity fixed at load).
+  std::vector<DamageEventRecord> damage_events;
 
  private:
   TimeStepper stepper_;

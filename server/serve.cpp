@@ -18,6 +18,7 @@
 
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
+#include "engine/damage.hpp"
 #include "engine/session_log.hpp"
 #include "engine/state_io.hpp"
 #include "server/dds_participant.hpp"
@@ -37,7 +38,7 @@ struct Surface {
   std::vector<int32_t> nodes;       // global node index of each surface vertex
   std::vector<uint32_t> triangles;  // 3 per triangle, into `nodes`
   std::vector<int32_t> vert_elem_ptr, vert_elem;  // CSR: elements touching each vertex
-  std::vector<float> positions, scalar;           // publish buffers, sized once
+  std::vector<float> positions, scalar, damage;   // publish buffers, sized once
 };
 
 std::vector<Surface> build_surfaces(const Model& m) {
@@ -65,6 +66,7 @@ std::vector<Surface> build_surfaces(const Model& m) {
     }
     s.positions.resize(3 * s.nodes.size());
     s.scalar.resize(s.nodes.size());
+    if (m.has_damage) s.damage.resize(s.nodes.size());
     out.push_back(std::move(s));
   }
   return out;
@@ -81,7 +83,7 @@ dds_qos_t* make_qos(bool reliable, bool transient_local) {
 /// Topics, readers and writers of the server.
 struct Endpoints {
   dds_entity_t mesh_writer = 0, state_writer = 0, status_writer = 0, control_reader = 0;
-  dds_entity_t command_reader = 0, feedback_writer = 0;
+  dds_entity_t command_reader = 0, feedback_writer = 0, damage_writer = 0;
   dds_entity_t waitset = 0;
 };
 
@@ -101,6 +103,12 @@ Endpoints create_endpoints(dds_entity_t pp) {
   dds_qos_t* q_fast = make_qos(false, false);  // best effort, keep last 1
   e.command_reader = dds_check(dds_create_reader(pp, t_command, q_fast, nullptr), "reader stroma_ToolCommand");
   e.feedback_writer = dds_check(dds_create_writer(pp, t_feedback, q_fast, nullptr), "writer stroma_ToolFeedback");
+  const dds_entity_t t_damage = dds_check(dds_create_topic(pp, &stroma_DamageEvent_desc, "stroma_DamageEvent", nullptr, nullptr), "topic stroma_DamageEvent");
+  dds_qos_t* q_events = dds_create_qos();
+  dds_qset_reliability(q_events, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(q_events, DDS_HISTORY_KEEP_ALL, 0);
+  e.damage_writer = dds_check(dds_create_writer(pp, t_damage, q_events, nullptr), "writer stroma_DamageEvent");
+  dds_delete_qos(q_events);
   dds_delete_qos(q_fast);
   dds_qos_t* q_mesh = make_qos(true, true);
   dds_qos_t* q_state = make_qos(false, false);
@@ -171,6 +179,11 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, std::vector<Surfac
           for (int32_t j = s.vert_elem_ptr[i]; j < s.vert_elem_ptr[i + 1]; ++j) acc += vm[s.vert_elem[j]];
           const int32_t cnt = s.vert_elem_ptr[i + 1] - s.vert_elem_ptr[i];
           s.scalar[i] = static_cast<float>(cnt ? acc / cnt : 0.0);
+          if (!s.damage.empty()) {
+            float dmax = 0;
+            for (int32_t j = s.vert_elem_ptr[i]; j < s.vert_elem_ptr[i + 1]; ++j) dmax = std::max(dmax, f.damage[s.vert_elem[j]]);
+            s.damage[i] = dmax;
+          }
         }
         stroma_TissueState msg{};
         std::snprintf(msg.body, sizeof(msg.body), "%s", s.name.c_str());
@@ -180,8 +193,23 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, std::vector<Surfac
         msg.positions._length = msg.positions._maximum = static_cast<uint32_t>(s.positions.size());
         msg.scalar._buffer = s.scalar.data();
         msg.scalar._length = msg.scalar._maximum = static_cast<uint32_t>(s.scalar.size());
+        msg.damage._buffer = s.damage.data();
+        msg.damage._length = msg.damage._maximum = static_cast<uint32_t>(s.damage.size());
         dds_write(ep.state_writer, &msg);  // best effort; a failure is not the physics' problem
       }
+    }
+    DamageEventRecord ev;
+    while (loop.damage_out.pop(ev)) {
+      stroma_DamageEvent msg{};
+      int b = 0;
+      while (b + 1 < static_cast<int>(m.fem.bodies.size()) && ev.element >= m.fem.bodies[b].element_end) ++b;
+      std::snprintf(msg.body, sizeof(msg.body), "%s", m.fem.bodies[b].name.c_str());
+      msg.element = static_cast<uint32_t>(ev.element - m.fem.bodies[b].element_begin);
+      msg.level = ev.level == kWarned ? stroma_DAMAGE_WARNING : ev.level == kDamaged ? stroma_DAMAGE_ONSET : stroma_DAMAGE_RUPTURE;
+      msg.value = ev.value;
+      msg.sim_time = ev.time;
+      std::snprintf(msg.tool, sizeof(msg.tool), "%s", ev.tool >= 0 ? m.tools[ev.tool].name.c_str() : "");
+      dds_write(ep.damage_writer, &msg);
     }
     if (loop.status_out.update()) {
       const StatusFrame& st = loop.status_out.read_slot();
@@ -499,6 +527,12 @@ int run_serve(const ServeOptions& o) {
       j["tool_commands"] = {{"accepted", counters.accepted.load()}, {"clamped", counters.clamped.load()},
                             {"rejected", counters.rejected.load()}};
       j["status_messages"] = status_sent.load();
+      if (model->has_damage) {
+        const State& fs = loop.state();
+        j["damage"] = {{"elements_warned", fs.damage_count[1]}, {"elements_damaged", fs.damage_count[2]},
+                       {"elements_ruptured", fs.damage_count[3]}, {"first_onset_time", fs.first_damage_time},
+                       {"events_dropped", loop.damage_dropped.load()}};
+      }
       std::ofstream f(o.stats_file);
       f << j.dump(2) << '\n';
       if (!f) {

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <sstream>
 #include <array>
 #include <cmath>
@@ -464,6 +465,69 @@ TEST(Serve, ToolClientFromStdinLines) {
   stroma_SimStatus s{};
   EXPECT_TRUE(client.wait_status(5, [](const stroma_SimStatus& st) { return st.commands_accepted > 50; }, &s))
       << s.commands_accepted;
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+
+// Damage over DDS: reliable stroma_DamageEvent samples (warning → onset → rupture, in order per
+// element) and the per-vertex damage field of stroma_TissueState.
+TEST(Serve, DamageEventsAndDamageFieldArePublished) {
+  Process server({STROMA_BINARY, "serve", std::string(STROMA_SOURCE_DIR) + "/tests/data/server/liver_fragile.yaml",
+                  "--domain", "119", "--realtime", "off", "--duration", "60", "--paused"});
+  Client client(119);
+  const dds_entity_t t_ev = dds_create_topic(client.participant(), &stroma_DamageEvent_desc, "stroma_DamageEvent", nullptr, nullptr);
+  const dds_entity_t t_st = dds_create_topic(client.participant(), &stroma_TissueState_desc, "stroma_TissueState", nullptr, nullptr);
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
+  const dds_entity_t ev_reader = dds_create_reader(client.participant(), t_ev, q, nullptr);
+  dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t st_reader = dds_create_reader(client.participant(), t_st, q, nullptr);
+  dds_delete_qos(q);
+  // Start ticking only once our event reader is there (reliable events are not kept for
+  // late joiners): the server was started paused.
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  client.control(stroma_RESUME);
+  std::map<uint32_t, int> last_level;
+  int warnings = 0, onsets = 0, ruptures = 0;
+  float max_vertex_damage = 0;
+  const auto end = Clock::now() + std::chrono::seconds(20);
+  while (Clock::now() < end && !(ruptures > 0 && max_vertex_damage >= 1.0f)) {
+    void* samples[16] = {nullptr};
+    dds_sample_info_t infos[16];
+    const dds_return_t n = dds_take(ev_reader, samples, infos, 16, 16);
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      const auto* e = static_cast<const stroma_DamageEvent*>(samples[i]);
+      EXPECT_STREQ(e->body, "liver");
+      EXPECT_LT(e->element, 596u);
+      const int lvl = static_cast<int>(e->level);
+      EXPECT_GT(lvl, last_level.count(e->element) ? last_level[e->element] : -1) << "levels only increase";
+      last_level[e->element] = lvl;
+      warnings += e->level == stroma_DAMAGE_WARNING;
+      onsets += e->level == stroma_DAMAGE_ONSET;
+      ruptures += e->level == stroma_DAMAGE_RUPTURE;
+      EXPECT_GT(e->value, 0.0);
+    }
+    if (n > 0) dds_return_loan(ev_reader, samples, n);
+    void* st[1] = {nullptr};
+    dds_sample_info_t si;
+    if (dds_take(st_reader, st, &si, 1, 1) > 0) {
+      const auto* s = static_cast<const stroma_TissueState*>(st[0]);
+      if (si.valid_data) {
+        EXPECT_EQ(s->damage._length * 3, s->positions._length);
+        for (uint32_t i = 0; i < s->damage._length; ++i) max_vertex_damage = std::max(max_vertex_damage, s->damage._buffer[i]);
+      }
+      dds_return_loan(st_reader, st, 1);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_GT(warnings, 0);
+  EXPECT_GT(onsets, 0);
+  EXPECT_GT(ruptures, 0);
+  EXPECT_GE(max_vertex_damage, 1.0f) << "a ruptured element shows d = 1 on its surface vertices";
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(15), 0);
 }
