@@ -155,7 +155,10 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
         const ToolSpec& spec = model_->tools[t];
         const double fn = std::sqrt(ts.force[0] * ts.force[0] + ts.force[1] * ts.force[1] + ts.force[2] * ts.force[2]);
         const double scale = fn > spec.max_force ? spec.max_force / fn : 1.0;
-        for (int k = 0; k < 3; ++k) f.force[k] = scale * ts.force[k];
+        for (int k = 0; k < 3; ++k) {
+          f.force[k] = scale * ts.force[k];
+          f.torque[k] = scale * ts.torque[k];
+        }
         f.stiffness = ts.stiffness;
         f.in_contact = ts.contacts > 0;
       }

@@ -638,7 +638,7 @@ CheckSpec parse_check(const Field& f) {
 const Choices<InvalidCommandPolicy> kInvalidPolicies = {{"reject", InvalidCommandPolicy::Reject},
                                                         {"clamp", InvalidCommandPolicy::Clamp}};
 
-const Choices<ToolShape> kToolShapes = {{"sphere", ToolShape::Sphere}};
+const Choices<ToolShape> kToolShapes = {{"sphere", ToolShape::Sphere}, {"probe", ToolShape::Probe}};
 
 ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   ToolEntry t;
@@ -655,9 +655,19 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   m.read("timeout", t.spec.timeout, greater_than(0));
   m.read("on_invalid", t.spec.on_invalid, kInvalidPolicies);
   if (auto f = m.opt("shape")) {
-    const MapReader sm = f->map({"type", "radius"});
+    const MapReader sm = f->map({"type", "radius", "shaft_radius", "length"});
     sm.require("type", t.spec.shape, kToolShapes);
     sm.require("radius", t.spec.radius, greater_than(0));
+    if (t.spec.shape == ToolShape::Probe) {
+      sm.require("length", t.spec.shaft_length, greater_than(0));
+      t.spec.shaft_radius = t.spec.radius;
+      sm.read("shaft_radius", t.spec.shaft_radius, greater_than(0));
+      if (t.spec.shaft_radius > t.spec.radius)
+        sm.req("shaft_radius").fail("shaft_radius = " + format_number(t.spec.shaft_radius) +
+                                    " must not exceed the tip radius " + format_number(t.spec.radius));
+    } else if (sm.opt("length") || sm.opt("shaft_radius")) {
+      sm.fail("'length' and 'shaft_radius' belong to type probe (a sphere has only a radius)");
+    }
   }
   if (auto f = m.opt("contact")) {
     const MapReader cm = f->map({"stiffness", "damping"});

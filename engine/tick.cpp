@@ -182,11 +182,27 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
     ts.contacts = 0;
     ts.contacts_dropped = 0;
     ts.contact_energy = 0;
-    if (spec.shape != ToolShape::Sphere || ts.last_command_time < 0) continue;
+    ts.torque = {0, 0, 0};
+    if (spec.shape == ToolShape::None || ts.last_command_time < 0) continue;
     const double* c = ts.pose.position.data();
     const double R = spec.radius;
     if (spec.can_grasp && grasp(m, spec, ts, x, w)) continue;  // holding tissue: no tip contact
-    w.bvh.query_sphere(c, R, x, [&](int32_t t) {
+    // Shaft (probe): segment from the tip centre along the tool's +z axis.
+    double axis[3] = {0, 0, 0};
+    double L = 0, rs = 0;
+    if (spec.shape == ToolShape::Probe) {
+      double Rm[9];
+      quaternion_to_matrix(ts.pose.orientation, Rm);
+      axis[0] = Rm[2];
+      axis[1] = Rm[5];
+      axis[2] = Rm[8];
+      L = spec.shaft_length;
+      rs = spec.shaft_radius;
+    }
+    // One bounding sphere of the whole tool for the BVH query.
+    const double qc[3] = {c[0] + 0.5 * L * axis[0], c[1] + 0.5 * L * axis[1], c[2] + 0.5 * L * axis[2]};
+    const double qr = 0.5 * L + std::max(R, rs);
+    w.bvh.query_sphere(qc, qr, x, [&](int32_t t) {
       const auto& tri = m.collision_triangles[t];
       const double* p0 = x + 3 * tri[0];
       const double* p1 = x + 3 * tri[1];
@@ -197,7 +213,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
       const double twice_area = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
       if (twice_area <= 0) return;
       for (double& v : nrm) v /= twice_area;
-      const int ns = samples_per_edge(m, t, R);
+      const int ns = samples_per_edge(m, t, L > 0 ? std::min(R, rs) : R);
       const double sample_area = 0.5 * twice_area / (ns * ns);
       const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;
       for_each_sample(ns, [&](double u, double v) {
@@ -207,15 +223,27 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
               q[a] = w0 * p0[a] + u * p1[a] + v * p2[a];
               d[a] = q[a] - c[a];
             }
-            const double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            if (dist2 >= R * R) return;
+            double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            double Rs = R;  // radius of the feature the sample is tested against
+            if (L > 0) {    // shaft: the closest point of the axis segment, if deeper than the tip
+              const double tpar = std::clamp(d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2], 0.0, L);
+              double ds[3];
+              for (int a = 0; a < 3; ++a) ds[a] = d[a] - tpar * axis[a];
+              const double ds2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2];
+              if (std::sqrt(ds2) - rs < std::sqrt(dist2) - R) {
+                for (int a = 0; a < 3; ++a) d[a] = ds[a];
+                dist2 = ds2;
+                Rs = rs;
+              }
+            }
+            if (dist2 >= Rs * Rs) return;
             if (w.springs.size() == w.springs.capacity()) {
               ++ts.contacts_dropped;
               return;
             }
             const double dist = std::sqrt(dist2);
             double dir[3];
-            if (d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2] <= 0 && dist > 1e-12 * R) {
+            if (d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2] <= 0 && dist > 1e-12 * Rs) {
               for (int a = 0; a < 3; ++a) dir[a] = d[a] / dist;
             } else {
               for (int a = 0; a < 3; ++a) dir[a] = -nrm[a];
@@ -226,8 +254,8 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
             sp.w[1] = u;
             sp.w[2] = v;
             for (int a = 0; a < 9; ++a) sp.slot[a] = m.collision_slots[t][a];
-            const double fmag = kc * (R - dist);
-            ts.contact_energy += 0.5 * kc * (R - dist) * (R - dist);
+            const double fmag = kc * (Rs - dist);
+            ts.contact_energy += 0.5 * kc * (Rs - dist) * (Rs - dist);
             for (int a = 0; a < 3; ++a) {
               sp.force[a] = fmag * dir[a];
               ts.force[a] -= sp.force[a];
@@ -237,6 +265,11 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
                 ts.stiffness[3 * a + b] -= sp.K[3 * a + b];
               }
             }
+            // Torque of the tissue's force on the tool about the tip centre: (q − c) × (−f).
+            const double r[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
+            ts.torque[0] -= r[1] * sp.force[2] - r[2] * sp.force[1];
+            ts.torque[1] -= r[2] * sp.force[0] - r[0] * sp.force[2];
+            ts.torque[2] -= r[0] * sp.force[1] - r[1] * sp.force[0];
             w.springs.push_back(sp);
             ++ts.contacts;
       });

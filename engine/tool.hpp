@@ -31,7 +31,8 @@ enum class InvalidCommandPolicy {
 /// Geometry of a tool that touches tissue.
 enum class ToolShape {
   None,   ///< moves, gets feedback, touches nothing
-  Sphere  ///< a sphere (a probe's tip) centred on the tool position
+  Sphere, ///< a sphere (a probe's tip) centred on the tool position
+  Probe   ///< a sphere tip plus a capsule shaft along the tool's local +z axis
 };
 
 /// `tools:` entry of a scenario.
@@ -44,7 +45,9 @@ struct ToolSpec {
   double timeout = 0.5;          ///< s without commands before the tool goes idle
   InvalidCommandPolicy on_invalid = InvalidCommandPolicy::Reject;
   ToolShape shape = ToolShape::None;
-  double radius = 0;             ///< sphere radius (m)
+  double radius = 0;             ///< tip sphere radius (m)
+  double shaft_radius = 0;       ///< probe: shaft radius (m), ≤ radius
+  double shaft_length = 0;       ///< probe: shaft length from the tip centre (m)
   double contact_stiffness = 0;  ///< contact pressure per penetration (Pa/m = N/m³);
                                  ///< 0 = automatic: 100·E/radius of the stiffest body
   double contact_damping = 0;    ///< pressure per penetration rate (Pa·s/m), normal direction
@@ -86,6 +89,7 @@ struct ToolState {
   // Contact outputs of the last collide stage (zero when the tool touches nothing):
   Vec3 force{0, 0, 0};                ///< force of the tissue on the tool (N), unclamped
   std::array<double, 9> stiffness{};  ///< dF/dx of that force w.r.t. the tool position (N/m)
+  Vec3 torque{0, 0, 0};               ///< torque of that force about the tip centre (N·m)
   int contacts = 0;                   ///< contact points (surface samples inside the tool)
   int contacts_dropped = 0;           ///< beyond the per-tick capacity (should stay 0)
   double contact_energy = 0;          ///< penalty potential Σ ½ k (penetration)² (J)

@@ -234,3 +234,36 @@ TEST(Contact, GraspAndLiftHoldsAndReleaseLetsGo) {
   // while the probe pressed it down), dropping well below the lifted height.
   EXPECT_LT(mean_y() - y0, 0.5 * lifted) << "released tissue falls back";
 }
+
+// A probe with a shaft lying on the liver: the shaft touches where the tip alone would not,
+// and the tissue's push on the shaft gives the torque r × F about the tip.
+TEST(Contact, ProbeShaftContactsAndTorque) {
+  auto run = [](ToolShape shape) {
+    ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+    ToolSpec& t = spec.tools.at(0).spec;
+    t.timeout = 100;
+    t.max_speed = 1e3;
+    t.shape = shape;
+    t.shaft_radius = 0.2;
+    t.shaft_length = shape == ToolShape::Probe ? 2.0 : 0.0;
+    auto m = compile_model(spec);
+    State s = State::initial(*m);
+    TickWorkspace w(*m);
+    ToolInput in;
+    in.pose.orientation = {std::sqrt(0.5), 0, std::sqrt(0.5), 0};  // +z of the tool → world +x
+    for (int k = 0; k <= 800; ++k) {
+      in.pose.position = {-2.6, 6.0 - 1.3 * k / 800.0, 0.5};  // lay it down onto the top
+      tick(*m, s, w, &in, 1);
+    }
+    return s.tools[0];
+  };
+  const ToolState sphere = run(ToolShape::Sphere);
+  const ToolState probe = run(ToolShape::Probe);
+  EXPECT_GT(probe.contacts, sphere.contacts) << "the shaft touches too";
+  ASSERT_GT(probe.force[1], 0.0);
+  // Force on the shaft (x > tip) pushing up: torque about the tip along +z.
+  EXPECT_GT(probe.torque[2], 0.0);
+  // |τ_z| ≤ |F|·(L + r): the lever arm cannot exceed the tool's length.
+  const double F = std::sqrt(probe.force[0] * probe.force[0] + probe.force[1] * probe.force[1] + probe.force[2] * probe.force[2]);
+  EXPECT_LE(std::fabs(probe.torque[2]), F * (2.0 + 0.3));
+}

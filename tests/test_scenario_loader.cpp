@@ -690,5 +690,20 @@ TEST(ScenarioLoaderTools, DamageThresholds) {
                "bodies[0].material.damage.measure", {"unknown measure 'tresca'", "principal_strain"});
 }
 
+TEST(ScenarioLoaderTools, ProbeShape) {
+  const ScenarioSpec s = parse_scenario(kMinimal + "tools:\n  - name: p\n    shape: {type: probe, radius: 0.003, shaft_radius: 0.002, length: 0.1}\n",
+                                        "a.yaml", "");
+  const ToolSpec& t = s.tools.at(0).spec;
+  EXPECT_EQ(t.shape, ToolShape::Probe);
+  EXPECT_DOUBLE_EQ(t.shaft_radius, 0.002);
+  EXPECT_DOUBLE_EQ(t.shaft_length, 0.1);
+  expect_error(kMinimal + "tools:\n  - name: p\n    shape: {type: probe, radius: 0.003}\n", 11, "tools[0].shape.length",
+               {"missing required field 'length'"});
+  expect_error(kMinimal + "tools:\n  - name: p\n    shape: {type: probe, radius: 0.003, shaft_radius: 0.01, length: 1}\n", 11,
+               "tools[0].shape.shaft_radius", {"must not exceed the tip radius"});
+  expect_error(kMinimal + "tools:\n  - name: p\n    shape: {type: sphere, radius: 0.003, length: 1}\n", 11,
+               "tools[0].shape", {"belong to type probe"});
+}
+
 }  // namespace
 }  // namespace stroma
