@@ -153,13 +153,14 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
         f.active = ts.active;
         // Device force: the tissue's force on the tool, clamped to what the device may render.
         const ToolSpec& spec = model_->tools[t];
-        const double fn = std::sqrt(ts.force[0] * ts.force[0] + ts.force[1] * ts.force[1] + ts.force[2] * ts.force[2]);
+        const Vec3& df = ts.device_force;
+        const double fn = std::sqrt(df[0] * df[0] + df[1] * df[1] + df[2] * df[2]);
         const double scale = fn > spec.max_force ? spec.max_force / fn : 1.0;
         for (int k = 0; k < 3; ++k) {
-          f.force[k] = scale * ts.force[k];
+          f.force[k] = scale * df[k];
           f.torque[k] = scale * ts.torque[k];
         }
-        f.stiffness = ts.stiffness;
+        f.stiffness = ts.device_stiffness;
         f.in_contact = ts.contacts > 0;
       }
       feedback_out.publish();

@@ -675,6 +675,12 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
     cm.read("damping", t.spec.contact_damping, at_least(0));
   }
   m.read("max_force", t.spec.max_force, greater_than(0));
+  if (auto f = m.opt("coupling")) {
+    const MapReader cm = f->map({"stiffness"});
+    cm.require("stiffness", t.spec.coupling_stiffness, greater_than(0));
+    if (t.spec.shape == ToolShape::None)
+      f->fail("a coupled tool needs a shape (the proxy is what touches the tissue)");
+  }
   if (auto f = m.opt("grasp")) {
     const MapReader gm = f->map({"close", "open", "reach", "stiffness"});
     t.spec.can_grasp = true;
@@ -736,7 +742,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   std::map<std::string, int> tool_names;
   for (const auto& item : m.list("tools")) {
     const MapReader tm = item.map({"name", "script", "workspace", "max_speed", "timeout", "on_invalid",
-                                   "shape", "contact", "max_force", "grasp"});
+                                   "shape", "contact", "max_force", "grasp", "coupling"});
     s.tools.push_back(parse_tool(tm, ctx));
     check_unique_name(tool_names, s.tools.back().spec.name, tm.req("name"), "tool");
   }

@@ -1,6 +1,7 @@
 #include "engine/tick.hpp"
 
 #include "engine/damage.hpp"
+#include "tissue/mat3.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -92,8 +93,8 @@ ContactSpring point_spring(const Model& m, int32_t t, double u, double v, const 
 /// Grasp logic of one tool: on the open → closed jaw transition, attach the surface points
 /// within reach of the tip (closest first, offsets in the tool frame); on opening, release.
 /// While points are held, each gets a spring to its attachment point. Returns true while holding.
-bool grasp(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, TickWorkspace& w) {
-  const double* c = ts.pose.position.data();
+bool grasp(const Model& m, const ToolSpec& spec, ToolState& ts, const double* c, const double* x,
+           TickWorkspace& w) {
   double Rm[9];
   quaternion_to_matrix(ts.pose.orientation, Rm);
   const bool closed_now = ts.pose.jaw < spec.grasp_close;
@@ -177,6 +178,22 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   for (size_t k = 0; k < m.tools.size(); ++k) {
     const ToolSpec& spec = m.tools[k];
     ToolState& ts = s.tools[k];
+    // Virtual coupling: move the proxy by one implicit step of its quasi-static balance
+    // k_v (device − proxy) + F_contact(proxy) = 0, using last tick's contact force and stiffness.
+    const double kv = spec.coupling_stiffness;
+    if (kv > 0 && ts.last_command_time >= 0) {
+      if (!ts.has_proxy) {
+        ts.proxy = ts.pose.position;
+        ts.has_proxy = true;
+      } else {
+        double A[9], Ai[9], b[3], dp[3];
+        for (int i = 0; i < 9; ++i) A[i] = -ts.stiffness[i] + (i % 4 == 0 ? kv : 0.0);
+        for (int i = 0; i < 3; ++i) b[i] = kv * (ts.pose.position[i] - ts.proxy[i]) + ts.force[i];
+        m3::inverse(A, Ai);
+        m3::mulv(Ai, b, dp);
+        for (int i = 0; i < 3; ++i) ts.proxy[i] += dp[i];
+      }
+    }
     ts.force = {0, 0, 0};
     ts.stiffness.fill(0.0);
     ts.contacts = 0;
@@ -184,9 +201,9 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
     ts.contact_energy = 0;
     ts.torque = {0, 0, 0};
     if (spec.shape == ToolShape::None || ts.last_command_time < 0) continue;
-    const double* c = ts.pose.position.data();
+    const double* c = kv > 0 ? ts.proxy.data() : ts.pose.position.data();
     const double R = spec.radius;
-    if (spec.can_grasp && grasp(m, spec, ts, x, w)) continue;  // holding tissue: no tip contact
+    if (spec.can_grasp && grasp(m, spec, ts, c, x, w)) continue;  // holding tissue: no tip contact
     // Shaft (probe): segment from the tip centre along the tool's +z axis.
     double axis[3] = {0, 0, 0};
     double L = 0, rs = 0;
@@ -274,6 +291,26 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
             ++ts.contacts;
       });
     });
+  }
+  // What each device renders: the coupling spring if coupled (series stiffness of coupling
+  // and contact), else the contact force itself.
+  for (size_t k = 0; k < m.tools.size(); ++k) {
+    ToolState& ts = s.tools[k];
+    const double kv = m.tools[k].coupling_stiffness;
+    if (kv > 0 && ts.has_proxy) {
+      double Kc[9], A[9], Ai[9], KA[9];
+      for (int i = 0; i < 9; ++i) {
+        Kc[i] = -ts.stiffness[i];
+        A[i] = Kc[i] + (i % 4 == 0 ? kv : 0.0);
+      }
+      m3::inverse(A, Ai);
+      m3::mul(Kc, Ai, KA);
+      for (int i = 0; i < 3; ++i) ts.device_force[i] = kv * (ts.proxy[i] - ts.pose.position[i]);
+      for (int i = 0; i < 9; ++i) ts.device_stiffness[i] = -kv * KA[i];
+    } else {
+      ts.device_force = ts.force;
+      ts.device_stiffness = ts.stiffness;
+    }
   }
   w.stepper().set_contact_springs(w.springs.data(), static_cast<int>(w.springs.size()));
 }

@@ -52,6 +52,10 @@ struct ToolSpec {
                                  ///< 0 = automatic: 100·E/radius of the stiffest body
   double contact_damping = 0;    ///< pressure per penetration rate (Pa·s/m), normal direction
   double max_force = 10;         ///< N: the feedback force is clamped to this magnitude
+  // Virtual coupling (`coupling:` section): the tool in the simulation is a proxy tied to the
+  // device pose by a spring; the tissue stops the proxy (it does not sink through) and the
+  // device feels the spring, stiffness·(proxy − device).
+  double coupling_stiffness = 0; ///< N/m; 0 = no coupling (the tool follows the device exactly)
   // Grasping (`grasp:` section): closing the jaws (opening below `close`) attaches the surface
   // points within `reach`·radius of the tip (the contact samples of the surface triangles,
   // closest first), each by a spring to where it was in the tool's frame; opening above `open`
@@ -90,6 +94,12 @@ struct ToolState {
   Vec3 force{0, 0, 0};                ///< force of the tissue on the tool (N), unclamped
   std::array<double, 9> stiffness{};  ///< dF/dx of that force w.r.t. the tool position (N/m)
   Vec3 torque{0, 0, 0};               ///< torque of that force about the tip centre (N·m)
+  // Virtual coupling:
+  bool has_proxy = false;
+  Vec3 proxy{0, 0, 0};                ///< where the simulated tool is (contact happens here)
+  // What the device renders (the coupling spring if coupled, else the contact force):
+  Vec3 device_force{0, 0, 0};
+  std::array<double, 9> device_stiffness{};  ///< dF/d(device position)
   int contacts = 0;                   ///< contact points (surface samples inside the tool)
   int contacts_dropped = 0;           ///< beyond the per-tick capacity (should stay 0)
   double contact_energy = 0;          ///< penalty potential Σ ½ k (penetration)² (J)

@@ -267,3 +267,35 @@ TEST(Contact, ProbeShaftContactsAndTorque) {
   const double F = std::sqrt(probe.force[0] * probe.force[0] + probe.force[1] * probe.force[1] + probe.force[2] * probe.force[2]);
   EXPECT_LE(std::fabs(probe.torque[2]), F * (2.0 + 0.3));
 }
+
+// Virtual coupling: the device is pushed 1.5 units below the liver's surface; the proxy (the
+// simulated tool) stays near the surface instead of sinking through, and at rest the device
+// feels the coupling spring, which balances the tissue's push on the proxy.
+TEST(Contact, VirtualCouplingProxyDoesNotSinkAndBalancesTheTissue) {
+  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  ToolSpec& t = spec.tools.at(0).spec;
+  t.timeout = 100;
+  t.max_speed = 1e3;
+  t.coupling_stiffness = 200;
+  auto m = compile_model(spec);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  ToolInput in;
+  double first_contact_y = 0;
+  for (int k = 0; k <= 3000; ++k) {
+    in.pose.position = {-1.5, 6.0 - 2.5 * std::min(k, 1500) / 1500.0, 0.5};  // device to y = 3.5
+    ASSERT_NE(tick(*m, s, w, &in, 1).status, TickStatus::NonFinite);
+    if (first_contact_y == 0 && s.tools[0].contacts > 0) first_contact_y = s.tools[0].proxy[1];
+  }
+  const ToolState& ts = s.tools[0];
+  ASSERT_GT(first_contact_y, 0.0);
+  const double device_depth = first_contact_y - in.pose.position[1];
+  const double proxy_depth = first_contact_y - ts.proxy[1];
+  EXPECT_GT(device_depth, 1.5);
+  EXPECT_LT(proxy_depth, 0.5 * device_depth) << "the proxy must not follow the device through the tissue";
+  // Device force: the spring pulls the device up toward the proxy…
+  EXPECT_GT(ts.device_force[1], 0.0);
+  // …and balances the tissue's force on the proxy at rest (quasi-static).
+  for (int i = 0; i < 3; ++i)
+    EXPECT_NEAR(ts.device_force[i], ts.force[i], 0.05 * std::fabs(ts.force[1]) + 1e-9) << "axis " << i;
+}

@@ -705,5 +705,15 @@ TEST(ScenarioLoaderTools, ProbeShape) {
                "tools[0].shape", {"belong to type probe"});
 }
 
+TEST(ScenarioLoaderTools, Coupling) {
+  const ScenarioSpec s = parse_scenario(kMinimal + "tools:\n  - name: p\n    shape: {type: sphere, radius: 0.003}\n    coupling: {stiffness: 300}\n",
+                                        "a.yaml", "");
+  EXPECT_DOUBLE_EQ(s.tools.at(0).spec.coupling_stiffness, 300);
+  expect_error(kMinimal + "tools:\n  - name: p\n    coupling: {stiffness: 300}\n", 11, "tools[0].coupling",
+               {"needs a shape"});
+  expect_error(kMinimal + "tools:\n  - name: p\n    shape: {type: sphere, radius: 0.003}\n    coupling: {stiffness: -1}\n", 12,
+               "tools[0].coupling.stiffness", {"out of range"});
+}
+
 }  // namespace
 }  // namespace stroma
