@@ -15,6 +15,8 @@ PACKAGES=(
   cyclonedds-dev cyclonedds-tools
   # DDS interoperability test (a Fast DDS client from the same IDL)
   libfastrtps-dev fastddsgen
+  # collision benchmark against FCL
+  libfcl-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # images
