@@ -37,10 +37,7 @@ struct Model {
   std::vector<std::array<int32_t, 3>> collision_triangles;  ///< all bodies' surfaces (outward)
   std::vector<std::array<int32_t, 9>> collision_slots;      ///< BSR slots of each triangle's node pairs
   std::vector<double> collision_edge;  ///< longest rest edge of each collision triangle
-  /// Contact sampling: each candidate triangle is split into s² sub-triangles with
-  /// s = clamp(ceil(longest edge / (radius / kContactSamplesPerRadius)), 1, 24), so the sample
-  /// spacing stays a fraction of the tool's size whatever the mesh (smooth force while sliding).
-  static constexpr double kContactSamplesPerRadius = 4.0;
+  // (contact sampling density: haptics/contact.hpp)
   std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
   std::vector<std::string> notes;  ///< load-time observations worth logging (reoriented, unused)
 };

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/tool.hpp"
+#include "haptics/tool.hpp"
 #include "tissue/options.hpp"
 #include "tissue/tet_mesh.hpp"
 

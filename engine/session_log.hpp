@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/tool.hpp"
+#include "haptics/tool.hpp"
 
 namespace stroma {
 

@@ -10,7 +10,7 @@
 
 #include "engine/headless_runner.hpp"
 #include "engine/session_log.hpp"
-#include "engine/tool.hpp"
+#include "haptics/tool.hpp"
 #include "engine/trajectory.hpp"
 #include "tissue/input_error.hpp"
 

@@ -1,4 +1,4 @@
-#include "engine/tool.hpp"
+#include "haptics/tool.hpp"
 
 #include <algorithm>
 #include <cmath>

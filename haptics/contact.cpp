@@ -1,0 +1,256 @@
+#include "haptics/contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "tissue/mat3.hpp"
+
+namespace stroma {
+
+namespace {
+
+/// Subdivision of collision triangle t for a tool of radius R (see kContactSamplesPerRadius).
+inline int samples_per_edge(const ContactSurface& surf, int32_t t, double R) {
+  return std::clamp(static_cast<int>(std::ceil(surf.longest_edge[t] * kContactSamplesPerRadius / R)), 1, 24);
+}
+
+/// Calls f(u, v) for the centroids of the s² sub-triangles of a triangle (composite midpoint
+/// rule), in barycentric coordinates of vertices 1 and 2.
+template <class F>
+inline void for_each_sample(int ns, F&& f) {
+  const double inv = 1.0 / ns;
+  for (int i = 0; i < ns; ++i)
+    for (int j = 0; j < ns - i; ++j) {
+      f((i + 1.0 / 3.0) * inv, (j + 1.0 / 3.0) * inv);
+      if (j < ns - i - 1) f((i + 2.0 / 3.0) * inv, (j + 2.0 / 3.0) * inv);
+    }
+}
+
+/// A spring pulling the surface point (triangle t, barycentric u, v) towards `target`.
+ContactSpring point_spring(const ContactSurface& surf, int32_t t, double u, double v, const double* x,
+                           const double* target, double k) {
+  ContactSpring sp;
+  const auto& tri = surf.triangles[t];
+  sp.w[0] = 1.0 - u - v;
+  sp.w[1] = u;
+  sp.w[2] = v;
+  for (int a = 0; a < 3; ++a) sp.node[a] = tri[a];
+  for (int a = 0; a < 9; ++a) sp.slot[a] = surf.slots[t][a];
+  for (int k3 = 0; k3 < 3; ++k3) {
+    double p = 0;
+    for (int a = 0; a < 3; ++a) p += sp.w[a] * x[3 * tri[a] + k3];
+    sp.force[k3] = k * (target[k3] - p);
+    sp.K[4 * k3] = k;
+  }
+  return sp;
+}
+
+/// Grasp logic of one tool: on the open → closed jaw transition, attach the surface points
+/// within reach of the tip (closest first, offsets in the tool frame); on opening, release.
+/// While points are held, each gets a spring to its attachment point. Returns true while holding.
+bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, const double* c, const double* x,
+           const TriangleBvh& bvh, std::vector<ContactSpring>& springs) {
+  double Rm[9];
+  quaternion_to_matrix(ts.pose.orientation, Rm);
+  const bool closed_now = ts.pose.jaw < spec.grasp_close;
+  const bool open_now = ts.pose.jaw > spec.grasp_open;
+  if (closed_now && !ts.jaw_closed) {
+    ts.jaw_closed = true;
+    ts.grasped = 0;
+    const double reach = spec.grasp_reach * spec.radius;
+    std::array<double, kMaxGrasped> dist2{};
+    bvh.query_sphere(c, reach, x, [&](int32_t t) {
+      const auto& tri = surf.triangles[t];
+      for_each_sample(samples_per_edge(surf, t, spec.radius), [&](double u, double v) {
+        double d[3], d2 = 0;
+        for (int k = 0; k < 3; ++k) {
+          d[k] = (1 - u - v) * x[3 * tri[0] + k] + u * x[3 * tri[1] + k] + v * x[3 * tri[2] + k] - c[k];
+          d2 += d[k] * d[k];
+        }
+        if (d2 > reach * reach) return;
+        // Keep the kMaxGrasped closest points (insertion into a sorted fixed array).
+        int pos = ts.grasped;
+        if (pos == kMaxGrasped) {
+          if (d2 >= dist2[kMaxGrasped - 1]) return;
+          pos = kMaxGrasped - 1;
+        } else {
+          ++ts.grasped;
+        }
+        while (pos > 0 && dist2[pos - 1] > d2) {
+          dist2[pos] = dist2[pos - 1];
+          ts.grasp_triangle[pos] = ts.grasp_triangle[pos - 1];
+          ts.grasp_uv[pos] = ts.grasp_uv[pos - 1];
+          ts.grasp_offset[pos] = ts.grasp_offset[pos - 1];
+          --pos;
+        }
+        dist2[pos] = d2;
+        ts.grasp_triangle[pos] = t;
+        ts.grasp_uv[pos] = {u, v};
+        for (int k = 0; k < 3; ++k)  // offset in the tool frame: Rᵀ d
+          ts.grasp_offset[pos][k] = Rm[k] * d[0] + Rm[3 + k] * d[1] + Rm[6 + k] * d[2];
+      });
+    });
+  } else if (open_now && ts.jaw_closed) {
+    ts.jaw_closed = false;
+    ts.grasped = 0;  // release
+  }
+  if (ts.grasped == 0) return false;
+  const double kg = spec.grasp_stiffness;
+  for (int i = 0; i < ts.grasped; ++i) {
+    if (springs.size() == springs.capacity()) {
+      ++ts.contacts_dropped;
+      continue;
+    }
+    const Vec3& o = ts.grasp_offset[i];
+    double target[3];
+    for (int k = 0; k < 3; ++k) target[k] = c[k] + Rm[3 * k] * o[0] + Rm[3 * k + 1] * o[1] + Rm[3 * k + 2] * o[2];
+    const ContactSpring sp = point_spring(surf, ts.grasp_triangle[i], ts.grasp_uv[i][0], ts.grasp_uv[i][1], x, target, kg);
+    for (int k = 0; k < 3; ++k) {
+      ts.force[k] -= sp.force[k];
+      ts.stiffness[4 * k] -= kg;
+      ts.contact_energy += 0.5 * sp.force[k] * sp.force[k] / kg;
+    }
+    springs.push_back(sp);
+    ++ts.contacts;
+  }
+  return true;
+}
+
+}  // namespace
+
+void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& surf, const TriangleBvh& bvh,
+                  const double* x, std::vector<ContactSpring>& springs) {
+    // Virtual coupling: move the proxy by one implicit step of its quasi-static balance
+    // k_v (device − proxy) + F_contact(proxy) = 0, using last tick's contact force and stiffness.
+    const double kv = spec.coupling_stiffness;
+    if (kv > 0 && ts.last_command_time >= 0) {
+      if (!ts.has_proxy) {
+        ts.proxy = ts.pose.position;
+        ts.has_proxy = true;
+      } else {
+        double A[9], Ai[9], b[3], dp[3];
+        for (int i = 0; i < 9; ++i) A[i] = -ts.stiffness[i] + (i % 4 == 0 ? kv : 0.0);
+        for (int i = 0; i < 3; ++i) b[i] = kv * (ts.pose.position[i] - ts.proxy[i]) + ts.force[i];
+        m3::inverse(A, Ai);
+        m3::mulv(Ai, b, dp);
+        for (int i = 0; i < 3; ++i) ts.proxy[i] += dp[i];
+      }
+    }
+    ts.force = {0, 0, 0};
+    ts.stiffness.fill(0.0);
+    ts.contacts = 0;
+    ts.contacts_dropped = 0;
+    ts.contact_energy = 0;
+    ts.torque = {0, 0, 0};
+    if (spec.shape == ToolShape::None || ts.last_command_time < 0) return;
+    const double* c = kv > 0 ? ts.proxy.data() : ts.pose.position.data();
+    const double R = spec.radius;
+    if (spec.can_grasp && grasp(surf, spec, ts, c, x, bvh, springs)) return;  // holding tissue: no tip contact
+    // Shaft (probe): segment from the tip centre along the tool's +z axis.
+    double axis[3] = {0, 0, 0};
+    double L = 0, rs = 0;
+    if (spec.shape == ToolShape::Probe) {
+      double Rm[9];
+      quaternion_to_matrix(ts.pose.orientation, Rm);
+      axis[0] = Rm[2];
+      axis[1] = Rm[5];
+      axis[2] = Rm[8];
+      L = spec.shaft_length;
+      rs = spec.shaft_radius;
+    }
+    // One bounding sphere of the whole tool for the BVH query.
+    const double qc[3] = {c[0] + 0.5 * L * axis[0], c[1] + 0.5 * L * axis[1], c[2] + 0.5 * L * axis[2]};
+    const double qr = 0.5 * L + std::max(R, rs);
+    bvh.query_sphere(qc, qr, x, [&](int32_t t) {
+      const auto& tri = surf.triangles[t];
+      const double* p0 = x + 3 * tri[0];
+      const double* p1 = x + 3 * tri[1];
+      const double* p2 = x + 3 * tri[2];
+      const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+      const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+      double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+      const double twice_area = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+      if (twice_area <= 0) return;
+      for (double& v : nrm) v /= twice_area;
+      const int ns = samples_per_edge(surf, t, L > 0 ? std::min(R, rs) : R);
+      const double sample_area = 0.5 * twice_area / (ns * ns);
+      const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;
+      for_each_sample(ns, [&](double u, double v) {
+            const double w0 = 1.0 - u - v;
+            double q[3], d[3];
+            for (int a = 0; a < 3; ++a) {
+              q[a] = w0 * p0[a] + u * p1[a] + v * p2[a];
+              d[a] = q[a] - c[a];
+            }
+            double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            double Rs = R;  // radius of the feature the sample is tested against
+            if (L > 0) {    // shaft: the closest point of the axis segment, if deeper than the tip
+              const double tpar = std::clamp(d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2], 0.0, L);
+              double ds[3];
+              for (int a = 0; a < 3; ++a) ds[a] = d[a] - tpar * axis[a];
+              const double ds2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2];
+              if (std::sqrt(ds2) - rs < std::sqrt(dist2) - R) {
+                for (int a = 0; a < 3; ++a) d[a] = ds[a];
+                dist2 = ds2;
+                Rs = rs;
+              }
+            }
+            if (dist2 >= Rs * Rs) return;
+            if (springs.size() == springs.capacity()) {
+              ++ts.contacts_dropped;
+              return;
+            }
+            const double dist = std::sqrt(dist2);
+            double dir[3];
+            if (d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2] <= 0 && dist > 1e-12 * Rs) {
+              for (int a = 0; a < 3; ++a) dir[a] = d[a] / dist;
+            } else {
+              for (int a = 0; a < 3; ++a) dir[a] = -nrm[a];
+            }
+            ContactSpring sp;
+            for (int a = 0; a < 3; ++a) sp.node[a] = tri[a];
+            sp.w[0] = w0;
+            sp.w[1] = u;
+            sp.w[2] = v;
+            for (int a = 0; a < 9; ++a) sp.slot[a] = surf.slots[t][a];
+            const double fmag = kc * (Rs - dist);
+            ts.contact_energy += 0.5 * kc * (Rs - dist) * (Rs - dist);
+            for (int a = 0; a < 3; ++a) {
+              sp.force[a] = fmag * dir[a];
+              ts.force[a] -= sp.force[a];
+              for (int b = 0; b < 3; ++b) {
+                sp.K[3 * a + b] = kc * dir[a] * dir[b];
+                sp.C[3 * a + b] = cc * dir[a] * dir[b];
+                ts.stiffness[3 * a + b] -= sp.K[3 * a + b];
+              }
+            }
+            // Torque of the tissue's force on the tool about the tip centre: (q − c) × (−f).
+            const double r[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
+            ts.torque[0] -= r[1] * sp.force[2] - r[2] * sp.force[1];
+            ts.torque[1] -= r[2] * sp.force[0] - r[0] * sp.force[2];
+            ts.torque[2] -= r[0] * sp.force[1] - r[1] * sp.force[0];
+            springs.push_back(sp);
+            ++ts.contacts;
+      });
+    });
+  }
+
+void device_feedback(const ToolSpec& spec, ToolState& ts) {
+  const double kv = spec.coupling_stiffness;
+    if (kv > 0 && ts.has_proxy) {
+      double Kc[9], A[9], Ai[9], KA[9];
+      for (int i = 0; i < 9; ++i) {
+        Kc[i] = -ts.stiffness[i];
+        A[i] = Kc[i] + (i % 4 == 0 ? kv : 0.0);
+      }
+      m3::inverse(A, Ai);
+      m3::mul(Kc, Ai, KA);
+      for (int i = 0; i < 3; ++i) ts.device_force[i] = kv * (ts.proxy[i] - ts.pose.position[i]);
+      for (int i = 0; i < 9; ++i) ts.device_stiffness[i] = -kv * KA[i];
+    } else {
+      ts.device_force = ts.force;
+      ts.device_stiffness = ts.stiffness;
+    }
+  }
+
+}  // namespace stroma

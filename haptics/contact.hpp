@@ -1,0 +1,47 @@
+#pragma once
+/// \file contact.hpp
+/// What a tool does to the tissue and what it feels, for one tick:
+///  - virtual coupling: the proxy (the simulated tool) follows the device through a spring and
+///    is stopped by the tissue (one implicit quasi-static step per tick);
+///  - contact: the tool's shape (sphere tip, or probe = tip + capsule shaft) against the surface
+///    triangles the BVH returns, sampled at the centroids of s² sub-triangles (composite midpoint
+///    rule); a sample inside the shape gets a penalty pressure k·depth over its share of the area,
+///    along the shape's distance gradient (conservative), or along the inward surface normal when
+///    the shape's axis is already below that point (deep penetration). Stiffness and damping go
+///    into the implicit system as ContactSprings;
+///  - grasping: closing the jaws attaches the closest surface points by springs in the tool frame;
+///  - feedback: force, torque and dF/dx of the tissue on the tool, and what the device renders.
+/// No allocation: springs are appended to a vector whose capacity is fixed at load.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "collision/triangle_bvh.hpp"
+#include "haptics/tool.hpp"
+#include "tissue/contact_spring.hpp"
+
+namespace stroma {
+
+/// The contact surface of all bodies, as compiled: outward triangles (global node ids), the
+/// BSR slots of each triangle's node pairs, and each triangle's longest rest edge.
+struct ContactSurface {
+  const std::vector<std::array<int32_t, 3>>& triangles;
+  const std::vector<std::array<int32_t, 9>>& slots;
+  const std::vector<double>& longest_edge;
+};
+
+/// Samples per triangle edge: clamp(ceil(edge·kContactSamplesPerRadius / radius), 1, 24), so the
+/// sample spacing stays a fraction of the tool's size whatever the mesh (smooth while sliding).
+inline constexpr double kContactSamplesPerRadius = 4.0;
+
+/// Coupling, grasp and contact of one tool at positions x (BVH already refitted): fills the
+/// tool's contact outputs and appends its springs (dropping, and counting, beyond capacity).
+void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& surf,
+                  const TriangleBvh& bvh, const double* x, std::vector<ContactSpring>& springs);
+
+/// What the device renders: the coupling spring (series stiffness of coupling and contact) if
+/// the tool is coupled, else the contact force itself.
+void device_feedback(const ToolSpec& spec, ToolState& ts);
+
+}  // namespace stroma
