@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <unordered_map>
 
 #include <fmt/format.h>
 
@@ -189,10 +190,12 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
     model->tool_scripts.push_back(std::move(tr));
   }
   if (model->has_contact) {
-    for (const BodyRange& b : model->fem.bodies)
-      for (const Tri& t : b.boundary) {
-        model->collision_triangles.push_back({t[0], t[1], t[2]});
-        std::array<int32_t, 9> sl;
+    // Bodies that can rupture get every tetrahedron face as a potential collision face (inactive
+    // while both its elements are intact), so a tear exposes new surface without any rebuild.
+    auto add_face = [&](const Tri& t, int32_t ea, int32_t eb) {
+      model->collision_face_elem.push_back({ea, eb});
+      model->collision_triangles.push_back({t[0], t[1], t[2]});
+      std::array<int32_t, 9> sl;
         for (int a = 0; a < 3; ++a)
           for (int c = 0; c < 3; ++c) sl[3 * a + c] = model->fem.pattern.find(t[a], t[c]);
         model->collision_slots.push_back(sl);
@@ -207,7 +210,35 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
           e = std::max(e, std::sqrt(d2));
         }
         model->collision_edge.push_back(e);
+    };
+    model->element_faces.assign(model->fem.elements.size(), {-1, -1, -1, -1});
+    for (size_t bi = 0; bi < model->fem.bodies.size(); ++bi) {
+      const BodyRange& b = model->fem.bodies[bi];
+      if (!model->body_damage[bi].enabled) {
+        for (const Tri& t : b.boundary) add_face(t, -1, -1);  // always active
+        continue;
       }
+      static constexpr int kFaces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};  // outward
+      std::unordered_map<uint64_t, int32_t> seen;
+      for (int32_t e = b.element_begin; e < b.element_end; ++e)
+        for (int f = 0; f < 4; ++f) {
+          const auto& nd = model->fem.elements[e].node;
+          const Tri tri{nd[kFaces[f][0]], nd[kFaces[f][1]], nd[kFaces[f][2]]};
+          Tri key = tri;
+          std::sort(key.begin(), key.end());
+          const uint64_t k = (static_cast<uint64_t>(key[0]) << 42) ^ (static_cast<uint64_t>(key[1]) << 21) ^
+                             static_cast<uint64_t>(key[2]);
+          const auto it = seen.find(k);
+          if (it == seen.end()) {
+            seen.emplace(k, static_cast<int32_t>(model->collision_triangles.size()));
+            model->element_faces[e][f] = static_cast<int32_t>(model->collision_triangles.size());
+            add_face(tri, e, -1);
+          } else {
+            model->collision_face_elem[it->second][1] = e;
+            model->element_faces[e][f] = it->second;
+          }
+        }
+    }
   }
   return model;
 }

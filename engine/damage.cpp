@@ -71,6 +71,16 @@ int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* reco
         for (uint8_t l = s.damage_level[e] + 1; l <= level; ++l) ++s.damage_count[l];
         if (level >= kDamaged && s.first_damage_time < 0) s.first_damage_time = s.time;
         s.damage_level[e] = level;
+        if (level == kRuptured && !s.face_active.empty()) {
+          // The tear: faces between this element and an intact one become surface.
+          for (int32_t f : m.element_faces[e]) {
+            if (f < 0) continue;
+            const int32_t ea = m.collision_face_elem[f][0], eb = m.collision_face_elem[f][1];
+            const bool a_ok = ea >= 0 && s.damage_level[ea] != kRuptured;
+            const bool b_ok = eb >= 0 && s.damage_level[eb] != kRuptured;
+            s.face_active[f] = a_ok && !b_ok ? 1 : (!a_ok && b_ok ? 2 : 0);
+          }
+        }
         if (records && records->size() < records->capacity())
           records->push_back(DamageEventRecord{e, level, v, s.time, -1});
       }

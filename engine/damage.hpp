@@ -6,8 +6,10 @@
 /// element's stiffness is scaled by (1 − d); at rupture d = 1 and the element carries no load.
 /// Only bodies with a `damage:` section are visited: a scene pays only for what it uses.
 ///
-/// Not yet: removing ruptured elements' mass and re-extracting the surface (so tools and the
-/// renderer see the cut); damage events on DDS.
+/// At rupture the faces between the ruptured element and intact neighbours become collision
+/// surface (tools can enter the tear; no rebuild, no allocation: every tet face of a body with a
+/// damage model is in the collision set from load time, switched on and off). Not yet: the
+/// ruptured element's mass stays on its nodes, and the renderer's mesh is not re-extracted.
 
 #include <cstdint>
 #include <vector>

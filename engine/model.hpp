@@ -37,6 +37,11 @@ struct Model {
   std::vector<std::array<int32_t, 3>> collision_triangles;  ///< all bodies' surfaces (outward)
   std::vector<std::array<int32_t, 9>> collision_slots;      ///< BSR slots of each triangle's node pairs
   std::vector<double> collision_edge;  ///< longest rest edge of each collision triangle
+  /// The elements on either side of each collision face (−1: none). Faces of bodies without a
+  /// damage model are their boundary ({−1, −1}: always active); bodies with one get every tet
+  /// face, active when exactly one side is intact (a tear exposes the inner faces).
+  std::vector<std::array<int32_t, 2>> collision_face_elem;
+  std::vector<std::array<int32_t, 4>> element_faces;  ///< collision face of each tet face (−1: none)
   // (contact sampling density: haptics/contact.hpp)
   std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
   std::vector<std::string> notes;  ///< load-time observations worth logging (reoriented, unused)

@@ -21,6 +21,10 @@ struct State {
   std::vector<uint8_t> damage_level;  ///< per element DamageLevel
   std::array<int64_t, 4> damage_count{};  ///< elements that reached warned / damaged / ruptured
   double first_damage_time = -1;      ///< sim time of the first onset (−1: none)
+  /// Per collision face: 0 inactive (both sides intact, or both ruptured), 1 active as stored,
+  /// 2 active reversed (its first element ruptured, the second is intact). Empty unless a body
+  /// with a damage model can be touched by a tool.
+  std::vector<uint8_t> face_active;
   double time = 0;     ///< simulated time (s)
   int64_t step = 0;    ///< ticks done
 
@@ -33,6 +37,11 @@ struct State {
       s.damage.assign(m.fem.elements.size(), 0.0f);
       s.stiffness_scale.assign(m.fem.elements.size(), 1.0f);
       s.damage_level.assign(m.fem.elements.size(), 0);
+      if (m.has_contact) {
+        s.face_active.resize(m.collision_face_elem.size());
+        for (size_t f = 0; f < s.face_active.size(); ++f)
+          s.face_active[f] = (m.collision_face_elem[f][0] >= 0 && m.collision_face_elem[f][1] >= 0) ? 0 : 1;
+      }
     }
     return s;
   }

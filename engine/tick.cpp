@@ -60,7 +60,8 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   const double* x = s.tissue.x.data();
   w.bvh.refit(x);
   w.springs.clear();  // keeps its capacity: no allocation
-  const ContactSurface surf{m.collision_triangles, m.collision_slots, m.collision_edge};
+  const ContactSurface surf{m.collision_triangles, m.collision_slots, m.collision_edge,
+                            s.face_active.empty() ? nullptr : s.face_active.data()};
   for (size_t k = 0; k < m.tools.size(); ++k) {
     tool_contact(m.tools[k], s.tools[k], surf, w.bvh, x, w.springs);
     device_feedback(m.tools[k], s.tools[k]);

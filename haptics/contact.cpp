@@ -60,6 +60,7 @@ bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, cons
     const double reach = spec.grasp_reach * spec.radius;
     std::array<double, kMaxGrasped> dist2{};
     bvh.query_sphere(c, reach, x, [&](int32_t t) {
+      if (surf.active && !surf.active[t]) return;
       const auto& tri = surf.triangles[t];
       for_each_sample(samples_per_edge(surf, t, spec.radius), [&](double u, double v) {
         double d[3], d2 = 0;
@@ -162,6 +163,7 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
     const double qc[3] = {c[0] + 0.5 * L * axis[0], c[1] + 0.5 * L * axis[1], c[2] + 0.5 * L * axis[2]};
     const double qr = 0.5 * L + std::max(R, rs);
     bvh.query_sphere(qc, qr, x, [&](int32_t t) {
+      if (surf.active && !surf.active[t]) return;
       const auto& tri = surf.triangles[t];
       const double* p0 = x + 3 * tri[0];
       const double* p1 = x + 3 * tri[1];
@@ -171,7 +173,8 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
       double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
       const double twice_area = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
       if (twice_area <= 0) return;
-      for (double& v : nrm) v /= twice_area;
+      const double nsign = (surf.active && surf.active[t] == 2) ? -1.0 : 1.0;  // exposed from behind
+      for (double& v : nrm) v *= nsign / twice_area;
       const int ns = samples_per_edge(surf, t, L > 0 ? std::min(R, rs) : R);
       const double sample_area = 0.5 * twice_area / (ns * ns);
       const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;

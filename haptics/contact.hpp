@@ -29,6 +29,8 @@ struct ContactSurface {
   const std::vector<std::array<int32_t, 3>>& triangles;
   const std::vector<std::array<int32_t, 9>>& slots;
   const std::vector<double>& longest_edge;
+  /// Per face 0 inactive / 1 active / 2 active with reversed orientation; null: all active.
+  const uint8_t* active = nullptr;
 };
 
 /// Samples per triangle edge: clamp(ceil(edge·kContactSamplesPerRadius / radius), 1, 24), so the

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "engine/damage.hpp"
+#include "engine/headless_runner.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
@@ -114,4 +115,47 @@ TEST(Damage, RuptureKeepsTheSimulationStableAndConvergent) {
   EXPECT_EQ(not_converged, 0);
   EXPECT_LE(e_max, 10 * e_max_before + 1e-12) << "energy bounded after rupture";
   for (double x : s.tissue.x) ASSERT_TRUE(std::isfinite(x));
+}
+
+// A tear exposes surface: faces between a ruptured and an intact element become collision
+// faces, oriented outward from the intact element (tools can then enter the tear).
+TEST(Damage, RuptureExposesInnerFacesOrientedOutwardOfTheIntactSide) {
+  ScenarioSpec spec = load_scenario(kDir + "regression/liver_probe_damage.yaml");
+  auto m = compile_model(spec);
+  ASSERT_FALSE(m->collision_face_elem.empty());
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  int initially_active = 0;
+  for (uint8_t a : s.face_active) initially_active += a != 0;
+  const std::vector<Tri>& boundary = m->fem.bodies[0].boundary;
+  EXPECT_EQ(initially_active, static_cast<int>(boundary.size())) << "before any damage: exactly the boundary";
+  RunOptions o;
+  o.progress = false;
+  o.metrics = false;
+  const RunResult r = run_headless(*m, o);
+  ASSERT_GT(r.final_state.damage_count[kRuptured], 0);
+  int exposed = 0;
+  for (size_t f = 0; f < r.final_state.face_active.size(); ++f) {
+    const auto [ea, eb] = m->collision_face_elem[f];
+    if (ea < 0 || eb < 0 || r.final_state.face_active[f] == 0) continue;
+    ++exposed;
+    const int32_t intact = r.final_state.face_active[f] == 1 ? ea : eb;
+    EXPECT_NE(r.final_state.damage_level[intact], kRuptured);
+    // Oriented normal (rest geometry) points away from the intact element's centroid.
+    const auto& t = m->collision_triangles[f];
+    const double* X = m->fem.rest.data();
+    double e1[3], e2[3], n[3], c[3] = {0, 0, 0}, fc[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
+      e1[k] = X[3 * t[1] + k] - X[3 * t[0] + k];
+      e2[k] = X[3 * t[2] + k] - X[3 * t[0] + k];
+      for (int a = 0; a < 3; ++a) fc[k] += X[3 * t[a] + k] / 3.0;
+      for (int32_t node : m->fem.elements[intact].node) c[k] += X[3 * node + k] / 4.0;
+    }
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    const double sign = r.final_state.face_active[f] == 2 ? -1.0 : 1.0;
+    EXPECT_GT(sign * (n[0] * (fc[0] - c[0]) + n[1] * (fc[1] - c[1]) + n[2] * (fc[2] - c[2])), 0.0) << "face " << f;
+  }
+  EXPECT_GT(exposed, 0) << "ruptured elements next to intact ones expose inner faces";
 }
