@@ -638,7 +638,10 @@ CheckSpec parse_check(const Field& f) {
 const Choices<InvalidCommandPolicy> kInvalidPolicies = {{"reject", InvalidCommandPolicy::Reject},
                                                         {"clamp", InvalidCommandPolicy::Clamp}};
 
-const Choices<ToolShape> kToolShapes = {{"sphere", ToolShape::Sphere}, {"probe", ToolShape::Probe}};
+const Choices<ToolShape> kToolShapes = {{"sphere", ToolShape::Sphere},
+                                        {"probe", ToolShape::Probe},
+                                        {"blade", ToolShape::Blade},
+                                        {"grasper", ToolShape::Grasper}};
 
 ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   ToolEntry t;
@@ -665,8 +668,11 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
       if (t.spec.shaft_radius > t.spec.radius)
         sm.req("shaft_radius").fail("shaft_radius = " + format_number(t.spec.shaft_radius) +
                                     " must not exceed the tip radius " + format_number(t.spec.radius));
+    } else if (t.spec.shape == ToolShape::Blade || t.spec.shape == ToolShape::Grasper) {
+      sm.require("length", t.spec.shaft_length, greater_than(0));
+      if (sm.opt("shaft_radius")) sm.req("shaft_radius").fail("'shaft_radius' belongs to type probe");
     } else if (sm.opt("length") || sm.opt("shaft_radius")) {
-      sm.fail("'length' and 'shaft_radius' belong to type probe (a sphere has only a radius)");
+      sm.fail("'length' and 'shaft_radius' belong to types probe, blade, grasper (a sphere has only a radius)");
     }
   }
   if (auto f = m.opt("contact")) {

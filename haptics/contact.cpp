@@ -9,6 +9,53 @@ namespace stroma {
 
 namespace {
 
+/// A segment [a, b] swept by a sphere of radius r.
+struct Capsule {
+  double a[3], b[3], r;
+};
+constexpr int kMaxCapsules = 3;
+
+/// The tool's shape as capsules in world coordinates, the tool frame at centre c (x, z axes of
+/// the pose's rotation). Sphere: one degenerate capsule. Probe: tip sphere + shaft along +z.
+/// Blade: an edge along x, centred on c. Grasper: two jaws from c, opened ±jaw/2 about y.
+int tool_capsules(const ToolSpec& spec, const ToolPose& pose, const double* c, Capsule* out) {
+  double Rm[9];
+  quaternion_to_matrix(pose.orientation, Rm);
+  const double ex[3] = {Rm[0], Rm[3], Rm[6]}, ez[3] = {Rm[2], Rm[5], Rm[8]};
+  auto set = [&](Capsule& k, const double* dir, double from, double to, double r) {
+    for (int i = 0; i < 3; ++i) {
+      k.a[i] = c[i] + from * dir[i];
+      k.b[i] = c[i] + to * dir[i];
+    }
+    k.r = r;
+  };
+  switch (spec.shape) {
+    case ToolShape::Sphere:
+      set(out[0], ez, 0, 0, spec.radius);
+      return 1;
+    case ToolShape::Probe:
+      set(out[0], ez, 0, 0, spec.radius);
+      set(out[1], ez, 0, spec.shaft_length, spec.shaft_radius);
+      return 2;
+    case ToolShape::Blade:
+      set(out[0], ex, -0.5 * spec.shaft_length, 0.5 * spec.shaft_length, spec.radius);
+      return 1;
+    case ToolShape::Grasper: {
+      const double h = 0.5 * std::max(0.0, pose.jaw);
+      const double up[3] = {std::cos(h) * ez[0] + std::sin(h) * ex[0], std::cos(h) * ez[1] + std::sin(h) * ex[1],
+                            std::cos(h) * ez[2] + std::sin(h) * ex[2]};
+      const double dn[3] = {std::cos(h) * ez[0] - std::sin(h) * ex[0], std::cos(h) * ez[1] - std::sin(h) * ex[1],
+                            std::cos(h) * ez[2] - std::sin(h) * ex[2]};
+      set(out[0], up, 0, spec.shaft_length, spec.radius);
+      set(out[1], dn, 0, spec.shaft_length, spec.radius);
+      return 2;
+    }
+    case ToolShape::None:
+      break;
+  }
+  return 0;
+}
+
 /// Subdivision of collision triangle t for a tool of radius R (see kContactSamplesPerRadius).
 inline int samples_per_edge(const ContactSurface& surf, int32_t t, double R) {
   return std::clamp(static_cast<int>(std::ceil(surf.longest_edge[t] * kContactSamplesPerRadius / R)), 1, 24);
@@ -145,23 +192,21 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
     ts.torque = {0, 0, 0};
     if (spec.shape == ToolShape::None || ts.last_command_time < 0) return;
     const double* c = kv > 0 ? ts.proxy.data() : ts.pose.position.data();
-    const double R = spec.radius;
     if (spec.can_grasp && grasp(surf, spec, ts, c, x, bvh, springs)) return;  // holding tissue: no tip contact
-    // Shaft (probe): segment from the tip centre along the tool's +z axis.
-    double axis[3] = {0, 0, 0};
-    double L = 0, rs = 0;
-    if (spec.shape == ToolShape::Probe) {
-      double Rm[9];
-      quaternion_to_matrix(ts.pose.orientation, Rm);
-      axis[0] = Rm[2];
-      axis[1] = Rm[5];
-      axis[2] = Rm[8];
-      L = spec.shaft_length;
-      rs = spec.shaft_radius;
+    // The tool as capsules (segments with radii) in world coordinates.
+    Capsule caps[kMaxCapsules];
+    const int ncap = tool_capsules(spec, ts.pose, c, caps);
+    double qc[3] = {0, 0, 0}, qr = 0, rmin = 1e300;
+    for (int i = 0; i < ncap; ++i)
+      for (int k = 0; k < 3; ++k) qc[k] += 0.5 * (caps[i].a[k] + caps[i].b[k]) / ncap;
+    for (int i = 0; i < ncap; ++i) {  // one bounding sphere of the whole tool for the query
+      for (const double* e : {caps[i].a, caps[i].b}) {
+        const double dd = std::sqrt((e[0] - qc[0]) * (e[0] - qc[0]) + (e[1] - qc[1]) * (e[1] - qc[1]) +
+                                    (e[2] - qc[2]) * (e[2] - qc[2]));
+        qr = std::max(qr, dd + caps[i].r);
+      }
+      rmin = std::min(rmin, caps[i].r);
     }
-    // One bounding sphere of the whole tool for the BVH query.
-    const double qc[3] = {c[0] + 0.5 * L * axis[0], c[1] + 0.5 * L * axis[1], c[2] + 0.5 * L * axis[2]};
-    const double qr = 0.5 * L + std::max(R, rs);
     bvh.query_sphere(qc, qr, x, [&](int32_t t) {
       if (surf.active && !surf.active[t]) return;
       const auto& tri = surf.triangles[t];
@@ -175,7 +220,7 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
       if (twice_area <= 0) return;
       const double nsign = (surf.active && surf.active[t] == 2) ? -1.0 : 1.0;  // exposed from behind
       for (double& v : nrm) v *= nsign / twice_area;
-      const int ns = samples_per_edge(surf, t, L > 0 ? std::min(R, rs) : R);
+      const int ns = samples_per_edge(surf, t, rmin);
       const double sample_area = 0.5 * twice_area / (ns * ns);
       const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;
       for_each_sample(ns, [&](double u, double v) {
@@ -185,17 +230,24 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
               q[a] = w0 * p0[a] + u * p1[a] + v * p2[a];
               d[a] = q[a] - c[a];
             }
-            double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            double Rs = R;  // radius of the feature the sample is tested against
-            if (L > 0) {    // shaft: the closest point of the axis segment, if deeper than the tip
-              const double tpar = std::clamp(d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2], 0.0, L);
-              double ds[3];
-              for (int a = 0; a < 3; ++a) ds[a] = d[a] - tpar * axis[a];
-              const double ds2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2];
-              if (std::sqrt(ds2) - rs < std::sqrt(dist2) - R) {
+            // Deepest capsule: d = sample − closest axis point, Rs = that capsule's radius.
+            double dist2 = 0, Rs = 0, best = 1e300;
+            for (int i = 0; i < ncap; ++i) {
+              double ab[3], qa[3], ds[3];
+              for (int a = 0; a < 3; ++a) {
+                ab[a] = caps[i].b[a] - caps[i].a[a];
+                qa[a] = q[a] - caps[i].a[a];
+              }
+              const double l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+              const double tpar = l2 > 0 ? std::clamp((qa[0] * ab[0] + qa[1] * ab[1] + qa[2] * ab[2]) / l2, 0.0, 1.0) : 0.0;
+              for (int a = 0; a < 3; ++a) ds[a] = qa[a] - tpar * ab[a];
+              const double s2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2];
+              const double sd = std::sqrt(s2) - caps[i].r;
+              if (sd < best) {
+                best = sd;
+                dist2 = s2;
+                Rs = caps[i].r;
                 for (int a = 0; a < 3; ++a) d[a] = ds[a];
-                dist2 = ds2;
-                Rs = rs;
               }
             }
             if (dist2 >= Rs * Rs) return;

@@ -31,8 +31,11 @@ enum class InvalidCommandPolicy {
 /// Geometry of a tool that touches tissue.
 enum class ToolShape {
   None,   ///< moves, gets feedback, touches nothing
-  Sphere, ///< a sphere (a probe's tip) centred on the tool position
-  Probe   ///< a sphere tip plus a capsule shaft along the tool's local +z axis
+  Sphere,  ///< a sphere (a probe's tip) centred on the tool position
+  Probe,   ///< a sphere tip plus a capsule shaft along the tool's local +z axis
+  Blade,   ///< an edge (capsule of `radius`) of `length` along the tool's local x, centred
+  Grasper  ///< two jaws (capsules of `radius`, `length`) from the hinge at the tool position,
+           ///< along local +z opened by ±jaw/2 about the local y axis
 };
 
 /// `tools:` entry of a scenario.
@@ -47,7 +50,7 @@ struct ToolSpec {
   ToolShape shape = ToolShape::None;
   double radius = 0;             ///< tip sphere radius (m)
   double shaft_radius = 0;       ///< probe: shaft radius (m), ≤ radius
-  double shaft_length = 0;       ///< probe: shaft length from the tip centre (m)
+  double shaft_length = 0;       ///< probe: shaft length; blade: edge length; grasper: jaw length (m)
   double contact_stiffness = 0;  ///< contact pressure per penetration (Pa/m = N/m³);
                                  ///< 0 = automatic: 100·E/radius of the stiffest body
   double contact_damping = 0;    ///< pressure per penetration rate (Pa·s/m), normal direction

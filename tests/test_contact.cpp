@@ -299,3 +299,51 @@ TEST(Contact, VirtualCouplingProxyDoesNotSinkAndBalancesTheTissue) {
   for (int i = 0; i < 3; ++i)
     EXPECT_NEAR(ts.device_force[i], ts.force[i], 0.05 * std::fabs(ts.force[1]) + 1e-9) << "axis " << i;
 }
+
+// Blade (an edge along the tool's x) and grasper (two jaws from the hinge along the tool's z,
+// opened by ±jaw/2): pressed into the liver they touch it and are pushed back; above it they
+// touch nothing. An open grasper spans wider than a closed one.
+TEST(Contact, BladeAndGrasperShapesTouchTheSurface) {
+  auto press = [](ToolShape shape, double jaw, double y_end, double* x_extent) {
+    ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+    ToolSpec& t = spec.tools.at(0).spec;
+    t.timeout = 100;
+    t.max_speed = 1e3;
+    t.shape = shape;
+    t.radius = 0.1;
+    t.shaft_length = 1.0;
+    auto m = compile_model(spec);
+    State s = State::initial(*m);
+    TickWorkspace w(*m);
+    ToolInput in;
+    // Blade: edge along world x. Grasper: jaws pointing down (tool +z → world −y).
+    in.pose.orientation = shape == ToolShape::Grasper ? std::array<double, 4>{std::sqrt(0.5), std::sqrt(0.5), 0, 0}
+                                                      : std::array<double, 4>{1, 0, 0, 0};
+    in.pose.jaw = jaw;
+    const double y0 = shape == ToolShape::Grasper ? 7.0 : 6.0;
+    for (int k = 0; k <= 600; ++k) {
+      in.pose.position = {-1.5, y0 + (y_end - y0) * k / 600.0, 0.5};
+      tick(*m, s, w, &in, 1);
+    }
+    // Spread in x of the contact springs' nodes (how wide the tool touches).
+    double lo = 1e300, hi = -1e300;
+    for (const ContactSpring& sp : w.springs)
+      for (int a = 0; a < 3; ++a) {
+        lo = std::min(lo, s.tissue.x[3 * sp.node[a]]);
+        hi = std::max(hi, s.tissue.x[3 * sp.node[a]]);
+      }
+    if (x_extent) *x_extent = w.springs.empty() ? 0.0 : hi - lo;
+    return s.tools[0];
+  };
+  double ext_open = 0, ext_closed = 0;
+  const ToolState blade = press(ToolShape::Blade, 0, 4.9, nullptr);
+  EXPECT_GT(blade.contacts, 0);
+  EXPECT_GT(blade.force[1], 0.0);
+  EXPECT_EQ(press(ToolShape::Blade, 0, 7.5, nullptr).contacts, 0) << "above the liver";
+  const ToolState open = press(ToolShape::Grasper, 1.2, 5.4, &ext_open);
+  const ToolState closed = press(ToolShape::Grasper, 0.0, 5.4, &ext_closed);
+  EXPECT_GT(open.contacts, 0);
+  EXPECT_GT(closed.contacts, 0);
+  EXPECT_GT(open.force[1], 0.0);
+  EXPECT_GT(ext_open, ext_closed) << "open jaws touch a wider region";
+}

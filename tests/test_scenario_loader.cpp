@@ -702,7 +702,7 @@ TEST(ScenarioLoaderTools, ProbeShape) {
   expect_error(kMinimal + "tools:\n  - name: p\n    shape: {type: probe, radius: 0.003, shaft_radius: 0.01, length: 1}\n", 11,
                "tools[0].shape.shaft_radius", {"must not exceed the tip radius"});
   expect_error(kMinimal + "tools:\n  - name: p\n    shape: {type: sphere, radius: 0.003, length: 1}\n", 11,
-               "tools[0].shape", {"belong to type probe"});
+               "tools[0].shape", {"belong to types probe, blade, grasper"});
 }
 
 TEST(ScenarioLoaderTools, Coupling) {
@@ -713,6 +713,17 @@ TEST(ScenarioLoaderTools, Coupling) {
                {"needs a shape"});
   expect_error(kMinimal + "tools:\n  - name: p\n    shape: {type: sphere, radius: 0.003}\n    coupling: {stiffness: -1}\n", 12,
                "tools[0].coupling.stiffness", {"out of range"});
+}
+
+TEST(ScenarioLoaderTools, BladeAndGrasperShapes) {
+  const ScenarioSpec s = parse_scenario(kMinimal + "tools:\n  - name: b\n    shape: {type: blade, radius: 0.0005, length: 0.02}\n"
+                                                   "  - name: g\n    shape: {type: grasper, radius: 0.002, length: 0.015}\n",
+                                        "a.yaml", "");
+  EXPECT_EQ(s.tools.at(0).spec.shape, ToolShape::Blade);
+  EXPECT_DOUBLE_EQ(s.tools.at(0).spec.shaft_length, 0.02);
+  EXPECT_EQ(s.tools.at(1).spec.shape, ToolShape::Grasper);
+  expect_error(kMinimal + "tools:\n  - name: b\n    shape: {type: blade, radius: 0.0005}\n", 11, "tools[0].shape.length",
+               {"missing required field 'length'"});
 }
 
 }  // namespace
