@@ -676,9 +676,10 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
     }
   }
   if (auto f = m.opt("contact")) {
-    const MapReader cm = f->map({"stiffness", "damping"});
+    const MapReader cm = f->map({"stiffness", "damping", "friction"});
     cm.read("stiffness", t.spec.contact_stiffness, greater_than(0));
     cm.read("damping", t.spec.contact_damping, at_least(0));
+    cm.read("friction", t.spec.friction, at_least(0));
   }
   m.read("max_force", t.spec.max_force, greater_than(0));
   if (auto f = m.opt("coupling")) {

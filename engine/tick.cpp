@@ -63,7 +63,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   const ContactSurface surf{m.collision_triangles, m.collision_slots, m.collision_edge,
                             s.face_active.empty() ? nullptr : s.face_active.data()};
   for (size_t k = 0; k < m.tools.size(); ++k) {
-    tool_contact(m.tools[k], s.tools[k], surf, w.bvh, x, w.springs);
+    tool_contact(m.tools[k], s.tools[k], surf, w.bvh, x, s.tissue.v.data(), m.time_step, w.springs);
     device_feedback(m.tools[k], s.tools[k]);
   }
   w.stepper().set_contact_springs(w.springs.data(), static_cast<int>(w.springs.size()));

@@ -167,7 +167,7 @@ bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, cons
 }  // namespace
 
 void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& surf, const TriangleBvh& bvh,
-                  const double* x, std::vector<ContactSpring>& springs) {
+                  const double* x, const double* vel, double dt, std::vector<ContactSpring>& springs) {
     // Virtual coupling: move the proxy by one implicit step of its quasi-static balance
     // k_v (device − proxy) + F_contact(proxy) = 0, using last tick's contact force and stiffness.
     const double kv = spec.coupling_stiffness;
@@ -193,6 +193,14 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
     if (spec.shape == ToolShape::None || ts.last_command_time < 0) return;
     const double* c = kv > 0 ? ts.proxy.data() : ts.pose.position.data();
     if (spec.can_grasp && grasp(surf, spec, ts, c, x, bvh, springs)) return;  // holding tissue: no tip contact
+    // Tool velocity (for friction), from its contact centre one tick ago.
+    double vt[3] = {0, 0, 0};
+    if (ts.has_center && dt > 0)
+      for (int k = 0; k < 3; ++k) vt[k] = (c[k] - ts.last_center[k]) / dt;
+    for (int k = 0; k < 3; ++k) ts.last_center[k] = c[k];
+    ts.has_center = true;
+    const double mu = vel ? spec.friction : 0.0;
+    const double v_stick = 0.01 * spec.radius;
     // The tool as capsules (segments with radii) in world coordinates.
     Capsule caps[kMaxCapsules];
     const int ncap = tool_capsules(spec, ts.pose, c, caps);
@@ -277,6 +285,28 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
                 sp.K[3 * a + b] = kc * dir[a] * dir[b];
                 sp.C[3 * a + b] = cc * dir[a] * dir[b];
                 ts.stiffness[3 * a + b] -= sp.K[3 * a + b];
+              }
+            }
+            if (mu > 0) {
+              // Regularised Coulomb friction on the sliding velocity relative to the tool:
+              // f_t = −c_t (I − n nᵀ)(v − v_tool), c_t = μ f_n / max(|v_t|, v_stick); its damping
+              // matrix enters the implicit system (C), the tool's own velocity stays explicit.
+              double vr[3];
+              for (int a = 0; a < 3; ++a)
+                vr[a] = sp.w[0] * vel[3 * sp.node[0] + a] + sp.w[1] * vel[3 * sp.node[1] + a] +
+                        sp.w[2] * vel[3 * sp.node[2] + a] - vt[a];
+              const double vn = vr[0] * dir[0] + vr[1] * dir[1] + vr[2] * dir[2];
+              double vtan[3];
+              for (int a = 0; a < 3; ++a) vtan[a] = vr[a] - vn * dir[a];
+              const double speed = std::sqrt(vtan[0] * vtan[0] + vtan[1] * vtan[1] + vtan[2] * vtan[2]);
+              const double ct = mu * fmag / std::max(speed, v_stick);
+              for (int a = 0; a < 3; ++a) {
+                for (int b = 0; b < 3; ++b) {
+                  const double P = (a == b ? 1.0 : 0.0) - dir[a] * dir[b];
+                  sp.C[3 * a + b] += ct * P;
+                  sp.force[a] += ct * P * vt[b];  // the −C·v_tool part of −C·(v − v_tool)
+                }
+                ts.force[a] += ct * vtan[a];  // the tool is dragged along by the tissue's motion
               }
             }
             // Torque of the tissue's force on the tool about the tip centre: (q − c) × (−f).

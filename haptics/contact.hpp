@@ -39,8 +39,11 @@ inline constexpr double kContactSamplesPerRadius = 4.0;
 
 /// Coupling, grasp and contact of one tool at positions x (BVH already refitted): fills the
 /// tool's contact outputs and appends its springs (dropping, and counting, beyond capacity).
+/// `v` (node velocities) and `dt` are for friction (relative sliding velocity); v may be null
+/// when the tool has no friction.
 void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& surf,
-                  const TriangleBvh& bvh, const double* x, std::vector<ContactSpring>& springs);
+                  const TriangleBvh& bvh, const double* x, const double* v, double dt,
+                  std::vector<ContactSpring>& springs);
 
 /// What the device renders: the coupling spring (series stiffness of coupling and contact) if
 /// the tool is coupled, else the contact force itself.

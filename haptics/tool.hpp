@@ -54,6 +54,10 @@ struct ToolSpec {
   double contact_stiffness = 0;  ///< contact pressure per penetration (Pa/m = N/m³);
                                  ///< 0 = automatic: 100·E/radius of the stiffest body
   double contact_damping = 0;    ///< pressure per penetration rate (Pa·s/m), normal direction
+  /// Coulomb friction coefficient μ (0: frictionless). Regularised: below a slip speed of
+  /// 1 % of the radius per second the friction is viscous (a stick that creeps), above it the
+  /// tangential force is μ·|normal force| against the sliding direction.
+  double friction = 0;
   double max_force = 10;         ///< N: the feedback force is clamped to this magnitude
   // Virtual coupling (`coupling:` section): the tool in the simulation is a proxy tied to the
   // device pose by a spring; the tissue stops the proxy (it does not sink through) and the
@@ -98,6 +102,8 @@ struct ToolState {
   std::array<double, 9> stiffness{};  ///< dF/dx of that force w.r.t. the tool position (N/m)
   Vec3 torque{0, 0, 0};               ///< torque of that force about the tip centre (N·m)
   // Virtual coupling:
+  bool has_center = false;
+  Vec3 last_center{0, 0, 0};          ///< contact centre of the previous tick (tool velocity)
   bool has_proxy = false;
   Vec3 proxy{0, 0, 0};                ///< where the simulated tool is (contact happens here)
   // What the device renders (the coupling spring if coupled, else the contact force):

@@ -347,3 +347,48 @@ TEST(Contact, BladeAndGrasperShapesTouchTheSurface) {
   EXPECT_GT(open.force[1], 0.0);
   EXPECT_GT(ext_open, ext_closed) << "open jaws touch a wider region";
 }
+
+// Friction: dragging the probe along the surface, the tissue resists the motion with about
+// μ times the normal force (slip); without friction the drag is much smaller.
+TEST(Contact, CoulombFrictionResistsSliding) {
+  auto drag = [](double mu, double* fx_mean, double* fy_mean) {
+    ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+    ToolSpec& t = spec.tools.at(0).spec;
+    t.timeout = 100;
+    t.max_speed = 1e3;
+    t.friction = mu;
+    auto m = compile_model(spec);
+    State s = State::initial(*m);
+    TickWorkspace w(*m);
+    ToolInput in;
+    for (int k = 0; k <= 1000; ++k) {
+      in.pose.position = {-1.5, 6.0 - 0.95 * k / 1000.0, 0.5};
+      tick(*m, s, w, &in, 1);
+    }
+    for (int k = 0; k < 300; ++k) tick(*m, s, w, &in, 1);
+    double fx = 0, fy = 0;
+    int n = 0;
+    for (int k = 0; k <= 1000; ++k) {  // 1 unit along +x in 1 s
+      in.pose.position = {-1.5 + 1.0 * k / 1000.0, 5.05, 0.5};
+      tick(*m, s, w, &in, 1);
+      if (k > 300) {  // steady sliding
+        fx += s.tools[0].force[0];
+        fy += s.tools[0].force[1];
+        ++n;
+      }
+    }
+    *fx_mean = fx / n;
+    *fy_mean = fy / n;
+  };
+  double fx0, fy0, fx1, fy1;
+  drag(0.0, &fx0, &fy0);
+  drag(0.5, &fx1, &fy1);
+  std::printf("friction: mu 0: fx %.3f fy %.3f; mu 0.5: fx %.3f fy %.3f\n", fx0, fy0, fx1, fy1);
+  ASSERT_GT(fy0, 0.0);
+  ASSERT_GT(fy1, 0.0);
+  // The surface slopes, so even frictionless sliding has a tangential component: compare the
+  // friction's share, fx(μ) − fx(0), with μ times the normal force.
+  const double mu = 0.5, extra = fx1 - fx0;
+  EXPECT_LT(extra, -0.3 * mu * std::min(fy0, fy1)) << "friction drags the tool back";
+  EXPECT_GT(extra, -1.5 * mu * std::max(fy0, fy1)) << "by no more than about μ·|F_n|";
+}

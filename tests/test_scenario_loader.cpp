@@ -709,6 +709,11 @@ TEST(ScenarioLoaderTools, Coupling) {
   const ScenarioSpec s = parse_scenario(kMinimal + "tools:\n  - name: p\n    shape: {type: sphere, radius: 0.003}\n    coupling: {stiffness: 300}\n",
                                         "a.yaml", "");
   EXPECT_DOUBLE_EQ(s.tools.at(0).spec.coupling_stiffness, 300);
+  const ScenarioSpec f = parse_scenario(kMinimal + "tools:\n  - name: p\n    shape: {type: sphere, radius: 0.003}\n    contact: {friction: 0.4}\n",
+                                        "a.yaml", "");
+  EXPECT_DOUBLE_EQ(f.tools.at(0).spec.friction, 0.4);
+  expect_error(kMinimal + "tools:\n  - name: p\n    shape: {type: sphere, radius: 0.003}\n    contact: {friction: -0.1}\n", 12,
+               "tools[0].contact.friction", {"out of range"});
   expect_error(kMinimal + "tools:\n  - name: p\n    coupling: {stiffness: 300}\n", 11, "tools[0].coupling",
                {"needs a shape"});
   expect_error(kMinimal + "tools:\n  - name: p\n    shape: {type: sphere, radius: 0.003}\n    coupling: {stiffness: -1}\n", 12,
