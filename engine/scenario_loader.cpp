@@ -683,8 +683,9 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   }
   m.read("max_force", t.spec.max_force, greater_than(0));
   if (auto f = m.opt("coupling")) {
-    const MapReader cm = f->map({"stiffness"});
+    const MapReader cm = f->map({"stiffness", "damping"});
     cm.require("stiffness", t.spec.coupling_stiffness, greater_than(0));
+    cm.read("damping", t.spec.coupling_damping, at_least(0));
     if (t.spec.shape == ToolShape::None)
       f->fail("a coupled tool needs a shape (the proxy is what touches the tissue)");
   }

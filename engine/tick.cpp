@@ -64,7 +64,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
                             s.face_active.empty() ? nullptr : s.face_active.data()};
   for (size_t k = 0; k < m.tools.size(); ++k) {
     tool_contact(m.tools[k], s.tools[k], surf, w.bvh, x, s.tissue.v.data(), m.time_step, w.springs);
-    device_feedback(m.tools[k], s.tools[k]);
+    device_feedback(m.tools[k], s.tools[k], m.time_step);
   }
   w.stepper().set_contact_springs(w.springs.data(), static_cast<int>(w.springs.size()));
 }

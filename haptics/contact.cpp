@@ -320,7 +320,7 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
     });
   }
 
-void device_feedback(const ToolSpec& spec, ToolState& ts) {
+void device_feedback(const ToolSpec& spec, ToolState& ts, double dt) {
   const double kv = spec.coupling_stiffness;
     if (kv > 0 && ts.has_proxy) {
       double Kc[9], A[9], Ai[9], KA[9];
@@ -330,7 +330,12 @@ void device_feedback(const ToolSpec& spec, ToolState& ts) {
       }
       m3::inverse(A, Ai);
       m3::mul(Kc, Ai, KA);
-      for (int i = 0; i < 3; ++i) ts.device_force[i] = kv * (ts.proxy[i] - ts.pose.position[i]);
+      // Spring–damper between proxy and device; the damper acts on the stretch rate (per tick).
+      for (int i = 0; i < 3; ++i) {
+        const double stretch = ts.proxy[i] - ts.pose.position[i];
+        ts.device_force[i] = kv * stretch + spec.coupling_damping * (stretch - ts.coupling_stretch[i]) / dt;
+        ts.coupling_stretch[i] = stretch;
+      }
       for (int i = 0; i < 9; ++i) ts.device_stiffness[i] = -kv * KA[i];
     } else {
       ts.device_force = ts.force;

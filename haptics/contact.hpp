@@ -45,8 +45,8 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
                   const TriangleBvh& bvh, const double* x, const double* v, double dt,
                   std::vector<ContactSpring>& springs);
 
-/// What the device renders: the coupling spring (series stiffness of coupling and contact) if
-/// the tool is coupled, else the contact force itself.
-void device_feedback(const ToolSpec& spec, ToolState& ts);
+/// What the device renders: the coupling spring–damper (series stiffness of coupling and
+/// contact) if the tool is coupled, else the contact force itself. dt: the tick (s).
+void device_feedback(const ToolSpec& spec, ToolState& ts, double dt);
 
 }  // namespace stroma

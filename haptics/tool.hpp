@@ -63,6 +63,7 @@ struct ToolSpec {
   // device pose by a spring; the tissue stops the proxy (it does not sink through) and the
   // device feels the spring, stiffness·(proxy − device).
   double coupling_stiffness = 0; ///< N/m; 0 = no coupling (the tool follows the device exactly)
+  double coupling_damping = 0;   ///< N·s/m on the proxy–device relative velocity
   // Grasping (`grasp:` section): closing the jaws (opening below `close`) attaches the surface
   // points within `reach`·radius of the tip (the contact samples of the surface triangles,
   // closest first), each by a spring to where it was in the tool's frame; opening above `open`
@@ -106,6 +107,7 @@ struct ToolState {
   Vec3 last_center{0, 0, 0};          ///< contact centre of the previous tick (tool velocity)
   bool has_proxy = false;
   Vec3 proxy{0, 0, 0};                ///< where the simulated tool is (contact happens here)
+  Vec3 coupling_stretch{0, 0, 0};     ///< proxy − device of the previous tick (damping rate)
   // What the device renders (the coupling spring if coupled, else the contact force):
   Vec3 device_force{0, 0, 0};
   std::array<double, 9> device_stiffness{};  ///< dF/d(device position)
