@@ -123,6 +123,21 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
     model->body_damage.push_back(b.material.damage);
     model->has_damage = model->has_damage || b.material.damage.enabled;
   }
+  if (model->has_damage) {
+    const FemModel& f = model->fem;
+    model->element_node_mass.resize(f.elements.size());
+    for (size_t bi = 0; bi < f.bodies.size(); ++bi)
+      for (int32_t e = f.bodies[bi].element_begin; e < f.bodies[bi].element_end; ++e)
+        model->element_node_mass[e] = spec.bodies[bi].material.density * f.elements[e].volume / 4.0;
+    model->node_elem_ptr.assign(f.num_nodes + 1, 0);
+    for (const ElementParams& ep : f.elements)
+      for (int32_t n : ep.node) ++model->node_elem_ptr[n + 1];
+    for (int32_t i = 0; i < f.num_nodes; ++i) model->node_elem_ptr[i + 1] += model->node_elem_ptr[i];
+    model->node_elem.resize(model->node_elem_ptr.back());
+    std::vector<int32_t> fill(model->node_elem_ptr.begin(), model->node_elem_ptr.end() - 1);
+    for (size_t e = 0; e < f.elements.size(); ++e)
+      for (int32_t n : f.elements[e].node) model->node_elem[fill[n]++] = static_cast<int32_t>(e);
+  }
 
   model->body_tets.resize(meshes.size());
   for (size_t bi = 0; bi < meshes.size(); ++bi) {

@@ -71,6 +71,16 @@ int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* reco
         for (uint8_t l = s.damage_level[e] + 1; l <= level; ++l) ++s.damage_count[l];
         if (level >= kDamaged && s.first_damage_time < 0) s.first_damage_time = s.time;
         s.damage_level[e] = level;
+        if (level == kRuptured) {
+          // The element's mass leaves the nodes that still belong to intact tissue; nodes left
+          // with no intact element keep theirs (free debris, so no node becomes massless).
+          for (int32_t n : m.fem.elements[e].node) {
+            bool attached = false;
+            for (int32_t j = m.node_elem_ptr[n]; j < m.node_elem_ptr[n + 1] && !attached; ++j)
+              attached = s.damage_level[m.node_elem[j]] != kRuptured;
+            if (attached) s.node_mass[n] = std::max(0.0, s.node_mass[n] - m.element_node_mass[e]);
+          }
+        }
         if (level == kRuptured && !s.face_active.empty()) {
           // The tear: faces between this element and an intact one become surface.
           for (int32_t f : m.element_faces[e]) {

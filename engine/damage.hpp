@@ -8,8 +8,10 @@
 ///
 /// At rupture the faces between the ruptured element and intact neighbours become collision
 /// surface (tools can enter the tear; no rebuild, no allocation: every tet face of a body with a
-/// damage model is in the collision set from load time, switched on and off). Not yet: the
-/// ruptured element's mass stays on its nodes, and the renderer's mesh is not re-extracted.
+/// damage model is in the collision set from load time, switched on and off), and the element's
+/// mass (ρV/4 per node) leaves the nodes still attached to intact tissue (nodes left with no
+/// intact element keep theirs as free debris, so none becomes massless); gravity follows.
+/// Not yet: the renderer's published mesh is not re-extracted.
 
 #include <cstdint>
 #include <vector>

@@ -33,6 +33,8 @@ struct Model {
   std::vector<Trajectory> tool_scripts;   ///< per tool; empty keys when it has no script
   std::vector<DamageSpec> body_damage;    ///< per body (enabled = false: no damage model)
   bool has_damage = false;                ///< some body has a damage model: damage stage runs
+  std::vector<double> element_node_mass;  ///< ρV/4 of each element (damage: removed at rupture)
+  std::vector<int32_t> node_elem_ptr, node_elem;  ///< CSR: elements of each node (damage only)
   bool has_contact = false;               ///< some tool has a shape: collide stage and BVH exist
   std::vector<std::array<int32_t, 3>> collision_triangles;  ///< all bodies' surfaces (outward)
   std::vector<std::array<int32_t, 9>> collision_slots;      ///< BSR slots of each triangle's node pairs

@@ -19,6 +19,7 @@ struct State {
   std::vector<float> damage;          ///< per element d ∈ [0, 1]; stiffness × (1 − d)
   std::vector<float> stiffness_scale; ///< per element 1 − d (what the element pass reads)
   std::vector<uint8_t> damage_level;  ///< per element DamageLevel
+  std::vector<double> node_mass;      ///< current lumped masses (ruptured elements removed)
   std::array<int64_t, 4> damage_count{};  ///< elements that reached warned / damaged / ruptured
   double first_damage_time = -1;      ///< sim time of the first onset (−1: none)
   /// Per collision face: 0 inactive (both sides intact, or both ruptured), 1 active as stored,
@@ -37,6 +38,7 @@ struct State {
       s.damage.assign(m.fem.elements.size(), 0.0f);
       s.stiffness_scale.assign(m.fem.elements.size(), 1.0f);
       s.damage_level.assign(m.fem.elements.size(), 0);
+      s.node_mass = m.fem.mass;
       if (m.has_contact) {
         s.face_active.resize(m.collision_face_elem.size());
         for (size_t f = 0; f < s.face_active.size(); ++f)

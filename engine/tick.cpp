@@ -76,6 +76,7 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
   const double h = m.time_step;
   TimeStepper& stepper = w.stepper();
   stepper.set_element_scale(m.has_damage ? s.stiffness_scale.data() : nullptr);
+  stepper.set_node_mass(m.has_damage ? s.node_mass.data() : nullptr);
   if (!m.tools.empty()) {
     StageTimer t(r, Stage::ReadInputs);
     for (int i = 0; i < input_count; ++i) {

@@ -16,6 +16,7 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
     ne += static_cast<int32_t>(b.mesh->mesh.tets.size());
   }
   m.num_nodes = nn;
+  m.gravity = gravity;
   m.rest.resize(3 * nn);
   m.mass.assign(nn, 0.0);
   m.alpha.assign(nn, 0.0);

@@ -59,6 +59,7 @@ struct FemModel {
   std::vector<uint8_t> constrained;
   std::vector<int32_t> constrained_nodes;   ///< nodes with any constrained DOF
   std::vector<double> f_ext;                ///< 3n constant external force (gravity + loads)
+  Vec3 gravity{0, 0, 0};                    ///< m/s², included in f_ext as mass·g
   BsrPattern pattern;
   std::vector<ElementSlots> slots;          ///< per element
   /// Off-diagonal blocks (slot, row node, column node) touching a constrained DOF.

@@ -150,7 +150,7 @@ double TimeStepper::assemble(const TissueState& s, double h) {
   if (implicit) {
     for (int32_t i = 0; i < n; ++i) {
       double* D = A_.data() + 9 * m_.pattern.diag[i];
-      const double md = (1.0 + h * m_.alpha[i]) * m_.mass[i];
+      const double md = (1.0 + h * m_.alpha[i]) * mass(i);
       D[0] += md;
       D[4] += md;
       D[8] += md;
@@ -158,10 +158,11 @@ double TimeStepper::assemble(const TissueState& s, double h) {
     // h(f_ext + f − αMv − (β + h)Kv) = h(f_ext + f) + Mv − Av   (constrained v are 0).
     bsr_spmv(m_.pattern, A_.data(), s.v.data(), tmp_.data());
     for (int32_t i = 0; i < n; ++i) {
-      const double mi = m_.mass[i];
+      const double mi = mass(i), dm = mi - m_.mass[i];  // gravity follows the current mass
       for (int k = 0; k < 3; ++k) {
         const int32_t d = 3 * i + k;
-        rhs_[d] = dof_constrained(m_, i, k) ? 0.0 : h * (fe[d] + force_[d]) + mi * s.v[d] - tmp_[d];
+        rhs_[d] = dof_constrained(m_, i, k) ? 0.0
+                                            : h * (fe[d] + dm * m_.gravity[k] + force_[d]) + mi * s.v[d] - tmp_[d];
       }
     }
     project_constraints(A_.data(), 1.0);
@@ -172,11 +173,12 @@ double TimeStepper::assemble(const TissueState& s, double h) {
     }
   } else {
     for (int32_t i = 0; i < n; ++i) {
-      const double am = m_.alpha[i] * m_.mass[i];
+      const double mi = mass(i), am = m_.alpha[i] * mi, dm = mi - m_.mass[i];
+      const double inv = mi > 0 ? 1.0 / mi : 0.0;
       for (int k = 0; k < 3; ++k) {
         const int32_t d = 3 * i + k;
-        const double f = fe[d] + force_[d] - am * s.v[d] - (any_beta_ ? kv_[d] : 0.0);
-        rhs_[d] = dof_constrained(m_, i, k) ? 0.0 : h * f * m_.inv_mass[i];
+        const double f = fe[d] + dm * m_.gravity[k] + force_[d] - am * s.v[d] - (any_beta_ ? kv_[d] : 0.0);
+        rhs_[d] = dof_constrained(m_, i, k) ? 0.0 : h * f * inv;
       }
     }
   }
@@ -328,7 +330,7 @@ double TimeStepper::kinetic_energy(const TissueState& s) const {
   double e = 0;
   for (int32_t i = 0; i < m_.num_nodes; ++i) {
     const double* v = &s.v[3 * i];
-    e += 0.5 * m_.mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    e += 0.5 * mass(i) * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
   }
   return e;
 }

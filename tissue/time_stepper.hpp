@@ -61,6 +61,9 @@ class TimeStepper {
 
   /// Per-element stiffness multipliers (damage) for the following assemblies; null = none.
   void set_element_scale(const float* scale) { scale_ = scale; }
+  /// Current lumped masses (damage removes ruptured elements' mass); null = the model's.
+  /// Gravity follows the current mass.
+  void set_node_mass(const double* mass) { mass_ = mass; }
 
   /// Stage "assemble": element pass at the current state and the step's right-hand side.
   /// Returns the elastic energy at s.x (before the step).
@@ -104,6 +107,8 @@ class TimeStepper {
   StepperSettings cfg_;
   bool any_beta_ = false;
   const float* scale_ = nullptr;
+  const double* mass_ = nullptr;
+  double mass(int32_t i) const { return mass_ ? mass_[i] : m_.mass[i]; }
   const ContactSpring* springs_ = nullptr;
   int n_springs_ = 0;
   std::vector<double> force_, kv_, rhs_, A_, rot_, tmp_;
