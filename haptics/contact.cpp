@@ -93,7 +93,9 @@ ContactSpring point_spring(const ContactSurface& surf, int32_t t, double u, doub
 }
 
 /// Grasp logic of one tool: on the open → closed jaw transition, attach the surface points
-/// within reach of the tip (closest first, offsets in the tool frame); on opening, release.
+/// within reach of the grasp centre (closest first, offsets in the tool frame) — the tip for a
+/// sphere or probe, the middle of the jaws for a grasper (reach then spans the jaws' length);
+/// on opening, release.
 /// While points are held, each gets a spring to its attachment point. Returns true while holding.
 bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, const double* c, const double* x,
            const TriangleBvh& bvh, std::vector<ContactSpring>& springs) {
@@ -104,16 +106,22 @@ bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, cons
   if (closed_now && !ts.jaw_closed) {
     ts.jaw_closed = true;
     ts.grasped = 0;
-    const double reach = spec.grasp_reach * spec.radius;
+    double reach = spec.grasp_reach * spec.radius;
+    double gc[3] = {c[0], c[1], c[2]};
+    if (spec.shape == ToolShape::Grasper) {  // between the jaws: along the tool's +z
+      for (int k = 0; k < 3; ++k) gc[k] = c[k] + 0.5 * spec.shaft_length * Rm[3 * k + 2];
+      reach += 0.5 * spec.shaft_length;
+    }
     std::array<double, kMaxGrasped> dist2{};
-    bvh.query_sphere(c, reach, x, [&](int32_t t) {
+    bvh.query_sphere(gc, reach, x, [&](int32_t t) {
       if (surf.active && !surf.active[t]) return;
       const auto& tri = surf.triangles[t];
       for_each_sample(samples_per_edge(surf, t, spec.radius), [&](double u, double v) {
-        double d[3], d2 = 0;
+        double d[3], d2 = 0;  // d: from the tool origin (offset); d2: from the grasp centre
         for (int k = 0; k < 3; ++k) {
-          d[k] = (1 - u - v) * x[3 * tri[0] + k] + u * x[3 * tri[1] + k] + v * x[3 * tri[2] + k] - c[k];
-          d2 += d[k] * d[k];
+          const double p = (1 - u - v) * x[3 * tri[0] + k] + u * x[3 * tri[1] + k] + v * x[3 * tri[2] + k];
+          d[k] = p - c[k];
+          d2 += (p - gc[k]) * (p - gc[k]);
         }
         if (d2 > reach * reach) return;
         // Keep the kMaxGrasped closest points (insertion into a sorted fixed array).

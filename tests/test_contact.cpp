@@ -392,3 +392,45 @@ TEST(Contact, CoulombFrictionResistsSliding) {
   EXPECT_LT(extra, -0.3 * mu * std::min(fy0, fy1)) << "friction drags the tool back";
   EXPECT_GT(extra, -1.5 * mu * std::max(fy0, fy1)) << "by no more than about μ·|F_n|";
 }
+
+// The grasper holds what is between its jaws: jaws pointing down into the surface, closing
+// grasps, lifting pulls the tissue up.
+TEST(Contact, GrasperJawsGraspBetweenThemAndLift) {
+  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  ToolSpec& t = spec.tools.at(0).spec;
+  t.timeout = 100;
+  t.max_speed = 1e3;
+  t.shape = ToolShape::Grasper;
+  t.radius = 0.08;
+  t.shaft_length = 0.6;
+  t.can_grasp = true;
+  auto m = compile_model(spec);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  ToolInput in;
+  in.pose.orientation = {std::sqrt(0.5), std::sqrt(0.5), 0, 0};  // jaws along world −y
+  auto step = [&](double y, double jaw) {
+    in.pose.position = {-1.5, y, 0.5};
+    in.pose.jaw = jaw;
+    ASSERT_NE(tick(*m, s, w, &in, 1).status, TickStatus::NonFinite);
+  };
+  for (int k = 0; k <= 800; ++k) step(6.5 - 1.0 * k / 800.0, 0.8);  // open jaws down into the tissue
+  ASSERT_GT(s.tools[0].contacts, 0);
+  step(5.5, 0.0);  // close
+  const int held = s.tools[0].grasped;
+  ASSERT_GT(held, 0);
+  const ToolState g = s.tools[0];
+  auto mean_y = [&] {
+    double y = 0;
+    for (int i = 0; i < held; ++i) {
+      const auto& tri = m->collision_triangles[g.grasp_triangle[i]];
+      const double u = g.grasp_uv[i][0], v = g.grasp_uv[i][1];
+      y += (1 - u - v) * s.tissue.x[3 * tri[0] + 1] + u * s.tissue.x[3 * tri[1] + 1] + v * s.tissue.x[3 * tri[2] + 1];
+    }
+    return y / held;
+  };
+  const double y0 = mean_y();
+  for (int k = 1; k <= 500; ++k) step(5.5 + 0.8 * k / 500.0, 0.0);
+  for (int k = 0; k < 300; ++k) step(6.3, 0.0);
+  EXPECT_GT(mean_y() - y0, 0.5 * 0.8) << "held tissue follows the lift";
+}
