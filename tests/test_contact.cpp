@@ -188,6 +188,19 @@ TEST(Contact, ForceIsContinuousWhileSliding) {
   EXPECT_LT(max_jump, 0.05 * mean) << "max jump " << max_jump << ", mean force " << mean;
 }
 
+namespace {
+/// Mean height (y) of the surface points a tool holds, at the state's positions.
+double grasped_mean_height(const Model& m, const State& s, const ToolState& held) {
+  double y = 0;
+  for (int i = 0; i < held.grasped; ++i) {
+    const auto& tri = m.collision_triangles[held.grasp_triangle[i]];
+    const double u = held.grasp_uv[i][0], v = held.grasp_uv[i][1];
+    y += (1 - u - v) * s.tissue.x[3 * tri[0] + 1] + u * s.tissue.x[3 * tri[1] + 1] + v * s.tissue.x[3 * tri[2] + 1];
+  }
+  return y / held.grasped;
+}
+}  // namespace
+
 // Grasp-and-lift keeps hold; opening the jaws lets go.
 TEST(Contact, GraspAndLiftHoldsAndReleaseLetsGo) {
   ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
@@ -211,15 +224,7 @@ TEST(Contact, GraspAndLiftHoldsAndReleaseLetsGo) {
   const int held = s.tools[0].grasped;
   ASSERT_GT(held, 0) << "closing on tissue grasps surface nodes";
   const ToolState grasped = s.tools[0];
-  auto mean_y = [&] {  // mean height of the grasped surface points
-    double y = 0;
-    for (int i = 0; i < held; ++i) {
-      const auto& tri = m->collision_triangles[grasped.grasp_triangle[i]];
-      const double u = grasped.grasp_uv[i][0], v = grasped.grasp_uv[i][1];
-      y += (1 - u - v) * s.tissue.x[3 * tri[0] + 1] + u * s.tissue.x[3 * tri[1] + 1] + v * s.tissue.x[3 * tri[2] + 1];
-    }
-    return y / held;
-  };
+  auto mean_y = [&] { return grasped_mean_height(*m, s, grasped); };
   const double y0 = mean_y();
   const double lift = 1.0;
   for (int k = 1; k <= 500; ++k) step(4.8 + lift * k / 500.0, 0.0);  // lift 1 unit in 0.5 s
@@ -420,15 +425,7 @@ TEST(Contact, GrasperJawsGraspBetweenThemAndLift) {
   const int held = s.tools[0].grasped;
   ASSERT_GT(held, 0);
   const ToolState g = s.tools[0];
-  auto mean_y = [&] {
-    double y = 0;
-    for (int i = 0; i < held; ++i) {
-      const auto& tri = m->collision_triangles[g.grasp_triangle[i]];
-      const double u = g.grasp_uv[i][0], v = g.grasp_uv[i][1];
-      y += (1 - u - v) * s.tissue.x[3 * tri[0] + 1] + u * s.tissue.x[3 * tri[1] + 1] + v * s.tissue.x[3 * tri[2] + 1];
-    }
-    return y / held;
-  };
+  auto mean_y = [&] { return grasped_mean_height(*m, s, g); };
   const double y0 = mean_y();
   for (int k = 1; k <= 500; ++k) step(5.5 + 0.8 * k / 500.0, 0.0);
   for (int k = 0; k < 300; ++k) step(6.3, 0.0);
