@@ -17,7 +17,6 @@ struct State {
   std::vector<ToolState> tools;  ///< one per scenario tool
   // Damage (empty when no body has a damage model):
   std::vector<float> damage;          ///< per element d ∈ [0, 1]; stiffness × (1 − d)
-  std::vector<float> stiffness_scale; ///< per element 1 − d (what the element pass reads)
   std::vector<uint8_t> damage_level;  ///< per element DamageLevel
   std::vector<double> node_mass;      ///< current lumped masses (ruptured elements removed)
   std::array<int64_t, 4> damage_count{};  ///< elements that reached warned / damaged / ruptured
@@ -36,7 +35,6 @@ struct State {
     s.tools.assign(m.tools.size(), ToolState{});
     if (m.has_damage) {
       s.damage.assign(m.fem.elements.size(), 0.0f);
-      s.stiffness_scale.assign(m.fem.elements.size(), 1.0f);
       s.damage_level.assign(m.fem.elements.size(), 0);
       s.node_mass = m.fem.mass;
       if (m.has_contact) {

@@ -75,7 +75,7 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
   const int64_t t0 = now_ns();
   const double h = m.time_step;
   TimeStepper& stepper = w.stepper();
-  stepper.set_element_scale(m.has_damage ? s.stiffness_scale.data() : nullptr);
+  stepper.set_element_damage(m.has_damage ? s.damage.data() : nullptr);
   stepper.set_node_mass(m.has_damage ? s.node_mass.data() : nullptr);
   if (!m.tools.empty()) {
     StageTimer t(r, Stage::ReadInputs);
@@ -121,7 +121,6 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
     StageTimer t(r, Stage::Damage);
     w.damage_events.clear();
     r.damage_events = update_damage(m, s, &w.damage_events);
-    for (size_t e = 0; e < s.damage.size(); ++e) s.stiffness_scale[e] = 1.0f - s.damage[e];
   }
   // hand_off: the server's physics loop does it (headless: nothing to hand off).
   if (!r.solve.converged) r.status = TickStatus::SolverNotConverged;

@@ -79,7 +79,7 @@ struct BatchInput {
 };
 
 inline void gather(const FemModel& m, const double* __restrict x, int32_t e0, int count,
-                   BatchInput& in, const float* scale = nullptr) {
+                   BatchInput& in, const float* damage = nullptr) {
   for (int l = 0; l < kBatch; ++l) {
     if (l < count) {
       const ElementParams& ep = m.elements[e0 + l];
@@ -90,7 +90,7 @@ inline void gather(const FemModel& m, const double* __restrict x, int32_t e0, in
       }
       for (int k = 0; k < 9; ++k) in.g[k][l] = ep.g[k];
       in.vol[l] = ep.volume;
-      const double sc = scale ? static_cast<double>(scale[e0 + l]) : 1.0;
+      const double sc = damage ? 1.0 - static_cast<double>(damage[e0 + l]) : 1.0;
       in.lambda[l] = ep.lambda * sc;
       in.mu[l] = ep.mu * sc;
       in.beta[l] = ep.beta;
@@ -216,7 +216,7 @@ double pass_range(const FemModel& m, const ElasticPass& p, int32_t begin, int32_
   Lanes neg_vol, kv_scale, k_scale;
   for (int32_t e0 = begin; e0 < end; e0 += kBatch) {
     const int count = std::min<int32_t>(kBatch, end - e0);
-    gather(m, p.x, e0, count, in, p.stiffness_scale);
+    gather(m, p.x, e0, count, in, p.damage);
     batch_gradient(in.d, in.g, F);
     batch_rotations<K>(m, e0, count, in, F, R);
     for (int l = 0; l < kBatch; ++l) neg_vol[l] = in.vol[l];

@@ -24,7 +24,7 @@ struct ElasticPass {
   double* kvals = nullptr;     ///< BSR values: += (k_beta·β_e + k_const)·R·Ke·Rᵀ
   double k_beta = 0, k_const = 0;
   double* rotations = nullptr; ///< 9 per element: the element rotation (row-major)
-  const float* stiffness_scale = nullptr;  ///< per element multiplier of λ, μ (damage); null = 1
+  const float* damage = nullptr;  ///< per element damage d: λ, μ scaled by (1 − d); null = none
 };
 
 /// Runs the pass over every element; returns the total elastic energy

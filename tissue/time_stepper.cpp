@@ -105,7 +105,7 @@ double TimeStepper::assemble(const TissueState& s, double h) {
   p.x = s.x.data();
   p.force = force_.data();
   p.rotations = rot_.data();
-  p.stiffness_scale = scale_;
+  p.damage = damage_;
   const bool implicit = cfg_.integrator == Integrator::ImplicitEuler;
   if (implicit) {
     // A = (1 + hα) M + h(β + h) K. The damping and h·K·v terms of the right-hand side come
@@ -265,7 +265,7 @@ StaticResult TimeStepper::solve_static(TissueState& s,
     p.kvals = A_.data();
     p.k_const = 1.0;
     p.rotations = rot_.data();
-    p.stiffness_scale = scale_;
+    p.damage = damage_;
     if (before_iteration) before_iteration(s);
     elastic_pass(m_, p);
     for (int c = 0; c < n_springs_; ++c) {  // contact: force and stiffness at this iterate
@@ -344,7 +344,7 @@ double TimeStepper::external_potential(const TissueState& s) const {
 double TimeStepper::elastic_energy(const TissueState& s) const {
   ElasticPass p;
   p.x = s.x.data();
-  p.stiffness_scale = scale_;  // damaged elements store (1 − d) of the energy
+  p.damage = damage_;  // damaged elements store (1 − d) of the energy
   return elastic_pass(m_, p);
 }
 

@@ -59,8 +59,8 @@ class TimeStepper {
     n_springs_ = n;
   }
 
-  /// Per-element stiffness multipliers (damage) for the following assemblies; null = none.
-  void set_element_scale(const float* scale) { scale_ = scale; }
+  /// Per-element damage d (stiffness × (1 − d)) for the following assemblies; null = none.
+  void set_element_damage(const float* damage) { damage_ = damage; }
   /// Current lumped masses (damage removes ruptured elements' mass); null = the model's.
   /// Gravity follows the current mass.
   void set_node_mass(const double* mass) { mass_ = mass; }
@@ -106,7 +106,7 @@ class TimeStepper {
   const FemModel& m_;
   StepperSettings cfg_;
   bool any_beta_ = false;
-  const float* scale_ = nullptr;
+  const float* damage_ = nullptr;
   const double* mass_ = nullptr;
   double mass(int32_t i) const { return mass_ ? mass_[i] : m_.mass[i]; }
   const ContactSpring* springs_ = nullptr;
