@@ -76,7 +76,8 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
   uint64_t frame = 0, controls_seen = 0;
   double running_wall = 0;  // wall time spent in the Running state (for the lag)
   double elastic = 0;
-  uint64_t cg_window = 0, ticks_window = 0;
+  uint64_t cg_window = 0, ticks_window = 0, missed_at_window = 0;
+  std::array<int64_t, kStageCount> stage_window{};
   int recent = 0;
   StatusFrame* status = &status_out.write_slot();
 
@@ -117,7 +118,10 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       ++stats_.ticks;
       stats_.cg_iterations_total += static_cast<uint64_t>(r.solve.iterations);
       stats_.cg_iterations_max = std::max(stats_.cg_iterations_max, r.solve.iterations);
-      for (int s = 0; s < kStageCount; ++s) stats_.stage_ns_total[s] += r.stage_ns[s];
+      for (int s = 0; s < kStageCount; ++s) {
+        stats_.stage_ns_total[s] += r.stage_ns[s];
+        stage_window[s] += r.stage_ns[s];
+      }
       if (r.status == TickStatus::SolverNotConverged) ++stats_.not_converged;
       if (r.status == TickStatus::NonFinite) {
         ++stats_.non_finite;
@@ -200,6 +204,11 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       status->controls = controls_seen;
       status->cg_iterations_mean = ticks_window ? static_cast<double>(cg_window) / static_cast<double>(ticks_window) : 0.0;
       status->kinetic_energy = kinetic(m, state_);
+      for (int st = 0; st < kStageCount; ++st)
+        status->stage_ms[st] = ticks_window ? static_cast<double>(stage_window[st]) * 1e-6 / static_cast<double>(ticks_window) : 0.0;
+      status->missed_window = stats_.missed_deadlines - missed_at_window;
+      missed_at_window = stats_.missed_deadlines;
+      stage_window.fill(0);
       status->elastic_energy = elastic;
       status->recent = recent;
       status_out.publish();

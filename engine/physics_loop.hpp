@@ -50,6 +50,8 @@ struct StatusFrame {
   double sim_time = 0, wall_time = 0, lag = 0;
   uint64_t ticks = 0, missed_deadlines = 0, controls = 0;
   double cg_iterations_mean = 0;  ///< over the last status period
+  std::array<double, kStageCount> stage_ms{};  ///< mean per tick over the last status period
+  uint64_t missed_window = 0;                  ///< missed deadlines in the last status period
   double kinetic_energy = 0, elastic_energy = 0;
   int recent = 0;                               ///< valid entries below
   std::array<float, kRecentTicks> tick_us{};    ///< tick compute times (µs), recent window

@@ -223,10 +223,14 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, std::vector<Surfac
       msg.missed_deadlines = st.missed_deadlines;
       msg.tick_ms_p50 = percentile(tick, st.recent, 0.5) * 1e-3;
       msg.tick_ms_p99 = percentile(tick, st.recent, 0.99) * 1e-3;
+      msg.tick_ms_p999 = percentile(tick, st.recent, 0.999) * 1e-3;
       msg.tick_ms_max = percentile(tick, st.recent, 1.0) * 1e-3;
       msg.wake_us_p50 = percentile(wake, st.recent, 0.5);
       msg.wake_us_p99 = percentile(wake, st.recent, 0.99);
+      msg.wake_us_p999 = percentile(wake, st.recent, 0.999);
       msg.wake_us_max = percentile(wake, st.recent, 1.0);
+      msg.missed_deadlines_window = st.missed_window;
+      for (int k = 0; k < kStageCount; ++k) msg.stage_ms[k] = st.stage_ms[k];
       msg.cg_iterations_mean = st.cg_iterations_mean;
       msg.kinetic_energy = st.kinetic_energy;
       msg.elastic_energy = st.elastic_energy;

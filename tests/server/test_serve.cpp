@@ -166,6 +166,10 @@ TEST(Serve, StatusPublishedAndControlPauseStepResumeShutdown) {
       << "no running status from the server";
   EXPECT_GT(s.sim_time, 0.0);
   EXPECT_GT(s.cg_iterations_mean, 0.0);
+  EXPECT_GT(s.stage_ms[2], 0.0) << "assemble stage time published live";
+  EXPECT_GT(s.stage_ms[3], 0.0) << "solve stage time published live";
+  EXPECT_GE(s.tick_ms_p999, s.tick_ms_p99);
+  EXPECT_GE(s.tick_ms_max, s.tick_ms_p999);
 
   client.control(stroma_PAUSE);
   ASSERT_TRUE(client.wait_status(5, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }, &s));
