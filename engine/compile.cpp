@@ -12,6 +12,7 @@
 #include "tissue/material.hpp"
 #include "tissue/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
+#include "tissue/surface_io.hpp"
 
 namespace stroma {
 
@@ -47,6 +48,57 @@ std::vector<int32_t> select_nodes(const NodeSelection& sel, const TetMesh& mesh,
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
+}
+
+/// Loads each body's `visual:` surface and maps it into the body's tetrahedra.
+void compile_visuals(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes, Model& model) {
+  model.visuals.resize(spec.bodies.size());
+  for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
+    const BodySpec& b = spec.bodies[bi];
+    if (!b.visual) continue;
+    const VisualSpec& v = *b.visual;
+    const std::string field = fmt::format("bodies[{}].visual", bi);
+    SurfaceMesh surf;
+    try {
+      surf = read_surface_mesh(v.mesh_path);
+    } catch (const InputError& e) {
+      throw InputError(v.where.file, v.where.line, field, e.what());
+    }
+    if (b.scale != 1.0)
+      for (Vec3& p : surf.vertices)
+        for (double& c : p) c *= b.scale;
+    const TetMesh& tm = meshes[bi].mesh;
+    double max_distance = v.max_distance;
+    if (max_distance <= 0) {  // automatic: 5 % of the body's bounding-box diagonal
+      Vec3 lo = tm.nodes.front(), hi = tm.nodes.front();
+      for (const Vec3& p : tm.nodes)
+        for (int k = 0; k < 3; ++k) {
+          lo[k] = std::min(lo[k], p[k]);
+          hi[k] = std::max(hi[k], p[k]);
+        }
+      max_distance = 0.05 * std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                      (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    }
+    const BodyRange& range = model.fem.bodies[bi];
+    VisualModel vm;
+    vm.source = v.mesh_path;
+    try {
+      vm.mapping = build_visual_mapping(tm, surf.vertices, max_distance, range.node_begin, range.element_begin,
+                                        v.mesh_path);
+    } catch (const InputError& e) {
+      throw InputError(v.where.file, v.where.line, field,
+                       fmt::format("{} (max_distance {:.4g}; raise it under visual: if the surface is meant "
+                                   "to lie that far outside the tetrahedra)", e.what(), max_distance));
+    }
+    if (vm.mapping.outside > 0)
+      model.notes.push_back(fmt::format("body '{}': {} of {} visual vertices lie outside the tetrahedra (at most "
+                                        "{:.3g} away) and follow their nearest tetrahedron",
+                                        b.name, vm.mapping.outside, surf.vertices.size(), vm.mapping.max_distance));
+    vm.rest = std::move(surf.vertices);
+    for (const Tri& t : surf.triangles)
+      for (int32_t i : t) vm.triangles.push_back(static_cast<uint32_t>(i));
+    model.visuals[bi] = std::move(vm);
+  }
 }
 
 }  // namespace
@@ -119,6 +171,7 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
   }
   for (size_t bi = 0; bi < inputs.size(); ++bi) inputs[bi].mesh = &meshes[bi];
   model->fem = build_fem_model(inputs, spec.gravity);
+  compile_visuals(spec, meshes, *model);
   for (const BodySpec& b : spec.bodies) {
     model->body_damage.push_back(b.material.damage);
     model->has_damage = model->has_damage || b.material.damage.enabled;

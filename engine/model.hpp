@@ -5,12 +5,14 @@
 
 #include <memory>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include "engine/scenario_spec.hpp"
 #include "engine/trajectory.hpp"
 #include "tissue/barycentric.hpp"
 #include "tissue/fem_model.hpp"
+#include "tissue/visual_mapping.hpp"
 #include "tissue/time_stepper.hpp"
 
 namespace stroma {
@@ -23,6 +25,15 @@ struct ProbeModel {
 };
 
 /// A compiled scenario.
+/// A body's visual surface (scenario `visual:`): drawn instead of the tetrahedra's boundary,
+/// following them through a fixed barycentric mapping (tissue/visual_mapping.hpp).
+struct VisualModel {
+  std::string source;                  ///< the mesh file
+  std::vector<Vec3> rest;              ///< vertex rest positions (scaled like the body)
+  std::vector<uint32_t> triangles;     ///< 3 per triangle, into `rest`
+  VisualMapping mapping;               ///< vertex = Σ w · x(node), global node indices
+};
+
 struct Model {
   ScenarioSpec spec;               ///< the validated scenario it was compiled from
   FemModel fem;                    ///< all bodies in one system
@@ -45,6 +56,8 @@ struct Model {
   std::vector<std::array<int32_t, 2>> collision_face_elem;
   std::vector<std::array<int32_t, 4>> element_faces;  ///< collision face of each tet face (−1: none)
   // (contact sampling density: haptics/contact.hpp)
+  /// Per body: its visual surface, or none (then renderers get the tetrahedra's boundary).
+  std::vector<std::optional<VisualModel>> visuals;
   std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
   std::vector<std::string> notes;  ///< load-time observations worth logging (reoriented, unused)
 };

@@ -180,6 +180,9 @@ const Choices<DamageMeasure> kDamageMeasures = {{"von_mises", DamageMeasure::Von
                                                 {"principal_strain", DamageMeasure::PrincipalStrain}};
 const Choices<ElementModel> kElementModels = {{"corotational", ElementModel::Corotational},
                                               {"linear", ElementModel::Linear}};
+const Choices<ColorFieldSpec> kColorFields = {{"none", ColorFieldSpec::None},
+                                              {"stress", ColorFieldSpec::Stress},
+                                              {"damage", ColorFieldSpec::Damage}};
 const Choices<RotationMethod> kRotationMethods = {{"polar", RotationMethod::Polar},
                                                   {"qr", RotationMethod::QR}};
 
@@ -259,6 +262,8 @@ class Field {
     check_range(static_cast<double>(v), text, range);
     return static_cast<I>(v);
   }
+
+  bool is_scalar() const { return node_.IsScalar(); }
 
   bool boolean() const {
     const std::string text = plain_scalar("true or false");
@@ -601,7 +606,79 @@ BodySpec parse_body(const MapReader& m, const Context& ctx) {
   b.material = parse_material(m.req("material"));
   for (const auto& item : m.list("fixed")) b.fixed.push_back(parse_fixed(item));
   for (const auto& item : m.list("loads")) b.loads.push_back(parse_load(item));
+  if (auto f = m.opt("visual")) {
+    // `visual: FILE` or `visual: {mesh: FILE, max_distance: D}`.
+    VisualSpec v;
+    std::string path;
+    if (f->is_scalar()) {
+      path = f->string();
+      v.where = f->location();
+    } else {
+      const MapReader vm = f->map({"mesh", "max_distance"});
+      vm.require("mesh", path);
+      v.where = vm.req("mesh").location();
+      vm.read("max_distance", v.max_distance, at_least(0));
+    }
+    v.mesh_path = resolve_path(path, ctx.base_dir);
+    b.visual = v;
+  }
   return b;
+}
+
+/// A colour: three numbers in 0..1 (sRGB).
+Vec3 parse_color(const Field& f) {
+  const Vec3 c = f.vec3();
+  for (double x : c)
+    if (!(x >= 0 && x <= 1)) f.fail("colour components must be in 0..1 (sRGB), got " + format_number(x));
+  return c;
+}
+
+RenderSpec parse_render(const Field& f) {
+  const MapReader m = f.map({"camera", "view_direction", "light", "colors", "color_field", "color_range",
+                             "wireframe", "contacts"});
+  RenderSpec r;
+  if (auto c = m.opt("camera")) {
+    const MapReader cm = c->map({"position", "target", "up", "fov"});
+    if (cm.opt("position") || cm.opt("target")) {
+      cm.require("position", r.camera_position);
+      cm.require("target", r.camera_target);
+      r.has_camera = true;
+      const Vec3 d{r.camera_target[0] - r.camera_position[0], r.camera_target[1] - r.camera_position[1],
+                   r.camera_target[2] - r.camera_position[2]};
+      if (d[0] == 0 && d[1] == 0 && d[2] == 0) cm.req("target").fail("target must differ from position");
+    }
+    if (auto u = cm.opt("up")) {
+      const Vec3 up = u->vec3();
+      if (up[0] == 0 && up[1] == 0 && up[2] == 0) u->fail("up must not be zero");
+      r.camera_up = up;
+    }
+    cm.read("fov", r.fov_deg, open_interval(0, 170));
+  }
+  if (auto v = m.opt("view_direction")) {
+    r.view_direction = v->vec3();
+    if (r.view_direction[0] == 0 && r.view_direction[1] == 0 && r.view_direction[2] == 0)
+      v->fail("view_direction must not be zero");
+  }
+  if (auto l = m.opt("light")) {
+    const MapReader lm = l->map({"direction"});
+    lm.read("direction", r.light_direction);
+  }
+  if (auto c = m.opt("colors")) {
+    const MapReader cm = c->map({"tissue", "background"});
+    if (auto t = cm.opt("tissue")) r.tissue_color = parse_color(*t);
+    if (auto b = cm.opt("background")) r.background_color = parse_color(*b);
+  }
+  m.read("color_field", r.color_field, kColorFields);
+  if (auto cr = m.opt("color_range")) {
+    const auto items = cr->list();
+    if (items.size() != 2) cr->fail("expected [min, max]");
+    r.color_min = items[0].number();
+    r.color_max = items[1].number();
+    if (!(r.color_max > r.color_min)) cr->fail("max must be greater than min");
+  }
+  m.read("wireframe", r.wireframe);
+  m.read("contacts", r.contacts);
+  return r;
 }
 
 ProbeSpec parse_probe(const MapReader& m) {
@@ -728,7 +805,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   if (body_items.empty()) bodies.fail("at least one body is required");
   std::map<std::string, int> body_names;
   for (const auto& item : body_items) {
-    const MapReader bm = item.map({"name", "mesh", "scale", "material", "fixed", "loads"});
+    const MapReader bm = item.map({"name", "mesh", "scale", "material", "fixed", "loads", "visual"});
     s.bodies.push_back(parse_body(bm, ctx));
     check_unique_name(body_names, s.bodies.back().name, bm.req("name"), "body");
   }
@@ -757,6 +834,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
 
   if (auto f = m.opt("run")) s.run = parse_run(*f);
   if (auto f = m.opt("check")) s.check = parse_check(*f);
+  if (auto f = m.opt("render")) s.render = parse_render(*f);
   return s;
 }
 
@@ -784,7 +862,7 @@ ScenarioSpec parse_scenario(const std::string& yaml_text, const std::string& fil
   const int root_line = root.Mark().line >= 0 ? root.Mark().line + 1 : 1;
   const Field root_field(&ctx.file, root, "", root_line);
   const MapReader m = root_field.map(
-      {"name", "time_step", "gravity", "solver", "bodies", "probes", "tools", "run", "check"});
+      {"name", "time_step", "gravity", "solver", "bodies", "probes", "tools", "run", "check", "render"});
   return parse_root(m, ctx);
 }
 

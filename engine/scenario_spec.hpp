@@ -87,6 +87,16 @@ struct NodalLoadSpec {
   bool per_node = false;
 };
 
+/// `visual:` of a body: a surface mesh (OBJ or STL), usually finer than the tetrahedra, that
+/// follows them through a barycentric mapping and is what renderers draw.
+struct VisualSpec {
+  std::string mesh_path;      ///< resolved path
+  SourceLocation where;       ///< where the mesh path is in the scenario file
+  /// Largest distance of a visual vertex outside the tetrahedra (projected onto the nearest
+  /// one); farther is an error. 0: automatic, 5 % of the body's bounding-box diagonal.
+  double max_distance = 0;
+};
+
 /// One deformable body.
 struct BodySpec {
   std::string name;
@@ -96,6 +106,7 @@ struct BodySpec {
   MaterialSpec material;
   std::vector<NodeSelection> fixed;
   std::vector<NodalLoadSpec> loads;
+  std::optional<VisualSpec> visual;  ///< scaled by `scale` like the tetrahedra
   SourceLocation where;
 };
 
@@ -126,6 +137,25 @@ struct CheckSpec {
   double mean_error = 1.0e-10; ///< m: mean nodal position difference allowed
 };
 
+/// What the tissue colour shows in rendered frames.
+enum class ColorFieldSpec { None, Stress, Damage };
+
+/// `render:` section: how renderers show the scenario (a renderer's options override it).
+struct RenderSpec {
+  bool has_camera = false;              ///< position/target given; else frame the bounding box
+  Vec3 camera_position{0, 0, 0}, camera_target{0, 0, 0};
+  std::optional<Vec3> camera_up;        ///< default: against gravity (or +y without gravity)
+  Vec3 view_direction{0.35, -0.45, -1.0};  ///< automatic camera: looking along this
+  double fov_deg = 35;                  ///< vertical field of view
+  Vec3 light_direction{0, 0, 0};        ///< key light, world; zero: above-left of the camera
+  Vec3 tissue_color{0.66, 0.26, 0.22};  ///< sRGB 0..1
+  Vec3 background_color{0.20, 0.23, 0.28};
+  ColorFieldSpec color_field = ColorFieldSpec::Damage;
+  double color_min = 0, color_max = 0;  ///< max <= min: automatic
+  bool wireframe = false;
+  bool contacts = true;                 ///< contact markers
+};
+
 /// A whole scenario.
 struct ScenarioSpec {
   std::string name;
@@ -138,6 +168,7 @@ struct ScenarioSpec {
   std::vector<ToolEntry> tools;
   RunSpec run;
   CheckSpec check;
+  RenderSpec render;
 };
 
 /// Reads and validates a scenario YAML file. Paths inside are resolved relative to the file.
