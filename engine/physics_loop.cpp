@@ -185,6 +185,12 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       f.sim_time = state_.time;
       std::copy(state_.tissue.x.begin(), state_.tissue.x.end(), f.x.begin());
       std::copy(state_.damage.begin(), state_.damage.end(), f.damage.begin());
+      f.tool_count = static_cast<int>(std::min<size_t>(state_.tools.size(), kMaxTools));
+      for (int t = 0; t < f.tool_count; ++t) {
+        const ToolState& ts = state_.tools[t];
+        f.tools[t] = ToolSnapshot{ts.pose, ts.has_proxy, ts.proxy, ts.device_force, ts.active,
+                                  ts.last_command_time >= 0, ts.contacts, ts.grasped};
+      }
       state_out.publish();
       outputs_published.fetch_add(1, std::memory_order_release);
       outputs_published.notify_one();

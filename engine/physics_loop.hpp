@@ -31,6 +31,20 @@ struct ControlEvent {
 /// Run state as published in SimStatus.
 enum class RunState : uint8_t { Running, Paused, Stopping, Fault };
 
+/// Most tools a scenario served in real time may have.
+inline constexpr int kMaxTools = 8;
+
+/// What renderers need of a tool, copied with each state frame.
+struct ToolSnapshot {
+  ToolPose pose;
+  bool has_proxy = false;
+  Vec3 proxy{0, 0, 0};
+  Vec3 device_force{0, 0, 0};
+  bool active = false;     ///< a client is driving it now
+  bool commanded = false;  ///< it has had a command (it is somewhere in the scene)
+  int contacts = 0, grasped = 0;
+};
+
 /// Full positions for the publisher (which extracts surfaces and stresses off the physics
 /// thread). Sized once.
 struct StateFrame {
@@ -38,6 +52,8 @@ struct StateFrame {
   double sim_time = 0;
   std::vector<double> x;
   std::vector<float> damage;  ///< per element (empty without damage models)
+  int tool_count = 0;
+  std::array<ToolSnapshot, kMaxTools> tools{};
 };
 
 /// Number of recent ticks whose times travel with each status frame (percentiles are computed
@@ -58,8 +74,7 @@ struct StatusFrame {
   std::array<float, kRecentTicks> wake_us{};    ///< wake-up latencies (µs)
 };
 
-/// Feedback of every tool for one tick (zero force until contact exists, issue 4).
-inline constexpr int kMaxTools = 8;
+/// Feedback of every tool for one tick.
 struct FeedbackBatch {
   int count = 0;
   std::array<ToolFeedbackFrame, kMaxTools> frames{};

@@ -19,8 +19,10 @@ PACKAGES=(
   libfcl-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
-  # images
-  libpng-dev
+  # off-screen rendering (OSMesa: software OpenGL, no display), PNG frames, MP4 video
+  libosmesa6-dev libpng-dev ffmpeg
+  # the peer in the accuracy benchmark (Bullet's soft bodies) and meshes from .geo files
+  libbullet-dev libbullet-extras-dev gmsh
 )
 
 missing=()

@@ -3,6 +3,8 @@
 ///   stroma run SCENARIO      headless run, outputs into a directory
 ///   stroma check SCENARIO REFERENCE   run and compare the final state to a stored reference
 ///   stroma serve SCENARIO    real-time server at 1 kHz over DDS (loopback by default)
+///   stroma tool              drive a served tool over DDS (script or stdin)
+///   stroma render            record a served scenario off-screen (PNG frames, MP4)
 /// Exit codes: 0 success, 1 check failed / run unhealthy, 2 bad input or usage.
 
 #include <cstdio>
@@ -18,6 +20,7 @@
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state_io.hpp"
+#include "render/render_process.hpp"
 #include "server/serve.hpp"
 #include "server/tool_client.hpp"
 #include "tissue/input_error.hpp"
@@ -147,6 +150,37 @@ int main(int argc, char** argv) {
   tool->add_option("--wait", tco.wait_server, "Seconds to wait for a server")->capture_default_str();
   tool->add_flag("!--no-realtime", tco.realtime, "Do not ask for SCHED_FIFO for the send/receive threads");
 
+  // ---- render ----
+  RenderOptions rdo;
+  std::vector<double> cam_pos, cam_target, view_dir;
+  std::string color_field;
+  auto* rnd = app.add_subcommand("render", "Record what a running server simulates: off-screen frames (PNG) and an MP4, no display needed");
+  rnd->add_option("--out", rdo.out_dir, "Output directory (frame_NNNNNN.png, frames.csv, render_stats.json, video.mp4)")->capture_default_str();
+  rnd->add_option("--fps", rdo.fps, "Frames per second of wall time")->capture_default_str()->check(CLI::Range(0.1, 240.0));
+  rnd->add_option("--width", rdo.width, "Image width")->capture_default_str()->check(CLI::Range(16, 8192));
+  rnd->add_option("--height", rdo.height, "Image height")->capture_default_str()->check(CLI::Range(16, 8192));
+  auto* o_frames = rnd->add_option("--frames", rdo.frames, "Stop after this many frames")->check(CLI::PositiveNumber);
+  rnd->add_option("--duration", rdo.duration, "Stop after this many seconds of recording")->check(CLI::PositiveNumber)->excludes(o_frames);
+  rnd->add_option("--wait", rdo.wait, "Give up if no server appears within this many seconds (default: wait forever)")->check(CLI::NonNegativeNumber);
+  rnd->add_option("--video", rdo.video, "MP4 file (default: <out>/video.mp4 when ffmpeg is installed)");
+  rnd->add_flag("--no-video", rdo.no_video, "PNG frames only");
+  rnd->add_option("--msaa", rdo.msaa, "Anti-aliasing samples per pixel (0: off)")->capture_default_str()->check(CLI::Range(0, 16));
+  rnd->add_option("--png-level", rdo.png_level, "PNG zlib level (1: fast, 9: small)")->capture_default_str()->check(CLI::Range(0, 9));
+  rnd->add_option("--camera", cam_pos, "Camera position X Y Z (with --target; default: the scenario's render: section, else framing the scene)")
+      ->expected(3)->delimiter(',');
+  rnd->add_option("--target", cam_target, "Point the camera looks at X Y Z")->expected(3)->delimiter(',');
+  rnd->add_option("--view", view_dir, "Automatic camera: frame the scene looking along X Y Z")->expected(3)->delimiter(',');
+  rnd->add_option("--fov", rdo.fov, "Vertical field of view (degrees)")->check(CLI::Range(1.0, 170.0));
+  rnd->add_option("--color", color_field, "Tissue colour: damage (default), stress, none")->check(CLI::IsMember({"none", "stress", "damage"}));
+  rnd->add_flag("--wireframe", rdo.wireframe, "Draw the mesh edges");
+  rnd->add_flag("--no-contacts", rdo.no_contacts, "No contact markers");
+  rnd->add_option("--stats", rdo.stats_file, "Statistics JSON (default: <out>/render_stats.json)");
+  rnd->add_option("--dds-config", rdo.dds_config, "Cyclone DDS XML (default: CYCLONEDDS_URI, else built-in loopback-only)")->check(CLI::ExistingFile);
+  rnd->add_option("--domain", rdo.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
+  rnd->footer("Starts before or after the server (it waits for the mesh; the mesh is transient-local) and\n"
+              "follows a restarted server. Frames are dropped (and counted), never queued, when rendering\n"
+              "or writing falls behind. Stops at --frames/--duration or on Ctrl-C, then encodes the video.");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -178,6 +212,15 @@ int main(int argc, char** argv) {
     }
     if (*serve) return run_serve(srv);
     if (*tool) return run_tool_client(tco);
+    if (*rnd) {
+      if (!cam_pos.empty()) rdo.camera_position = std::array<double, 3>{cam_pos[0], cam_pos[1], cam_pos[2]};
+      if (!cam_target.empty()) rdo.camera_target = std::array<double, 3>{cam_target[0], cam_target[1], cam_target[2]};
+      if (!view_dir.empty()) rdo.view_direction = std::array<double, 3>{view_dir[0], view_dir[1], view_dir[2]};
+      if (cam_pos.empty() != cam_target.empty())
+        throw InputError("", 0, cam_pos.empty() ? "--target" : "--camera", "--camera and --target go together");
+      if (!color_field.empty()) rdo.color_field = color_field;
+      return run_render(rdo);
+    }
     if (*check) {
       auto model = load(chk_scenario);
       std::vector<double> ref;

@@ -25,6 +25,9 @@
 #include <nlohmann/json.hpp>
 
 #include "server/dds_participant.hpp"
+#include "tests/server/process.hpp"
+
+using stroma::test::Process;
 #include "stroma.h"
 
 extern char** environ;
@@ -34,40 +37,6 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-/// A child process (posix_spawn), killed on destruction if still running.
-class Process {
- public:
-  explicit Process(std::vector<std::string> args) {
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    EXPECT_EQ(posix_spawn(&pid_, argv[0], nullptr, nullptr, argv.data(), environ), 0);
-  }
-  ~Process() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-  }
-  /// Waits for the process to exit; returns its exit status (−1 on timeout).
-  int wait_exit(double seconds) {
-    const auto end = Clock::now() + std::chrono::duration<double>(seconds);
-    while (Clock::now() < end) {
-      int st = 0;
-      if (waitpid(pid_, &st, WNOHANG) == pid_) {
-        pid_ = -1;
-        return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return -1;
-  }
-  void signal(int sig) { kill(pid_, sig); }
-
- private:
-  pid_t pid_ = -1;
-};
 
 const std::string kLiver = std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml";
 const std::string kPress = std::string(STROMA_SOURCE_DIR) + "/scenarios/trajectories/liver_press.yaml";

@@ -1,0 +1,575 @@
+#include "render/renderer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+
+#include "render/capsule_mesh.hpp"
+#include "render/gl.hpp"
+#include "render/shaders.hpp"
+
+namespace stroma::render {
+
+namespace {
+
+using Eigen::Matrix4f;
+using Eigen::Vector3f;
+
+Vector3f v3(const Vec3f& a) { return {a[0], a[1], a[2]}; }
+
+/// sRGB colour → linear (the shaders light in linear space and encode back to sRGB).
+Vector3f linear(const Vec3f& c) {
+  return {std::pow(c[0], 2.2f), std::pow(c[1], 2.2f), std::pow(c[2], 2.2f)};
+}
+
+Matrix4f look_at(const Vector3f& eye, const Vector3f& target, const Vector3f& up_hint) {
+  const Vector3f f = (target - eye).normalized();
+  Vector3f s = f.cross(up_hint);
+  if (s.norm() < 1e-6f) s = f.cross(std::abs(f.y()) < 0.9f ? Vector3f::UnitY() : Vector3f::UnitX());
+  s.normalize();
+  const Vector3f u = s.cross(f);
+  Matrix4f m = Matrix4f::Identity();
+  m.block<1, 3>(0, 0) = s.transpose();
+  m.block<1, 3>(1, 0) = u.transpose();
+  m.block<1, 3>(2, 0) = -f.transpose();
+  m(0, 3) = -s.dot(eye);
+  m(1, 3) = -u.dot(eye);
+  m(2, 3) = f.dot(eye);
+  return m;
+}
+
+Matrix4f perspective(float fov_deg, float aspect, float n, float f) {
+  const float t = 1.0f / std::tan(0.5f * fov_deg * static_cast<float>(M_PI) / 180.0f);
+  Matrix4f m = Matrix4f::Zero();
+  m(0, 0) = t / aspect;
+  m(1, 1) = t;
+  m(2, 2) = (f + n) / (n - f);
+  m(2, 3) = 2 * f * n / (n - f);
+  m(3, 2) = -1;
+  return m;
+}
+
+GLuint compile(GLenum type, const char* src) {
+  const GLuint s = glCreateShader(type);
+  glShaderSource(s, 1, &src, nullptr);
+  glCompileShader(s);
+  GLint ok = 0;
+  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetShaderInfoLog(s, sizeof log, nullptr, log);
+    throw std::runtime_error(fmt::format("GLSL compile error: {}", log));
+  }
+  return s;
+}
+
+GLuint link(const char* vs, const char* fs) {
+  const GLuint p = glCreateProgram();
+  const GLuint a = compile(GL_VERTEX_SHADER, vs), b = compile(GL_FRAGMENT_SHADER, fs);
+  glAttachShader(p, a);
+  glAttachShader(p, b);
+  glLinkProgram(p);
+  glDeleteShader(a);
+  glDeleteShader(b);
+  GLint ok = 0;
+  glGetProgramiv(p, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetProgramInfoLog(p, sizeof log, nullptr, log);
+    throw std::runtime_error(fmt::format("GLSL link error: {}", log));
+  }
+  return p;
+}
+
+/// Interleaved vertex: position, normal, (stress, damage).
+constexpr int kFloatsPerVertex = 8;
+
+/// A triangle mesh on the GPU with its CPU-side vertex array (rewritten every frame).
+struct GpuMesh {
+  GLuint vao = 0, vbo = 0, ebo = 0;
+  size_t vertices = 0, indices = 0, vbo_capacity = 0, ebo_capacity = 0;
+
+  void create() {
+    glGenVertexArrays(1, &vao);
+    glGenBuffers(1, &vbo);
+    glGenBuffers(1, &ebo);
+    glBindVertexArray(vao);
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo);
+    const GLsizei stride = kFloatsPerVertex * sizeof(float);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, nullptr);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(3 * sizeof(float)));
+    glEnableVertexAttribArray(2);
+    glVertexAttribPointer(2, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(6 * sizeof(float)));
+    glBindVertexArray(0);
+  }
+  void destroy() {
+    if (!vao) return;
+    glDeleteVertexArrays(1, &vao);
+    glDeleteBuffers(1, &vbo);
+    glDeleteBuffers(1, &ebo);
+    vao = vbo = ebo = 0;
+  }
+  void upload_indices(const uint32_t* idx, size_t n) {
+    glBindVertexArray(vao);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo);
+    if (n > ebo_capacity) {
+      glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(n * sizeof(uint32_t)), idx, GL_STATIC_DRAW);
+      ebo_capacity = n;
+    } else {
+      glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(n * sizeof(uint32_t)), idx);
+    }
+    indices = n;
+    glBindVertexArray(0);
+  }
+  void upload_vertices(const float* v, size_t n) {
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
+    const size_t bytes = n * kFloatsPerVertex * sizeof(float);
+    if (n > vbo_capacity) {
+      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(bytes), v, GL_STREAM_DRAW);
+      vbo_capacity = n;
+    } else {
+      glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(bytes), v);
+    }
+    vertices = n;
+  }
+};
+
+/// A tissue body: topology, current positions and fields, and its GPU mesh.
+struct Body {
+  Vector3f rest_lo, rest_hi;  // bounding box of the rest positions (camera framing)
+  std::vector<uint32_t> triangles;
+  std::vector<float> positions, stress, damage;
+  std::vector<float> interleaved;  // kFloatsPerVertex per vertex
+  std::vector<Vector3f> normals;
+  GpuMesh gpu;
+  bool dirty = true;
+};
+
+void check_triangles(const uint32_t* tris, size_t n, size_t vertices) {
+  for (size_t i = 0; i < 3 * n; ++i)
+    if (tris[i] >= vertices)
+      throw std::runtime_error(fmt::format("triangle {} refers to vertex {} of {}", i / 3, tris[i], vertices));
+}
+
+/// Area-weighted vertex normals (the cross product's length is twice the area).
+void vertex_normals(const std::vector<float>& x, const std::vector<uint32_t>& tris, std::vector<Vector3f>& n) {
+  const size_t nv = x.size() / 3;
+  n.assign(nv, Vector3f::Zero());
+  auto p = [&](uint32_t i) { return Vector3f(x[3 * i], x[3 * i + 1], x[3 * i + 2]); };
+  for (size_t t = 0; t + 2 < tris.size(); t += 3) {
+    const uint32_t a = tris[t], b = tris[t + 1], c = tris[t + 2];
+    const Vector3f fn = (p(b) - p(a)).cross(p(c) - p(a));
+    n[a] += fn;
+    n[b] += fn;
+    n[c] += fn;
+  }
+  for (Vector3f& v : n) {
+    const float l = v.norm();
+    v = l > 0 ? Vector3f(v / l) : Vector3f(0, 1, 0);
+  }
+}
+
+/// Distance from p to the segment a–b.
+float segment_distance(const Vector3f& p, const Vector3f& a, const Vector3f& b) {
+  const Vector3f ab = b - a;
+  const float l2 = ab.squaredNorm();
+  const float t = l2 > 0 ? std::clamp((p - a).dot(ab) / l2, 0.0f, 1.0f) : 0.0f;
+  return (p - (a + t * ab)).norm();
+}
+
+}  // namespace
+
+struct Renderer::Impl {
+  int width, height;
+  Look look;
+  Camera camera;
+  std::vector<Body> bodies;
+  std::vector<ToolView> tools;
+  GpuMesh tool_mesh;
+  std::vector<float> tool_vertices;
+  std::vector<uint32_t> tool_indices;
+  GLuint marker_vao = 0, marker_vbo = 0;
+  std::vector<float> markers;  // 3 per marker
+  size_t marker_capacity = 0;
+  GLuint prog_mesh = 0, prog_background = 0, prog_marker = 0, empty_vao = 0;
+  GLuint fbo_ms = 0, color_ms = 0, depth_ms = 0, fbo = 0, color = 0, depth = 0;
+  int samples = 0;
+  std::vector<uint8_t> rgba;
+  size_t last_triangles = 0;
+  float stress_max_seen = 0;  // automatic stress range: grows, never flickers
+
+  void create_framebuffers() {
+    GLint max_samples = 0;
+    glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
+    samples = look.msaa > 1 ? std::min(look.msaa, max_samples) : 0;
+    auto rb = [&](GLenum fmt, int s) {
+      GLuint r = 0;
+      glGenRenderbuffers(1, &r);
+      glBindRenderbuffer(GL_RENDERBUFFER, r);
+      if (s > 0) glRenderbufferStorageMultisample(GL_RENDERBUFFER, s, fmt, width, height);
+      else glRenderbufferStorage(GL_RENDERBUFFER, fmt, width, height);
+      return r;
+    };
+    glGenFramebuffers(1, &fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    color = rb(GL_RGBA8, 0);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color);
+    depth = rb(GL_DEPTH_COMPONENT24, 0);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw std::runtime_error("OpenGL: the off-screen framebuffer is incomplete");
+    if (samples > 0) {
+      glGenFramebuffers(1, &fbo_ms);
+      glBindFramebuffer(GL_FRAMEBUFFER, fbo_ms);
+      color_ms = rb(GL_RGBA8, samples);
+      glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color_ms);
+      depth_ms = rb(GL_DEPTH_COMPONENT24, samples);
+      glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_ms);
+      if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+        throw std::runtime_error(fmt::format("OpenGL: the {}x multisample framebuffer is incomplete", samples));
+    }
+  }
+
+  void destroy_framebuffers() {
+    const GLuint fbos[] = {fbo_ms, fbo};
+    const GLuint rbs[] = {color_ms, depth_ms, color, depth};
+    glDeleteFramebuffers(2, fbos);
+    glDeleteRenderbuffers(4, rbs);
+    fbo_ms = color_ms = depth_ms = fbo = color = depth = 0;
+  }
+
+  /// Builds the interleaved vertex array of a body and uploads it.
+  void upload_body(Body& b) {
+    vertex_normals(b.positions, b.triangles, b.normals);
+    const size_t nv = b.positions.size() / 3;
+    b.interleaved.resize(nv * kFloatsPerVertex);
+    for (size_t i = 0; i < nv; ++i) {
+      float* o = &b.interleaved[i * kFloatsPerVertex];
+      o[0] = b.positions[3 * i];
+      o[1] = b.positions[3 * i + 1];
+      o[2] = b.positions[3 * i + 2];
+      o[3] = b.normals[i].x();
+      o[4] = b.normals[i].y();
+      o[5] = b.normals[i].z();
+      o[6] = b.stress.empty() ? 0.0f : b.stress[i];
+      o[7] = b.damage.empty() ? 0.0f : b.damage[i];
+    }
+    b.gpu.upload_vertices(b.interleaved.data(), nv);
+    b.dirty = false;
+  }
+
+  /// Tool capsules → one triangle mesh (rebuilt per frame: a few thousand vertices at most).
+  void build_tools() {
+    tool_vertices.clear();
+    tool_indices.clear();
+    for (const ToolView& t : tools)
+      for (const ToolView::Capsule& c : t.capsules)
+        append_capsule(c.a, c.b, c.r, tool_vertices, tool_indices, kFloatsPerVertex);
+    tool_mesh.upload_vertices(tool_vertices.data(), tool_vertices.size() / kFloatsPerVertex);
+    tool_mesh.upload_indices(tool_indices.data(), tool_indices.size());
+  }
+
+  /// Surface vertices inside a tool (within 2 % of its radius): where it touches the tissue.
+  void build_markers() {
+    markers.clear();
+    if (!look.contacts) return;
+    for (const ToolView& t : tools)
+      for (const ToolView::Capsule& c : t.capsules) {
+        const Vector3f a = v3(c.a), bb = v3(c.b);
+        const Vector3f lo = a.cwiseMin(bb).array() - c.r * 1.02f, hi = a.cwiseMax(bb).array() + c.r * 1.02f;
+        for (const Body& b : bodies)
+          for (size_t i = 0; i + 2 < b.positions.size(); i += 3) {
+            const Vector3f p(b.positions[i], b.positions[i + 1], b.positions[i + 2]);
+            if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+            if (segment_distance(p, a, bb) <= c.r * 1.02f) markers.insert(markers.end(), {p.x(), p.y(), p.z()});
+          }
+      }
+    glBindBuffer(GL_ARRAY_BUFFER, marker_vbo);
+    const size_t n = markers.size() / 3;
+    if (n > marker_capacity) {
+      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(markers.size() * sizeof(float)), markers.data(), GL_STREAM_DRAW);
+      marker_capacity = n;
+    } else if (n > 0) {
+      glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(markers.size() * sizeof(float)), markers.data());
+    }
+  }
+
+  float scene_radius() const {
+    Vector3f lo = Vector3f::Constant(1e30f), hi = Vector3f::Constant(-1e30f);
+    for (const Body& b : bodies)
+      for (size_t i = 0; i + 2 < b.positions.size(); i += 3) {
+        const Vector3f p(b.positions[i], b.positions[i + 1], b.positions[i + 2]);
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+    return lo.x() > hi.x() ? 1.0f : 0.5f * (hi - lo).norm();
+  }
+};
+
+Renderer::Renderer(int width, int height, const Look& look) : impl_(std::make_unique<Impl>()) {
+  if (width < 16 || height < 16 || width > 8192 || height > 8192)
+    throw std::runtime_error(fmt::format("image size {}x{} is out of range (16..8192)", width, height));
+  Impl& s = *impl_;
+  s.width = width;
+  s.height = height;
+  s.look = look;
+  s.prog_mesh = link(kMeshVertexShader, kMeshFragmentShader);
+  s.prog_background = link(kBackgroundVertexShader, kBackgroundFragmentShader);
+  s.prog_marker = link(kMarkerVertexShader, kMarkerFragmentShader);
+  glGenVertexArrays(1, &s.empty_vao);
+  s.tool_mesh.create();
+  glGenVertexArrays(1, &s.marker_vao);
+  glGenBuffers(1, &s.marker_vbo);
+  glBindVertexArray(s.marker_vao);
+  glBindBuffer(GL_ARRAY_BUFFER, s.marker_vbo);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
+  glBindVertexArray(0);
+  s.create_framebuffers();
+  s.rgba.resize(static_cast<size_t>(width) * height * 4);
+}
+
+Renderer::~Renderer() {
+  Impl& s = *impl_;
+  for (Body& b : s.bodies) b.gpu.destroy();
+  s.tool_mesh.destroy();
+  glDeleteVertexArrays(1, &s.marker_vao);
+  glDeleteBuffers(1, &s.marker_vbo);
+  glDeleteVertexArrays(1, &s.empty_vao);
+  glDeleteProgram(s.prog_mesh);
+  glDeleteProgram(s.prog_background);
+  glDeleteProgram(s.prog_marker);
+  s.destroy_framebuffers();
+}
+
+int Renderer::add_body(const float* rest, size_t vertices, const uint32_t* triangles, size_t triangle_count) {
+  impl_->bodies.emplace_back();
+  impl_->bodies.back().gpu.create();
+  const int id = static_cast<int>(impl_->bodies.size()) - 1;
+  replace_body(id, rest, vertices, triangles, triangle_count);
+  return id;
+}
+
+void Renderer::replace_body(int id, const float* rest, size_t vertices, const uint32_t* triangles,
+                            size_t triangle_count) {
+  check_triangles(triangles, triangle_count, vertices);
+  Body& b = impl_->bodies.at(id);
+  b.positions.assign(rest, rest + 3 * vertices);
+  b.rest_lo = Vector3f::Constant(1e30f);
+  b.rest_hi = Vector3f::Constant(-1e30f);
+  for (size_t i = 0; i < vertices; ++i) {
+    const Vector3f p(rest[3 * i], rest[3 * i + 1], rest[3 * i + 2]);
+    b.rest_lo = b.rest_lo.cwiseMin(p);
+    b.rest_hi = b.rest_hi.cwiseMax(p);
+  }
+  b.triangles.assign(triangles, triangles + 3 * triangle_count);
+  b.stress.clear();
+  b.damage.clear();
+  b.gpu.upload_indices(b.triangles.data(), b.triangles.size());
+  b.dirty = true;
+}
+
+size_t Renderer::body_count() const { return impl_->bodies.size(); }
+
+void Renderer::clear_bodies() {
+  for (Body& b : impl_->bodies) b.gpu.destroy();
+  impl_->bodies.clear();
+  impl_->stress_max_seen = 0;
+}
+
+void Renderer::update_body(int id, const float* positions, const float* stress, const float* damage) {
+  Body& b = impl_->bodies.at(id);
+  const size_t nv = b.positions.size() / 3;
+  std::copy(positions, positions + 3 * nv, b.positions.begin());
+  if (stress) b.stress.assign(stress, stress + nv);
+  else b.stress.clear();
+  if (damage) b.damage.assign(damage, damage + nv);
+  else b.damage.clear();
+  b.dirty = true;
+}
+
+void Renderer::set_tools(std::vector<ToolView> tools) { impl_->tools = std::move(tools); }
+void Renderer::set_camera(const Camera& camera) { impl_->camera = camera; }
+void Renderer::set_look(const Look& look) {
+  const bool resample = look.msaa != impl_->look.msaa;
+  impl_->look = look;
+  if (resample) {
+    impl_->destroy_framebuffers();
+    impl_->create_framebuffers();
+  }
+}
+const Look& Renderer::look() const { return impl_->look; }
+int Renderer::width() const { return impl_->width; }
+int Renderer::height() const { return impl_->height; }
+size_t Renderer::last_triangles() const { return impl_->last_triangles; }
+size_t Renderer::last_markers() const { return impl_->markers.size() / 3; }
+
+Camera Renderer::fit_camera(Vec3f view_direction, Vec3f up, float fov_deg) const {
+  Vector3f lo = Vector3f::Constant(1e30f), hi = Vector3f::Constant(-1e30f);
+  for (const Body& b : impl_->bodies) {
+    lo = lo.cwiseMin(b.rest_lo);
+    hi = hi.cwiseMax(b.rest_hi);
+  }
+  if (lo.x() > hi.x()) lo = hi = Vector3f::Zero();
+  const Vector3f centre = 0.5f * (lo + hi);
+  const float radius = std::max(0.5f * (hi - lo).norm(), 1e-6f);
+  // Fit the bounding sphere in the smaller of the two fields of view, with a 10 % margin.
+  const float aspect = static_cast<float>(impl_->width) / static_cast<float>(impl_->height);
+  const float half_v = 0.5f * fov_deg * static_cast<float>(M_PI) / 180.0f;
+  const float half = std::min(half_v, std::atan(std::tan(half_v) * aspect));
+  const float dist = 1.1f * radius / std::sin(half);
+  Vector3f d = v3(view_direction);
+  d = d.norm() > 0 ? Vector3f(d.normalized()) : Vector3f(0, 0, -1);
+  const Vector3f eye = centre - dist * d;
+  Camera c;
+  c.position = {eye.x(), eye.y(), eye.z()};
+  c.target = {centre.x(), centre.y(), centre.z()};
+  c.up = up;
+  c.fov_deg = fov_deg;
+  return c;
+}
+
+void Renderer::render(Image& out) {
+  Impl& s = *impl_;
+  const Look& L = s.look;
+  for (Body& b : s.bodies)
+    if (b.dirty) s.upload_body(b);
+  s.build_tools();
+  s.build_markers();
+
+  // Camera: near/far planes from the scene's extent around the target.
+  const Vector3f eye = v3(s.camera.position), target = v3(s.camera.target);
+  const float dist = (target - eye).norm();
+  const float r = std::max(s.scene_radius(), 1e-6f);
+  const float znear = std::max(1e-4f * dist, dist - 4.0f * r), zfar = dist + 4.0f * r;
+  const Matrix4f view = look_at(eye, target, v3(s.camera.up));
+  const Matrix4f proj = perspective(s.camera.fov_deg, static_cast<float>(s.width) / static_cast<float>(s.height),
+                                    std::max(znear, 1e-6f), zfar);
+  const Matrix4f view_proj = proj * view;
+  // Key light: the scene's direction, or above-left-behind the camera so the visible side is lit.
+  Vector3f key = v3(L.light_direction);
+  const Vector3f right(view(0, 0), view(0, 1), view(0, 2)), upv(view(1, 0), view(1, 1), view(1, 2)),
+      fwd = (target - eye).normalized();
+  if (key.norm() == 0) key = 0.45f * right - 0.75f * upv + 0.5f * fwd;
+  key.normalize();
+  const Vector3f fill = (-0.6f * right - 0.2f * upv + 0.75f * fwd).normalized();
+
+  glBindFramebuffer(GL_FRAMEBUFFER, s.samples > 0 ? s.fbo_ms : s.fbo);
+  glViewport(0, 0, s.width, s.height);
+  glDisable(GL_DEPTH_TEST);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  // Background: a vertical gradient, one full-screen triangle.
+  glUseProgram(s.prog_background);
+  const Vector3f bt = v3(L.background_top), bb = v3(L.background_bottom);
+  glUniform3f(glGetUniformLocation(s.prog_background, "u_top"), bt.x(), bt.y(), bt.z());
+  glUniform3f(glGetUniformLocation(s.prog_background, "u_bottom"), bb.x(), bb.y(), bb.z());
+  glBindVertexArray(s.empty_vao);
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glUseProgram(s.prog_mesh);
+  auto loc = [&](const char* n) { return glGetUniformLocation(s.prog_mesh, n); };
+  glUniformMatrix4fv(loc("u_view_proj"), 1, GL_FALSE, view_proj.data());
+  glUniform3f(loc("u_eye"), eye.x(), eye.y(), eye.z());
+  glUniform3f(loc("u_key_dir"), key.x(), key.y(), key.z());
+  glUniform3f(loc("u_fill_dir"), fill.x(), fill.y(), fill.z());
+  glUniform3f(loc("u_sky"), upv.x(), upv.y(), upv.z());
+
+  // Tissue. Automatic stress range: the largest stress seen so far (never shrinking, so colours
+  // mean the same from frame to frame).
+  float smin = L.field_min, smax = L.field_max;
+  if (L.field == ColorField::Stress && smax <= smin) {
+    for (const Body& b : s.bodies)
+      for (float v : b.stress) s.stress_max_seen = std::max(s.stress_max_seen, v);
+    smin = 0;
+    smax = std::max(s.stress_max_seen, 1e-12f);
+  }
+  const Vector3f tissue = linear(L.tissue);
+  glUniform3f(loc("u_base"), tissue.x(), tissue.y(), tissue.z());
+  glUniform1i(loc("u_field"), static_cast<int>(L.field));
+  glUniform2f(loc("u_range"), smin, smax);
+  glUniform1f(loc("u_shininess"), 48.0f);
+  glUniform1f(loc("u_specular"), 0.35f);
+  glUniform1i(loc("u_wire"), 0);
+  s.last_triangles = 0;
+  if (L.wireframe) {
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(1.0f, 1.0f);
+  }
+  for (const Body& b : s.bodies) {
+    glBindVertexArray(b.gpu.vao);
+    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(b.gpu.indices), GL_UNSIGNED_INT, nullptr);
+    s.last_triangles += b.gpu.indices / 3;
+  }
+  if (L.wireframe) {
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+    glUniform1i(loc("u_wire"), 1);
+    for (const Body& b : s.bodies) {
+      glBindVertexArray(b.gpu.vao);
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(b.gpu.indices), GL_UNSIGNED_INT, nullptr);
+    }
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glUniform1i(loc("u_wire"), 0);
+  }
+  // Tools: polished steel.
+  if (s.tool_mesh.indices > 0) {
+    const Vector3f tool = linear(L.tool);
+    glUniform3f(loc("u_base"), tool.x(), tool.y(), tool.z());
+    glUniform1i(loc("u_field"), 0);
+    glUniform1f(loc("u_shininess"), 80.0f);
+    glUniform1f(loc("u_specular"), 0.9f);
+    glBindVertexArray(s.tool_mesh.vao);
+    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(s.tool_mesh.indices), GL_UNSIGNED_INT, nullptr);
+    s.last_triangles += s.tool_mesh.indices / 3;
+  }
+  // Contact markers: round points drawn over the surface they sit on.
+  if (!s.markers.empty()) {
+    glUseProgram(s.prog_marker);
+    glUniformMatrix4fv(glGetUniformLocation(s.prog_marker, "u_view_proj"), 1, GL_FALSE, view_proj.data());
+    const Vector3f mc = v3(L.marker);
+    glUniform3f(glGetUniformLocation(s.prog_marker, "u_color"), mc.x(), mc.y(), mc.z());
+    glUniform1f(glGetUniformLocation(s.prog_marker, "u_size"), std::max(3.0f, 5.0f * static_cast<float>(s.height) / 480.0f));
+    glEnable(GL_PROGRAM_POINT_SIZE);
+    glDepthFunc(GL_LEQUAL);
+    glBindVertexArray(s.marker_vao);
+    glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(s.markers.size() / 3));
+    glDepthFunc(GL_LESS);
+  }
+  glBindVertexArray(0);
+
+  // Resolve the samples, read back, flip to top-down RGB.
+  if (s.samples > 0) {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, s.fbo_ms);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, s.fbo);
+    glBlitFramebuffer(0, 0, s.width, s.height, 0, 0, s.width, s.height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  }
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, s.fbo);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, s.width, s.height, GL_RGBA, GL_UNSIGNED_BYTE, s.rgba.data());
+  out.width = s.width;
+  out.height = s.height;
+  out.channels = 3;
+  out.pixels.resize(static_cast<size_t>(s.width) * s.height * 3);
+  for (int y = 0; y < s.height; ++y) {
+    const uint8_t* src = s.rgba.data() + static_cast<size_t>(s.height - 1 - y) * s.width * 4;
+    uint8_t* dst = out.pixels.data() + static_cast<size_t>(y) * s.width * 3;
+    for (int x = 0; x < s.width; ++x) {
+      dst[3 * x] = src[4 * x];
+      dst[3 * x + 1] = src[4 * x + 1];
+      dst[3 * x + 2] = src[4 * x + 2];
+    }
+  }
+  const GLenum err = glGetError();
+  if (err != GL_NO_ERROR) throw std::runtime_error(fmt::format("OpenGL error 0x{:x} while rendering", err));
+}
+
+}  // namespace stroma::render

@@ -1,0 +1,117 @@
+// End to end on loopback: `stroma serve` (liver), `stroma render` recording frames and
+// `stroma tool` pressing the liver, as three processes. The recording must have every frame and
+// its log, and the tissue around the tool must look different in the last frame than in the
+// first (the liver visibly deformed), while two frames before the tool came barely differ (so
+// the difference is the deformation, not noise).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "render/png_io.hpp"
+#include "tests/server/process.hpp"
+
+using namespace stroma;
+using stroma::test::Clock;
+using stroma::test::Process;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kSrc = STROMA_SOURCE_DIR;
+
+bool is_tool(const uint8_t* p) {  // grey steel: channels close together, not dark
+  const int r = p[0], g = p[1], b = p[2];
+  return std::abs(r - g) < 14 && std::abs(g - b) < 14 && r > 90;
+}
+bool is_tissue(const uint8_t* p) { return p[0] > 60 && p[0] > p[1] + 35; }  // red-brown
+
+/// Fraction of pixels in [x0,x1)×[y0,y1) that are tissue in both images and changed by more
+/// than `delta` in some channel.
+double changed_tissue(const render::Image& a, const render::Image& b, int x0, int y0, int x1, int y1, int delta,
+                      int* counted) {
+  int n = 0, changed = 0;
+  for (int y = std::max(0, y0); y < std::min(a.height, y1); ++y)
+    for (int x = std::max(0, x0); x < std::min(a.width, x1); ++x) {
+      const uint8_t* p = &a.pixels[3 * (static_cast<size_t>(y) * a.width + x)];
+      const uint8_t* q = &b.pixels[3 * (static_cast<size_t>(y) * b.width + x)];
+      if (!is_tissue(p) || !is_tissue(q)) continue;
+      ++n;
+      if (std::abs(p[0] - q[0]) > delta || std::abs(p[1] - q[1]) > delta || std::abs(p[2] - q[2]) > delta) ++changed;
+    }
+  *counted = n;
+  return n ? static_cast<double>(changed) / n : 0.0;
+}
+
+}  // namespace
+
+TEST(RenderEndToEnd, ServerRendererAndToolProduceFramesShowingTheDeformation) {
+  const std::string domain = "141";
+  const fs::path out = fs::temp_directory_path() / "stroma_e2e_render";
+  fs::remove_all(out);
+  Process server({STROMA_BINARY, "serve", kSrc + "/scenarios/liver.yaml", "--domain", domain, "--realtime", "off",
+                  "--duration", "60"});
+  // Let the liver settle under gravity first, so the frames differ by the tool only.
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  const int frames = 40;
+  Process renderer({STROMA_BINARY, "render", "--domain", domain, "--out", out.string(), "--frames",
+                    std::to_string(frames), "--fps", "10", "--width", "320", "--height", "240", "--msaa", "0",
+                    "--no-video", "--no-contacts", "--wait", "30"});
+  // The tool starts once the first frame (the untouched liver) is on disk.
+  const auto deadline = Clock::now() + std::chrono::seconds(30);
+  while (!fs::exists(out / "frame_000001.png") && Clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(fs::exists(out / "frame_000001.png")) << "the renderer wrote no frame";
+  Process tool({STROMA_BINARY, "tool", "--name", "probe", "--script",
+                kSrc + "/tests/data/render/press_and_hold.yaml", "--domain", domain, "--rate", "200",
+                "--no-realtime"});
+  EXPECT_EQ(renderer.wait_exit(60), 0);
+  tool.signal(SIGTERM);
+  tool.wait_exit(10);
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(20), 0);
+
+  // Every frame, its log and statistics.
+  for (int i = 0; i < frames; ++i) EXPECT_TRUE(fs::exists(out / fmt::format("frame_{:06d}.png", i))) << i;
+  EXPECT_FALSE(fs::exists(out / fmt::format("frame_{:06d}.png", frames)));
+  std::ifstream js(out / "render_stats.json");
+  ASSERT_TRUE(js.good());
+  const auto stats = nlohmann::json::parse(js);
+  EXPECT_EQ(stats["frames_written"].get<int>(), frames);
+  EXPECT_GT(stats["states_received"].get<int>(), 0);
+  EXPECT_GT(stats["publish_to_disk_ms"]["frames"].get<int>(), 0);
+  std::ifstream csv(out / "frames.csv");
+  int lines = 0;
+  for (std::string l; std::getline(csv, l);) ++lines;
+  EXPECT_EQ(lines, frames + 1);
+
+  // The tool appears in the last frame; the tissue around it changed, tissue far away did not.
+  const render::Image first = render::read_png((out / "frame_000000.png").string());
+  const render::Image last = render::read_png((out / fmt::format("frame_{:06d}.png", frames - 1)).string());
+  int x0 = last.width, y0 = last.height, x1 = -1, y1 = -1;
+  for (int y = 0; y < last.height; ++y)
+    for (int x = 0; x < last.width; ++x)
+      if (is_tool(&last.pixels[3 * (static_cast<size_t>(y) * last.width + x)]) &&
+          !is_tool(&first.pixels[3 * (static_cast<size_t>(y) * first.width + x)])) {
+        x0 = std::min(x0, x);
+        y0 = std::min(y0, y);
+        x1 = std::max(x1, x);
+        y1 = std::max(y1, y);
+      }
+  ASSERT_GE(x1, 0) << "no tool in the last frame";
+  const int w = x1 - x0 + 1, h = y1 - y0 + 1;
+  int near_n = 0, still_n = 0;
+  const double near = changed_tissue(first, last, x0 - w, y0 - h / 2, x1 + w, y1 + 2 * h, 6, &near_n);
+  const render::Image second = render::read_png((out / "frame_000001.png").string());
+  const double still = changed_tissue(first, second, x0 - w, y0 - h / 2, x1 + w, y1 + 2 * h, 6, &still_n);
+  EXPECT_GT(near_n, 50);
+  EXPECT_GT(near, 0.15) << "tissue pixels near the tool that changed";
+  EXPECT_LT(still, 0.05) << "frames 0 and 1 (before the tool) differ";
+}
