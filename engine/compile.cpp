@@ -87,8 +87,8 @@ void compile_visuals(const ScenarioSpec& spec, const std::vector<PreparedMesh>& 
                                         v.mesh_path);
     } catch (const InputError& e) {
       throw InputError(v.where.file, v.where.line, field,
-                       fmt::format("{} (max_distance {:.4g}; raise it under visual: if the surface is meant "
-                                   "to lie that far outside the tetrahedra)", e.what(), max_distance));
+                       fmt::format("{} (raise max_distance under visual: if the surface is meant to lie that far "
+                                   "outside the tetrahedra)", e.what()));
     }
     if (vm.mapping.outside > 0)
       model.notes.push_back(fmt::format("body '{}': {} of {} visual vertices lie outside the tetrahedra (at most "

@@ -35,7 +35,7 @@ void FrameWriter::release(Image* image) {
   free_.push_back(image);
 }
 
-void FrameWriter::submit(Image* image, int64_t stamp_ns, double sim_time, uint64_t state_frame) {
+void FrameWriter::submit(Image* image, int64_t stamp_ns, double sim_time, uint64_t state_frame, double render_ms) {
   {
     std::lock_guard lock(mutex_);
     WrittenFrame info;
@@ -43,6 +43,7 @@ void FrameWriter::submit(Image* image, int64_t stamp_ns, double sim_time, uint64
     info.stamp_ns = stamp_ns;
     info.sim_time = sim_time;
     info.state_frame = state_frame;
+    info.render_ms = render_ms;
     queue_.push_back({image, info});
   }
   cv_.notify_one();

@@ -23,6 +23,7 @@ struct WrittenFrame {
   int64_t written_ns = 0;   ///< CLOCK_MONOTONIC when the file was complete
   double sim_time = 0;
   uint64_t state_frame = 0;
+  double render_ms = 0;     ///< how long the frame took to render
 };
 
 /// Background PNG writer with a bounded pool of buffers.
@@ -37,7 +38,7 @@ class FrameWriter {
   /// A free buffer to render into, or nullptr if all are queued (the caller drops the frame).
   Image* acquire();
   /// Queues `image` (from acquire) as the next frame.
-  void submit(Image* image, int64_t stamp_ns, double sim_time, uint64_t state_frame);
+  void submit(Image* image, int64_t stamp_ns, double sim_time, uint64_t state_frame, double render_ms = 0);
   /// Returns an acquired buffer unused.
   void release(Image* image);
   /// Waits until every queued frame is on disk and stops the thread.

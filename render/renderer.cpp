@@ -420,11 +420,12 @@ Camera Renderer::fit_camera(Vec3f view_direction, Vec3f up, float fov_deg) const
   if (lo.x() > hi.x()) lo = hi = Vector3f::Zero();
   const Vector3f centre = 0.5f * (lo + hi);
   const float radius = std::max(0.5f * (hi - lo).norm(), 1e-6f);
-  // Fit the bounding sphere in the smaller of the two fields of view, with a 10 % margin.
+  // Fit the bounding sphere in the smaller of the two fields of view (no margin: the sphere
+  // around the box is already loose).
   const float aspect = static_cast<float>(impl_->width) / static_cast<float>(impl_->height);
   const float half_v = 0.5f * fov_deg * static_cast<float>(M_PI) / 180.0f;
   const float half = std::min(half_v, std::atan(std::tan(half_v) * aspect));
-  const float dist = 1.1f * radius / std::sin(half);
+  const float dist = 1.0f * radius / std::sin(half);
   Vector3f d = v3(view_direction);
   d = d.norm() > 0 ? Vector3f(d.normalized()) : Vector3f(0, 0, -1);
   const Vector3f eye = centre - dist * d;
@@ -434,6 +435,37 @@ Camera Renderer::fit_camera(Vec3f view_direction, Vec3f up, float fov_deg) const
   c.up = up;
   c.fov_deg = fov_deg;
   return c;
+}
+
+void Renderer::warm_up() {
+  Impl& s = *impl_;
+  Vector3f lo = Vector3f::Constant(1e30f), hi = Vector3f::Constant(-1e30f);
+  for (const Body& b : s.bodies) {
+    lo = lo.cwiseMin(b.rest_lo);
+    hi = hi.cwiseMax(b.rest_hi);
+  }
+  if (lo.x() > hi.x()) lo = hi = Vector3f::Zero();
+  // A sphere around the first body's first vertex: it touches the surface, so markers show.
+  Vector3f c = 0.5f * (lo + hi);
+  for (const Body& b : s.bodies)
+    if (!b.positions.empty()) {
+      c = Vector3f(b.positions[0], b.positions[1], b.positions[2]);
+      break;
+    }
+  const float r = std::max(0.05f * (hi - lo).norm(), 1e-3f);
+  const std::vector<ToolView> saved = s.tools;
+  const Look look = s.look;
+  ToolView t;
+  t.capsules.push_back({{c.x(), c.y(), c.z()}, {c.x(), c.y() + r, c.z()}, r});
+  s.tools = {t};
+  s.look.contacts = true;
+  Image scratch;
+  for (bool wire : {false, true}) {
+    s.look.wireframe = wire;
+    render(scratch);
+  }
+  s.look = look;
+  s.tools = saved;
 }
 
 void Renderer::render(Image& out) {

@@ -84,6 +84,11 @@ class Renderer {
   /// Renders a frame into `out` (RGB, rows top to bottom; resized on first use).
   void render(Image& out);
 
+  /// Renders (and discards) frames that use every pipeline state — tissue, a tool, contact
+  /// markers, wireframe — so the software rasteriser compiles its shaders now rather than
+  /// during a recording (~0.1 s each on llvmpipe).
+  void warm_up();
+
   int width() const;
   int height() const;
   /// Triangles drawn in the last frame (tissue + tools), and contact markers.
