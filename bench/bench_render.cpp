@@ -3,12 +3,16 @@
 /// of PNG encoding, for a surface (OBJ/STL) or a tet mesh's boundary, at one image size. The
 /// surface is deformed every frame (a travelling wave) so normals and buffers are rebuilt as in
 /// a live run. Reports median and p99 over many frames.
-///   stroma_bench_render MESH [--width W --height H --frames N --msaa S --png-level L --out F.png]
+///   stroma_bench_render MESH [--width W --height H --frames N --runs R --msaa S --png-level L
+///                             --out F.png --markdown --label TEXT]
+/// With --runs R the frames are timed R times; the median over runs of each run's p50/p99 is
+/// reported (with the range), so one noisy run on a shared machine does not decide the figure.
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -44,7 +48,9 @@ double now_ms() {
 int main(int argc, char** argv) {
   CLI::App app{"Off-screen rendering speed (renderer and PNG encoding)"};
   std::string mesh_path, out;
-  int width = 640, height = 480, frames = 200, msaa = 4, level = 1;
+  int width = 640, height = 480, frames = 200, msaa = 4, level = 1, runs = 1;
+  bool markdown = false;
+  std::string label;
   app.add_option("mesh", mesh_path, "surface (.obj, .stl) or tet mesh (.msh, .vtu, .vtk: its boundary)")->required();
   app.add_option("--width", width)->capture_default_str();
   app.add_option("--height", height)->capture_default_str();
@@ -52,6 +58,9 @@ int main(int argc, char** argv) {
   app.add_option("--msaa", msaa, "samples per pixel (0: none)")->capture_default_str();
   app.add_option("--png-level", level, "zlib level for the PNG timing")->capture_default_str();
   app.add_option("--out", out, "write the last frame to this PNG");
+  app.add_option("--runs", runs, "repeat the timing this many times")->capture_default_str();
+  app.add_flag("--markdown", markdown, "print one table row");
+  app.add_option("--label", label, "first column of the table row");
   CLI11_PARSE(app, argc, argv);
 
   std::vector<float> rest;
@@ -91,41 +100,58 @@ int main(int argc, char** argv) {
 
   std::vector<float> x(rest.size()), stress(nv);
   Image img;
-  std::vector<double> render_ms, png_ms;
+  std::vector<double> run_p50, run_p99, run_png;
   const std::string tmp = (std::filesystem::temp_directory_path() / "stroma_bench_frame.png").string();
-  for (int f = 0; f < frames + 5; ++f) {
-    const float phase = 0.2f * static_cast<float>(f);
-    for (size_t i = 0; i < nv; ++i) {
-      const float w = 0.02f * size * std::sin(phase + 6.0f * (rest[3 * i] - lo[0]) / size);
-      x[3 * i] = rest[3 * i];
-      x[3 * i + 1] = rest[3 * i + 1] + w;
-      x[3 * i + 2] = rest[3 * i + 2];
-      stress[i] = std::abs(w);
-    }
-    const double t0 = now_ms();
-    r.update_body(body, x.data(), stress.data(), nullptr);
-    r.render(img);
-    const double t1 = now_ms();
-    if (f >= 5) render_ms.push_back(t1 - t0);  // the first frames compile shaders lazily
-    if (f >= 5 && f % 4 == 0) {
-      std::string err;
-      const double p0 = now_ms();
-      if (!write_png(tmp, img, level, &err)) {
-        fmt::print(stderr, "{}\n", err);
-        return 1;
+  for (int run = 0; run < runs; ++run) {
+    std::vector<double> render_ms, png_ms;
+    for (int f = 0; f < frames + 5; ++f) {
+      const float phase = 0.2f * static_cast<float>(f);
+      for (size_t i = 0; i < nv; ++i) {
+        const float w = 0.02f * size * std::sin(phase + 6.0f * (rest[3 * i] - lo[0]) / size);
+        x[3 * i] = rest[3 * i];
+        x[3 * i + 1] = rest[3 * i + 1] + w;
+        x[3 * i + 2] = rest[3 * i + 2];
+        stress[i] = std::abs(w);
       }
-      png_ms.push_back(now_ms() - p0);
+      const double t0 = now_ms();
+      r.update_body(body, x.data(), stress.data(), nullptr);
+      r.render(img);
+      const double t1 = now_ms();
+      if (f >= 5) render_ms.push_back(t1 - t0);  // the first frames compile shaders lazily
+      if (f >= 5 && f % 4 == 0) {
+        std::string err;
+        const double p0 = now_ms();
+        if (!write_png(tmp, img, level, &err)) {
+          fmt::print(stderr, "{}\n", err);
+          return 1;
+        }
+        png_ms.push_back(now_ms() - p0);
+      }
     }
+    run_p50.push_back(percentile(render_ms, 0.5));
+    run_p99.push_back(percentile(render_ms, 0.99));
+    run_png.push_back(percentile(png_ms, 0.5));
   }
   std::filesystem::remove(tmp);
   if (!out.empty()) {
     std::string err;
     if (!write_png(out, img, 6, &err)) fmt::print(stderr, "{}\n", err);
   }
-  const double p50 = percentile(render_ms, 0.5), p99 = percentile(render_ms, 0.99);
+  const double p50 = percentile(run_p50, 0.5), p99 = percentile(run_p99, 0.5), png = percentile(run_png, 0.5);
+  auto range = [](const std::vector<double>& v) {
+    return fmt::format("{:.1f}–{:.1f}", *std::min_element(v.begin(), v.end()), *std::max_element(v.begin(), v.end()));
+  };
+  const char* threads = std::getenv("LP_NUM_THREADS");
+  if (markdown) {
+    fmt::print("| {} | {} | {} | {}x{} | {} | {} | {:.1f} ({}) | {:.1f} ({}) | {:.0f} | {:.1f} |\n",
+               label.empty() ? mesh_path : label, nv, tris.size() / 3, width, height, msaa,
+               threads ? threads : "default", p50, range(run_p50), p99, range(run_p99), 1000.0 / p50, png);
+    return 0;
+  }
   fmt::print("{}: {} vertices, {} triangles, {}x{}, msaa {} ({}, {})\n", mesh_path, nv, tris.size() / 3, width,
              height, msaa, gl.renderer(), gl.version());
-  fmt::print("render+readback ms: p50 {:.2f} p99 {:.2f} -> {:.1f} FPS (p50)\n", p50, p99, 1000.0 / p50);
-  fmt::print("png level {} ms: p50 {:.2f} p99 {:.2f}\n", level, percentile(png_ms, 0.5), percentile(png_ms, 0.99));
+  fmt::print("render+readback ms: p50 {:.2f} p99 {:.2f} -> {:.1f} FPS (p50), median of {} runs\n", p50, p99,
+             1000.0 / p50, runs);
+  fmt::print("png level {} ms: p50 {:.2f}\n", level, png);
   return 0;
 }
