@@ -175,6 +175,8 @@ RunResult run_headless(const Model& m, const RunOptions& o) {
       cg_sum += r.solve.iterations;
       res.cg_iterations_max = std::max(res.cg_iterations_max, r.solve.iterations);
       if (r.status == TickStatus::SolverNotConverged) ++res.ticks_not_converged;
+      if (r.status == TickStatus::Recovered) ++res.ticks_recovered;
+      res.max_substeps = std::max(res.max_substeps, r.substeps);
       if (r.status == TickStatus::NonFinite) {
         ++res.ticks_non_finite;
         spdlog::error("tick {}: non-finite values in the solve; stopping the run", k);
@@ -244,6 +246,8 @@ RunResult run_headless(const Model& m, const RunOptions& o) {
     j["cg_iterations"] = {{"mean", res.cg_iterations_mean}, {"max", res.cg_iterations_max}};
     j["ticks_not_converged"] = res.ticks_not_converged;
     j["ticks_non_finite"] = res.ticks_non_finite;
+    j["ticks_recovered"] = res.ticks_recovered;
+    j["max_substeps"] = res.max_substeps;
     if (m.stepper.integrator == Integrator::Static)
       j["static"] = {{"newton_iterations", res.newton_iterations},
                      {"relative_residual", res.static_residual},

@@ -42,6 +42,8 @@ struct RunResult {
   int cg_iterations_max = 0;
   long ticks_not_converged = 0;
   long ticks_non_finite = 0;
+  long ticks_recovered = 0;  ///< ticks redone in sub-steps after a failed step (TickStatus::Recovered)
+  int max_substeps = 1;       ///< most sub-steps any tick needed
   std::map<std::string, double> stage_ms_total;  ///< per stage, summed over the run
   double io_ms_total = 0;                        ///< metrics, VTU and summary writing
   /// Static runs: Newton iterations and final relative residual.

@@ -123,6 +123,7 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
         stage_window[s] += r.stage_ns[s];
       }
       if (r.status == TickStatus::SolverNotConverged) ++stats_.not_converged;
+      if (r.status == TickStatus::Recovered) ++stats_.recovered;
       if (r.status == TickStatus::NonFinite) {
         ++stats_.non_finite;
         rs = RunState::Fault;  // state kept finite (not advanced); clients see FAULT

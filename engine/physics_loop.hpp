@@ -96,6 +96,7 @@ struct PhysicsLoopStats {
   LatencyHistogram wake;        ///< actual wake-up − deadline
   LatencyHistogram tick;        ///< tick compute time
   uint64_t ticks = 0, loops = 0, missed_deadlines = 0, not_converged = 0, non_finite = 0;
+  uint64_t recovered = 0;  ///< ticks redone in sub-steps after a failed step
   uint64_t cg_iterations_total = 0;
   uint64_t record_dropped = 0;  ///< session-log events lost because the recorder fell behind
   int cg_iterations_max = 0;

@@ -36,7 +36,7 @@ class StageTimer {
  public:
   StageTimer(TickReport& r, Stage s) : r_(r), s_(static_cast<int>(s)), t0_(now_ns()) {}
   ~StageTimer() {
-    r_.stage_ns[s_] = now_ns() - t0_;
+    r_.stage_ns[s_] += now_ns() - t0_;  // += : a retried tick runs stages more than once
     r_.stage_ran[s_] = true;
   }
 
@@ -50,6 +50,49 @@ bool all_finite(const std::vector<double>& a) {
   double acc = 0;
   for (double v : a) acc += v * 0.0;  // NaN/Inf poison the sum; finite values add exact zeros
   return acc == 0.0;
+}
+
+/// Puts the tissue back to the start of the tick; the warm start is cleared (it may hold the
+/// failed solve).
+void restore(TissueState& t, const TickWorkspace& w) {
+  std::copy(w.backup_x.begin(), w.backup_x.end(), t.x.begin());
+  std::copy(w.backup_v.begin(), w.backup_v.end(), t.v.begin());
+  std::fill(t.dv.begin(), t.dv.end(), 0.0);
+  std::fill(t.dv_prev.begin(), t.dv_prev.end(), 0.0);
+}
+
+/// True if the step just integrated over h moved no node by more than `limit` (|v|·h, v the
+/// new velocity) and every position and velocity is finite (NaN/Inf fail the comparisons).
+bool sane_step(const TissueState& t, double h, double limit) {
+  const double v2max = (limit / h) * (limit / h);
+  bool ok = true;
+  for (size_t i = 0; i + 2 < t.v.size(); i += 3)
+    ok &= t.v[i] * t.v[i] + t.v[i + 1] * t.v[i + 1] + t.v[i + 2] * t.v[i + 2] <= v2max;
+  return ok && all_finite(t.x);
+}
+
+/// assemble → solve → integrate over h. False (state possibly half-updated: the caller rolls
+/// back) if the solve is non-finite or diverged (hit its cap with a residual above its start),
+/// or the result is not sane. `first` says whether this is the tick's full step (timed stages
+/// report into r either way).
+bool step(TimeStepper& stepper, TissueState& t, TickWorkspace& w, double h, TickReport& r, bool first) {
+  {
+    StageTimer st(r, Stage::Assemble);
+    const double e = stepper.assemble(t, h);
+    if (first) r.elastic_energy = e;
+  }
+  {
+    StageTimer st(r, Stage::Solve);
+    r.solve = stepper.solve(t);
+  }
+  if (!std::isfinite(r.solve.relative_residual) || !all_finite(t.dv) ||
+      (!r.solve.converged && r.solve.relative_residual > 1.0))
+    return false;
+  {
+    StageTimer st(r, Stage::Integrate);
+    stepper.integrate(t, h);
+  }
+  return sane_step(t, h, w.max_step_displacement);
 }
 
 }  // namespace
@@ -97,23 +140,26 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
     StageTimer t(r, Stage::Collide);
     collide(m, s, w);
   }
-  {
-    StageTimer t(r, Stage::Assemble);
-    r.elastic_energy = stepper.assemble(s.tissue, h);
-  }
-  {
-    StageTimer t(r, Stage::Solve);
-    r.solve = stepper.solve(s.tissue);
-  }
-  if (!std::isfinite(r.solve.relative_residual) || !all_finite(s.tissue.dv)) {
-    r.status = TickStatus::NonFinite;
-    std::fill(s.tissue.dv.begin(), s.tissue.dv.end(), 0.0);  // keep the warm start usable
-    r.total_ns = now_ns() - t0;
-    return r;
-  }
-  {
-    StageTimer t(r, Stage::Integrate);
-    stepper.integrate(s.tissue, h);
+  // Rollback point: the tissue's positions and velocities (two copies of 3n doubles).
+  std::copy(s.tissue.x.begin(), s.tissue.x.end(), w.backup_x.begin());
+  std::copy(s.tissue.v.begin(), s.tissue.v.end(), w.backup_v.begin());
+  bool ok = step(stepper, s.tissue, w, h, r, true);
+  if (!ok) {
+    // The engine defends itself: roll back and redo the tick in 2, 4, … sub-steps (a smaller
+    // step is both more stable and better conditioned), warm start cleared.
+    for (int k = 2; k <= kMaxSubsteps && !ok; k *= 2) {
+      restore(s.tissue, w);
+      ok = true;
+      for (int i = 0; i < k && ok; ++i) ok = step(stepper, s.tissue, w, h / k, r, false);
+      r.substeps = k;
+    }
+    if (!ok) {
+      restore(s.tissue, w);
+      r.status = TickStatus::NonFinite;
+      r.total_ns = now_ns() - t0;
+      return r;
+    }
+    r.status = TickStatus::Recovered;
   }
   s.time = static_cast<double>(s.step + 1) * h;
   ++s.step;
@@ -123,7 +169,7 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
     r.damage_events = update_damage(m, s, &w.damage_events);
   }
   // hand_off: the server's physics loop does it (headless: nothing to hand off).
-  if (!r.solve.converged) r.status = TickStatus::SolverNotConverged;
+  if (r.status == TickStatus::Ok && !r.solve.converged) r.status = TickStatus::SolverNotConverged;
   r.total_ns = now_ns() - t0;
   return r;
 }

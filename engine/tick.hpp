@@ -6,7 +6,9 @@
 /// headless and in the real-time server. It never allocates, locks, logs or throws: problems
 /// come back as a status code.
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string_view>
@@ -29,8 +31,15 @@ std::string_view stage_name(Stage s);
 enum class TickStatus : uint8_t {
   Ok,
   SolverNotConverged,  ///< the linear solve hit its cap (state is still finite and advanced)
-  NonFinite            ///< NaN/Inf appeared in the solve; the state was not advanced
+  Recovered,           ///< the full step failed (NaN/Inf, a diverging solve, or a node moving
+                       ///< more than half the scene's size in one step); it was rolled back and
+                       ///< redone in `substeps` sub-steps
+  NonFinite            ///< no sub-step division gave a sane step either: the state was rolled
+                       ///< back and not advanced (never a NaN in the state)
 };
+
+/// Most sub-steps a failed tick is retried with (2, 4, 8, then 16).
+inline constexpr int kMaxSubsteps = 16;
 
 /// What one tick reports.
 struct TickReport {
@@ -40,6 +49,7 @@ struct TickReport {
   std::array<int64_t, kStageCount> stage_ns{};  ///< wall time per stage
   std::array<bool, kStageCount> stage_ran{};    ///< false: skipped (nothing to do)
   int damage_events = 0;                        ///< elements reaching a new damage level
+  int substeps = 1;  ///< sub-steps the tick finally used (> 1: it was retried, see Recovered)
   int64_t total_ns = 0;
 };
 
@@ -48,6 +58,17 @@ class TickWorkspace {
  public:
   explicit TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     stepper_.prepare(m.time_step);
+    backup_x.resize(m.fem.rest.size());
+    backup_v.resize(m.fem.rest.size());
+    // A step (or sub-step) that moves a node by more than half the scene's size has diverged.
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (size_t i = 0; i < m.fem.rest.size(); ++i) {
+      lo[i % 3] = std::min(lo[i % 3], m.fem.rest[i]);
+      hi[i % 3] = std::max(hi[i % 3], m.fem.rest[i]);
+    }
+    const double d2 = (hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                      (hi[2] - lo[2]) * (hi[2] - lo[2]);
+    max_step_displacement = 0.5 * std::sqrt(d2);
     if (m.has_damage) damage_events.reserve(1024);
     if (m.has_contact) {  // pay only for use: no tool shape, no BVH
       bvh.build(m.collision_triangles, m.fem.rest.data());
@@ -63,6 +84,10 @@ class TickWorkspace {
   std::vector<ContactSpring> springs;   ///< this tick's contacts (capacity fixed at load)
   /// Elements that reached a new damage level this tick (capacity fixed at load).
   std::vector<DamageEventRecord> damage_events;
+  /// Positions and velocities at the start of the tick, for rollback (sized once).
+  std::vector<double> backup_x, backup_v;
+  /// Largest node displacement one step (or sub-step) may make before it counts as diverged.
+  double max_step_displacement = 0;
 
  private:
   TimeStepper stepper_;

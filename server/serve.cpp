@@ -478,6 +478,7 @@ int run_serve(const ServeOptions& o) {
       j["stage_ms_mean"] = stages;
       j["ticks_not_converged"] = st.not_converged;
       j["ticks_non_finite"] = st.non_finite;
+      j["ticks_recovered"] = st.recovered;
       j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
       j["tool_commands"] = {{"accepted", counters.accepted.load()}, {"clamped", counters.clamped.load()},
                             {"rejected", counters.rejected.load()}};
