@@ -7,6 +7,7 @@
 ///   stroma render            record a served scenario off-screen (PNG frames, MP4)
 /// Exit codes: 0 success, 1 check failed / run unhealthy, 2 bad input or usage.
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -20,6 +21,7 @@
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state_io.hpp"
+#include "bench/stability/stability_suite.hpp"
 #include "render/render_process.hpp"
 #include "server/serve.hpp"
 #include "server/tool_client.hpp"
@@ -181,6 +183,21 @@ int main(int argc, char** argv) {
               "follows a restarted server. Frames are dropped (and counted), never queued, when rendering\n"
               "or writing falls behind. Stops at --frames/--duration or on Ctrl-C, then encodes the video.");
 
+  // ---- bench ----
+  auto* bench = app.add_subcommand("bench", "Measured claims: numerical-stability stress suite (accuracy sweep: issue 6, to come)");
+  bench->require_subcommand(1);
+  StabilityOptions sto;
+  sto.source_dir = STROMA_SOURCE_DIR;
+  auto* stab = bench->add_subcommand("stability", "Stress cases (time step x stiffness x Poisson x mesh quality; extreme loads) with pass criteria");
+  stab->add_flag("--quick", sto.quick, "A subset that runs in under a minute (what ctest runs)");
+  stab->add_option("--csv", sto.csv, "Write every case's figures here");
+  stab->add_flag("--markdown", sto.markdown, "Print the table as Markdown (docs/STABILITY.md)");
+  stab->add_option("--source-dir", sto.source_dir, "Repository with scenarios/ (default: where stroma was built from)")->check(CLI::ExistingDirectory);
+  stab->footer("Pass: no NaN/Inf ever; total energy (kinetic + elastic + gravity + contact) never above its start\n"
+               "(for driven cases: above its value when the drive stops) by more than 1 % of the energies seen;\n"
+               "no element inverted at the end; every tick advanced (CG capped ticks are reported).\n"
+               "Exit status 1 if any case fails.");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -212,6 +229,12 @@ int main(int argc, char** argv) {
     }
     if (*serve) return run_serve(srv);
     if (*tool) return run_tool_client(tco);
+    if (*stab) {
+      const auto results = run_stability_suite(sto);
+      const long failed = std::count_if(results.begin(), results.end(), [](const StabilityResult& r) { return !r.pass; });
+      fmt::print("{} of {} cases passed\n", results.size() - failed, results.size());
+      return failed ? 1 : 0;
+    }
     if (*rnd) {
       if (!cam_pos.empty()) rdo.camera_position = std::array<double, 3>{cam_pos[0], cam_pos[1], cam_pos[2]};
       if (!cam_target.empty()) rdo.camera_target = std::array<double, 3>{cam_target[0], cam_target[1], cam_target[2]};
