@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "engine/output_dir.hpp"
 #include "render/frame_writer.hpp"
 #include "render/gl_context.hpp"
 #include "render/renderer.hpp"
@@ -96,14 +97,8 @@ int take_all(dds_entity_t reader, F&& f) {
 /// Output directory: created, writable, and without frames of an earlier run (which would mix
 /// into the video). Throws InputError before anything starts.
 void prepare_out_dir(const std::string& dir) {
+  ensure_writable_dir(dir, "--out");
   std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw InputError(dir, 0, "--out", fmt::format("cannot create output directory: {}", ec.message()));
-  const fs::path probe = fs::path(dir) / ".stroma_write_test";
-  std::FILE* f = std::fopen(probe.c_str(), "w");
-  if (!f) throw InputError(dir, 0, "--out", "output directory is not writable");
-  std::fclose(f);
-  fs::remove(probe, ec);
   int removed = 0;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();

@@ -21,9 +21,16 @@
 #include <vector>
 
 #include "tissue/input_error.hpp"
+#include "tissue/text_scan.hpp"
 
 namespace stroma {
 namespace {
+
+using text::clip;
+using text::iequals;
+using text::is_space;
+using text::lower;
+using text::parse_number;
 
 constexpr size_t kNoPos = std::string_view::npos;
 
@@ -31,37 +38,10 @@ constexpr size_t kNoPos = std::string_view::npos;
 // Shared text machinery
 // =============================================================================================
 
-bool is_space(char c) {
-  return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f';
-}
-
 std::string_view trim(std::string_view s) {
   while (!s.empty() && is_space(s.front())) s.remove_prefix(1);
   while (!s.empty() && is_space(s.back())) s.remove_suffix(1);
   return s;
-}
-
-char lower(char c) { return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c; }
-
-bool iequals(std::string_view a, std::string_view b) {
-  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(),
-                                            [](char x, char y) { return lower(x) == lower(y); });
-}
-
-/// Quotes file text in a message without flooding it (binary junk, long lines).
-std::string clip(std::string_view s) {
-  constexpr size_t kMax = 40;
-  return s.size() <= kMax ? std::string(s) : std::string(s.substr(0, kMax)) + "...";
-}
-
-/// Parses a whole token as a number. from_chars rejects a leading '+', which some writers emit.
-template <class T>
-bool parse_number(std::string_view tok, T& out) {
-  const char* b = tok.data();
-  const char* e = b + tok.size();
-  if (e - b > 1 && *b == '+' && b[1] != '-') ++b;
-  auto [p, ec] = std::from_chars(b, e, out);
-  return ec == std::errc() && p == e;
 }
 
 /// Where an error is, in terms the user can act on: file text (to turn an offset into a line

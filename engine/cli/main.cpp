@@ -19,6 +19,7 @@
 
 #include "engine/headless_runner.hpp"
 #include "engine/model.hpp"
+#include "engine/output_dir.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state_io.hpp"
 #include "bench/stability/stability_suite.hpp"
@@ -40,18 +41,6 @@ std::shared_ptr<const Model> load(const std::string& path) {
   spdlog::info("scenario '{}': {} bodies, {} nodes, {} tetrahedra, dt {} s", spec.name,
                spec.bodies.size(), model->fem.num_nodes, model->fem.elements.size(), spec.time_step);
   return model;
-}
-
-/// Fails early (before a long run) if the output directory cannot be created or written.
-void ensure_writable_dir(const std::string& dir) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw InputError(dir, 0, "--out", fmt::format("cannot create output directory: {}", ec.message()));
-  const fs::path probe = fs::path(dir) / ".stroma_write_test";
-  std::FILE* f = std::fopen(probe.c_str(), "w");
-  if (!f) throw InputError(dir, 0, "--out", "output directory is not writable");
-  std::fclose(f);
-  fs::remove(probe, ec);
 }
 
 void print_summary(const Model& m, const RunResult& r) {
