@@ -204,6 +204,7 @@ struct Renderer::Impl {
   std::vector<uint8_t> rgba;
   size_t last_triangles = 0;
   float stress_max_seen = 0;  // automatic stress range: grows, never flickers
+  std::vector<float> stress_scratch;  // per-frame copy for the percentile
 
   void create_framebuffers() {
     GLint max_samples = 0;
@@ -515,12 +516,19 @@ void Renderer::render(Image& out) {
   glUniform3f(loc("u_fill_dir"), fill.x(), fill.y(), fill.z());
   glUniform3f(loc("u_sky"), upv.x(), upv.y(), upv.z());
 
-  // Tissue. Automatic stress range: the largest stress seen so far (never shrinking, so colours
-  // mean the same from frame to frame).
+  // Tissue. Automatic stress range: 0 to the largest 98th percentile of the per-vertex stress
+  // seen so far — not the maximum, which sits at a few stress-concentrating vertices (fixed
+  // nodes) and would leave the rest of the body one colour; never shrinking, so colours mean the
+  // same from frame to frame.
   float smin = L.field_min, smax = L.field_max;
   if (L.field == ColorField::Stress && smax <= smin) {
-    for (const Body& b : s.bodies)
-      for (float v : b.stress) s.stress_max_seen = std::max(s.stress_max_seen, v);
+    s.stress_scratch.clear();
+    for (const Body& b : s.bodies) s.stress_scratch.insert(s.stress_scratch.end(), b.stress.begin(), b.stress.end());
+    if (!s.stress_scratch.empty()) {
+      const size_t k = s.stress_scratch.size() * 98 / 100;
+      std::nth_element(s.stress_scratch.begin(), s.stress_scratch.begin() + static_cast<long>(k), s.stress_scratch.end());
+      s.stress_max_seen = std::max(s.stress_max_seen, s.stress_scratch[k]);
+    }
     smin = 0;
     smax = std::max(s.stress_max_seen, 1e-12f);
   }

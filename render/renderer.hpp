@@ -36,7 +36,8 @@ struct Look {
   /// above and to the left of the camera, following it.
   Vec3f light_direction{0, 0, 0};
   ColorField field = ColorField::Damage;
-  float field_min = 0, field_max = 0;  ///< colour-map range; max <= min: automatic (stress)
+  float field_min = 0, field_max = 0;  ///< colour-map range; max <= min: automatic (stress:
+                                       ///< 0 to the largest 98th percentile seen)
   bool wireframe = false;
   bool contacts = true;                ///< markers where the surface is inside a tool
   int msaa = 4;                        ///< samples per pixel (0 or 1: none)
