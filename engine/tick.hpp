@@ -31,7 +31,7 @@ std::string_view stage_name(Stage s);
 enum class TickStatus : uint8_t {
   Ok,
   SolverNotConverged,  ///< the linear solve hit its cap (state is still finite and advanced)
-  Recovered,           ///< the full step failed (NaN/Inf, a diverging solve, or a node moving
+  Recovered,           ///< the full step failed (NaN/Inf in the solve or the state, or a node moving
                        ///< more than half the scene's size in one step); it was rolled back and
                        ///< redone in `substeps` sub-steps
   NonFinite            ///< no sub-step division gave a sane step either: the state was rolled

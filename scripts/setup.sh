@@ -21,8 +21,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # off-screen rendering (OSMesa: software OpenGL, no display), PNG frames, MP4 video
   libosmesa6-dev libpng-dev ffmpeg
-  # the peer in the accuracy benchmark (Bullet's soft bodies) and meshes from .geo files
-  libbullet-dev libbullet-extras-dev gmsh
+  # the peer in the accuracy benchmark (Bullet's soft bodies), meshes from .geo files, plots
+  libbullet-dev libbullet-extras-dev gmsh gnuplot-nox
 )
 
 missing=()

@@ -22,6 +22,7 @@
 #include "engine/output_dir.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state_io.hpp"
+#include "bench/accuracy/accuracy_suite.hpp"
 #include "bench/stability/stability_suite.hpp"
 #include "render/render_process.hpp"
 #include "server/serve.hpp"
@@ -173,11 +174,20 @@ int main(int argc, char** argv) {
               "or writing falls behind. Stops at --frames/--duration or on Ctrl-C, then encodes the video.");
 
   // ---- bench ----
-  auto* bench = app.add_subcommand("bench", "Measured claims: numerical-stability stress suite (accuracy sweep: issue 6, to come)");
+  AccuracyOptions aco;
+  aco.source_dir = STROMA_SOURCE_DIR;
+  auto* bench = app.add_subcommand("bench", "Measured claims: run time against error, numerical-stability stress suite");
   bench->require_subcommand(1);
   StabilityOptions sto;
   sto.source_dir = STROMA_SOURCE_DIR;
   auto* stab = bench->add_subcommand("stability", "Stress cases (time step x stiffness x Poisson x mesh quality; extreme loads) with pass criteria");
+  auto* acc = bench->add_subcommand("accuracy", "Run time against error on the reference problems (cantilever static and dynamic), with Pareto fronts");
+  acc->add_flag("--quick", aco.quick, "Fewer levels: a few minutes");
+  acc->add_option("--runs", aco.runs, "Timing repetitions per configuration (median)")->capture_default_str()->check(CLI::Range(1, 50));
+  acc->add_option("--out", aco.out_dir, "Output directory (CSV, PNG plots, gnuplot scripts)")->capture_default_str();
+  acc->add_option("--source-dir", aco.source_dir, "Repository with scenarios/ (default: where stroma was built from)")->check(CLI::ExistingDirectory);
+  acc->footer("References: tip deflection -1.4735e-3 m (refs/a, converged C3D10), first frequency 16.100 Hz\n"
+              "(refs/d). Writes cantilever_static.csv/.png and cantilever_dynamic.csv/.png and prints the tables.");
   stab->add_flag("--quick", sto.quick, "A subset that runs in under a minute (what ctest runs)");
   stab->add_option("--csv", sto.csv, "Write every case's figures here");
   stab->add_flag("--markdown", sto.markdown, "Print the table as Markdown (docs/STABILITY.md)");
@@ -218,6 +228,13 @@ int main(int argc, char** argv) {
     }
     if (*serve) return run_serve(srv);
     if (*tool) return run_tool_client(tco);
+    if (*acc) {
+      ensure_writable_dir(aco.out_dir);
+      const auto points = run_accuracy_suite(aco);
+      const long failed = std::count_if(points.begin(), points.end(), [](const AccuracyPoint& p) { return !p.ok; });
+      fmt::print("{} configurations, {} failed to produce a measurement; results in {}/\n", points.size(), failed, aco.out_dir);
+      return 0;
+    }
     if (*stab) {
       const auto results = run_stability_suite(sto);
       const long failed = std::count_if(results.begin(), results.end(), [](const StabilityResult& r) { return !r.pass; });

@@ -1,0 +1,49 @@
+#pragma once
+/// \file accuracy_suite.hpp
+/// `stroma bench accuracy`: run time against error on the reference problems of
+/// tests/data/refs (copied from the CalculiX/analytic references):
+///  - cantilever_static (refs/a): tip deflection under gravity, against the converged
+///    reference −1.4735e-3 m; sweeps mesh × element model × linear solver and tolerance;
+///  - cantilever_dynamic (refs/d): first bending frequency measured from the tip's motion after
+///    gravity is switched on, against 16.100 Hz; sweeps mesh × time step, CG tolerance, CG
+///    iteration cap, warm start, element model, and symplectic Euler at its largest stable step.
+/// Each configuration: error, wall time per tick and per simulated second (median of runs).
+/// Output: a CSV per problem (Pareto-optimal points marked), a log–log PNG plot per problem
+/// (gnuplot, when installed) and Markdown tables.
+
+#include <string>
+#include <vector>
+
+namespace stroma {
+
+/// One configuration's outcome.
+struct AccuracyPoint {
+  std::string problem, label;  ///< label: the configuration, e.g. "h 2.5 mm, dt 1 ms, CG 1e-6"
+  std::string sweep;           ///< which factor this point varies ("mesh x dt", "CG tolerance", …)
+  double value = 0;            ///< the measured quantity (m or Hz)
+  double reference = 0;
+  double error = 0;            ///< |value − reference| / |reference|
+  /// Dynamic, mesh × dt sweep: |f − f_mesh| / f_mesh against the same mesh at the smallest
+  /// step — the time integrator's share of the error (−1: not computed).
+  double time_error = -1;
+  double ms_per_tick = 0;      ///< dynamic: median over runs; static: 0
+  double s_per_sim_s = 0;      ///< dynamic: wall seconds per simulated second; static: solve seconds
+  int nodes = 0;
+  bool pareto = false;         ///< no other point of the problem is both faster and more accurate
+  bool ok = true;              ///< false: the run failed (diverged, no oscillation found)
+  std::string failure;         ///< why it failed ("" if ok)
+};
+
+/// Options of `stroma bench accuracy`.
+struct AccuracyOptions {
+  bool quick = false;       ///< fewer levels and runs: a few minutes
+  int runs = 3;             ///< timing repetitions (median)
+  std::string source_dir;   ///< repository (scenarios/, meshes)
+  std::string out_dir = "out/bench/accuracy";
+  bool progress = true;
+};
+
+/// Runs both problems; writes CSVs, plots and prints tables; returns every point.
+std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& options);
+
+}  // namespace stroma
