@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 
 #include <fmt/format.h>
@@ -83,6 +84,78 @@ AccuracyPoint run_static(const std::string& src, const StaticConfig& c, int runs
   }
   p.error = std::abs(p.value - p.reference) / std::abs(p.reference);
   p.s_per_sim_s = median(secs);
+  return p;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bonded near-incompressible block pressed 1 % (refs/c)
+
+constexpr double kBlockForce = 0.3049;  // N, converged C3D10 (refs/c)
+
+/// CalculiX C3D4 top force on the same mesh (what an exact linear-tet FEM gives).
+double block_c3d4_force(const std::string& src, const std::string& tag) {
+  std::ifstream f(src + "/tests/data/refs/c_results_full_C3D4_uniform.json");
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const std::string key = "\"cube_o1_h" + tag + "mm\"";
+  const size_t at = text.find(key);
+  if (at == std::string::npos) return 0;
+  const size_t rf = text.find("\"top_rf\"", at);
+  size_t p = text.find(']', rf);
+  const size_t comma = text.rfind(',', p);
+  return -std::stod(text.substr(comma + 1, p - comma - 1));
+}
+
+struct BlockConfig {
+  std::string mesh, sweep;
+  bool linear = false;
+  bool cholmod = true;
+};
+
+AccuracyPoint run_block(const std::string& src, const BlockConfig& c, int runs) {
+  // E 1e4, nu 0.49, no gravity; bottom z = 0 held, top z = a held with u_z = −0.5 mm.
+  const std::string yaml = fmt::format(R"(name: block_compression
+gravity: [0, 0, 0]
+solver: {{integrator: static, linear_solver: {}, preconditioner: warped_cholesky, tolerance: 1.0e-8,
+          max_iterations: 5000, static_tolerance: 1.0e-10}}
+bodies:
+  - name: block
+    mesh: {}
+    material: {{model: {}, young_modulus: 1.0e4, poisson_ratio: 0.49, density: 1000}}
+    fixed:
+      - box: {{min: [-1, -1, -1.0e-7], max: [1, 1, 1.0e-7]}}
+      - box: {{min: [-1, -1, 0.0499999], max: [1, 1, 1]}}
+)", c.cholmod ? "cholmod" : "cg", src + "/scenarios/meshes/cube_tet4_h" + c.mesh + "mm.msh",
+                                       c.linear ? "linear" : "corotational");
+  auto m = compile_model(parse_scenario(yaml, "block_compression (accuracy suite)", src));
+  AccuracyPoint p;
+  p.problem = "block_compression";
+  p.sweep = c.sweep;
+  p.label = fmt::format("h {} mm, {}, {}", tag_mm(c.mesh), c.linear ? "linear" : "corot.", c.cholmod ? "CHOLMOD" : "CG 1e-8");
+  p.nodes = m->fem.num_nodes;
+  p.reference = kBlockForce;
+  std::vector<double> secs;
+  std::vector<double> f(m->fem.rest.size());
+  for (int r = 0; r < runs; ++r) {
+    State s = State::initial(*m);
+    std::vector<int32_t> top;
+    for (int32_t i = 0; i < m->fem.num_nodes; ++i)
+      if (m->fem.rest[3 * i + 2] > 0.0499999) {
+        s.tissue.x[3 * i + 2] -= 5.0e-4;  // constrained nodes stay where they are put
+        top.push_back(i);
+      }
+    TickWorkspace w(*m);
+    const auto t0 = std::chrono::steady_clock::now();
+    const StaticResult sr = w.stepper().solve_static(s.tissue);
+    secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    p.ok = sr.converged;
+    w.stepper().elastic_force(s.tissue, f.data());
+    double fz = 0;
+    for (int32_t i : top) fz += f[3 * i + 2];
+    p.value = fz;  // the block pushes the platen up: the force needed to hold it
+  }
+  p.error = std::abs(p.value - p.reference) / p.reference;
+  p.s_per_sim_s = median(secs);
+  p.time_error = block_c3d4_force(src, c.mesh);  // (reused column: C3D4 force on this mesh)
   return p;
 }
 
@@ -293,6 +366,18 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
   }
   mark_pareto(st);
 
+  // Bonded block, nu = 0.49.
+  std::vector<AccuracyPoint> bl;
+  for (const std::string& mesh : o.quick ? std::vector<std::string>{"5p000", "3p333"}
+                                         : std::vector<std::string>{"5p000", "3p333", "2p500"})
+    for (bool linear : {false, true})
+      for (bool cholmod : {true, false}) {
+        if (o.quick && !cholmod) continue;
+        bl.push_back(run_block(src, {mesh, cholmod ? "mesh x element (CHOLMOD)" : "mesh x element (CG 1e-8)", linear, cholmod}, runs));
+        note(bl.back());
+      }
+  mark_pareto(bl);
+
   // Dynamic: first frequency.
   std::vector<AccuracyPoint> dy;
   const double T = 0.3;
@@ -370,6 +455,11 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
   }
   mark_pareto(dy);
 
+  const std::string bl_csv = (fs::path(o.out_dir) / "block_compression.csv").string();
+  write_csv(bl_csv, bl);
+  plot(bl_csv, (fs::path(o.out_dir) / "block_compression.png").string(),
+       "Bonded block, nu 0.49, pressed 1 % (refs/c): top force vs 0.3049 N", "static solve wall time (s)",
+       {"mesh x element (CHOLMOD)", "mesh x element (CG 1e-8)"});
   const std::string st_csv = (fs::path(o.out_dir) / "cantilever_static.csv").string();
   const std::string dy_csv = (fs::path(o.out_dir) / "cantilever_dynamic.csv").string();
   write_csv(st_csv, st);
@@ -386,7 +476,14 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
   print_table(st, false);
   fmt::print("\n### cantilever_dynamic ({})\n\n", dy_csv);
   print_table(dy, true);
+  fmt::print("\n### block_compression ({})\n\n", bl_csv);
+  fmt::print("| configuration | nodes | top force (N) | error | C3D4 same mesh (N) | engine vs C3D4 | solve s | Pareto |\n|---|---|---|---|---|---|---|---|\n");
+  for (const auto& p : bl)
+    fmt::print("| {} | {} | {:.5f} | {:.2f} % | {:.5f} | {:+.3f} % | {:.3f} | {} |\n", p.label, p.nodes, p.value,
+               100 * p.error, p.time_error, p.time_error > 0 ? 100 * (p.value / p.time_error - 1) : 0.0,
+               p.s_per_sim_s, p.pareto ? "●" : "");
   std::vector<AccuracyPoint> all = st;
+  all.insert(all.end(), bl.begin(), bl.end());
   all.insert(all.end(), dy.begin(), dy.end());
   return all;
 }
