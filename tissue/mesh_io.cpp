@@ -26,11 +26,7 @@
 namespace stroma {
 namespace {
 
-using text::clip;
-using text::iequals;
-using text::is_space;
-using text::lower;
-using text::parse_number;
+using namespace text;  // is_space, lower, iequals, clip, parse_number (tissue/text_scan.hpp)
 
 constexpr size_t kNoPos = std::string_view::npos;
 

@@ -25,11 +25,7 @@
 namespace stroma {
 namespace {
 
-using text::clip;
-using text::iequals;
-using text::is_space;
-using text::lower;
-using text::parse_number;
+using namespace text;  // is_space, lower, iequals, clip, parse_number (tissue/text_scan.hpp)
 
 /// Whitespace-separated tokens of one line.
 class Tokens {

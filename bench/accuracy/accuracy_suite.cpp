@@ -280,13 +280,19 @@ double largest_stable_symplectic_step(const std::string& src, const std::string&
 
 // ---------------------------------------------------------------------------------------------
 
+/// Pareto-optimal: no other point is at least as fast and at least as accurate, and better in
+/// one. Errors within 1e-4 of each other (relative) count as equal: solver round-off in the
+/// 6th digit must not make a slower point "more accurate".
 void mark_pareto(std::vector<AccuracyPoint>& pts) {
+  auto no_worse = [](double a, double b) { return a <= b * (1 + 1e-4) + 1e-12; };
   for (AccuracyPoint& p : pts) {
     p.pareto = p.ok;
-    for (const AccuracyPoint& q : pts)
-      if (&q != &p && q.ok && q.s_per_sim_s <= p.s_per_sim_s && q.error <= p.error &&
-          (q.s_per_sim_s < p.s_per_sim_s || q.error < p.error))
+    for (const AccuracyPoint& q : pts) {
+      if (&q == &p || !q.ok) continue;
+      const bool err_no_worse = no_worse(q.error, p.error), err_better = !no_worse(p.error, q.error);
+      if (q.s_per_sim_s <= p.s_per_sim_s && err_no_worse && (q.s_per_sim_s < p.s_per_sim_s || err_better))
         p.pareto = false;
+    }
   }
 }
 
@@ -443,7 +449,10 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     dy.push_back(run_dynamic(src, c, runs, T));
     note(dy.back());
   }
-  for (const std::string& mesh : o.quick ? std::vector<std::string>{"5p000"} : meshes) {
+  // Symplectic Euler needs ~100x more ticks (its stable step is ~0.01 ms here): the finest mesh
+  // is left out to keep the full run near ten minutes.
+  for (const std::string& mesh : o.quick ? std::vector<std::string>{"5p000"}
+                                         : std::vector<std::string>{"5p000", "3p333", "2p500"}) {
     DynamicConfig c;
     c.mesh = mesh;
     c.symplectic = true;
