@@ -283,6 +283,62 @@ double largest_stable_symplectic_step(const std::string& src, const std::string&
 /// Pareto-optimal: no other point is at least as fast and at least as accurate, and better in
 /// one. Errors within 1e-4 of each other (relative) count as equal: solver round-off in the
 /// 6th digit must not make a slower point "more accurate".
+/// Splits one CSV line (fields may be double-quoted, without embedded quotes).
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  bool quoted = false;
+  for (char ch : line) {
+    if (ch == '"') quoted = !quoted;
+    else if (ch == ',' && !quoted) {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += ch;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+/// Runs the Bullet peer program and turns its rows into points of the static and dynamic
+/// cantilever problems (sweeps "Bullet FEM (peer)" and "Bullet soft body (peer)").
+void run_peers(const AccuracyOptions& o, std::vector<AccuracyPoint>& st, std::vector<AccuracyPoint>& dy) {
+  const std::string csv = (fs::path(o.out_dir) / "bullet_cantilever.csv").string();
+  if (o.progress) fmt::print(stderr, "  peers: {} (about 4 minutes)\n", o.peer_program);
+  const int rc = std::system(fmt::format("'{}' --out '{}' > '{}' 2>&1", o.peer_program, csv,
+                                         (fs::path(o.out_dir) / "bullet_cantilever.log").string()).c_str());
+  std::ifstream f(csv);
+  if (rc != 0 || !f) {
+    fmt::print(stderr, "  peers: {} failed (exit {}); see {}/bullet_cantilever.log\n", o.peer_program, rc, o.out_dir);
+    return;
+  }
+  std::string line;
+  std::getline(f, line);  // header
+  while (std::getline(f, line)) {
+    const auto c = csv_fields(line);
+    if (c.size() < 10) continue;
+    // Bullet's neo-Hookean force with the same Lamé parameters is ~39 % softer than its linear
+    // one at these small strains: not the same material, so not on the same axes (docs).
+    if (c[0].find("neohookean") != std::string::npos) continue;
+    AccuracyPoint p;
+    p.nodes = c[1] == "h5" ? 191 : c[1] == "h3.333" ? 594 : 0;  // the same mesh files as ours
+    const bool fem = c[0].rfind("A ", 0) == 0;
+    const bool is_static = c[3].rfind("static", 0) == 0;
+    p.problem = is_static ? "cantilever_static" : "cantilever_dynamic";
+    p.sweep = fem ? "Bullet FEM (peer)" : "Bullet soft body (peer)";
+    p.label = fmt::format("{} h {} mm{}", c[0].substr(2), c[1].substr(1), std::stod(c[2]) != 1e-3 ? fmt::format(", dt {:g} ms", 1e3 * std::stod(c[2])) : "");
+    p.value = std::stod(c[4]);
+    p.ok = std::isfinite(p.value);
+    p.reference = is_static ? kStaticReference : kF1Reference;
+    p.error = std::abs(std::stod(c[5]));
+    p.ms_per_tick = std::stod(c[6]);
+    p.s_per_sim_s = std::stod(c[8]);
+    p.failure = c[9];
+    (is_static ? st : dy).push_back(p);
+  }
+}
+
 void mark_pareto(std::vector<AccuracyPoint>& pts) {
   auto no_worse = [](double a, double b) { return a <= b * (1 + 1e-4) + 1e-12; };
   for (AccuracyPoint& p : pts) {
@@ -464,6 +520,11 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
   }
   mark_pareto(dy);
 
+  if (!o.peer_program.empty()) {
+    run_peers(o, st, dy);
+    mark_pareto(st);
+    mark_pareto(dy);
+  }
   const std::string bl_csv = (fs::path(o.out_dir) / "block_compression.csv").string();
   write_csv(bl_csv, bl);
   plot(bl_csv, (fs::path(o.out_dir) / "block_compression.png").string(),
@@ -475,12 +536,13 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
   write_csv(dy_csv, dy);
   plot(st_csv, (fs::path(o.out_dir) / "cantilever_static.png").string(),
        "Cantilever (refs/a): static tip deflection vs -1.4735e-3 m",
-       "static solve wall time (s)", {"mesh x element (CHOLMOD)", "CG tolerance (warped Cholesky PCG)"});
+       "wall time to the answer (s): static solve; peers: the run to rest",
+       {"mesh x element (CHOLMOD)", "CG tolerance (warped Cholesky PCG)", "Bullet FEM (peer)", "Bullet soft body (peer)"});
   plot(dy_csv, (fs::path(o.out_dir) / "cantilever_dynamic.png").string(),
        "Cantilever (refs/d): first frequency from the released tip vs 16.100 Hz",
        "wall seconds per simulated second",
        {"mesh x dt (implicit Euler)", "CG tolerance (Jacobi)", "CG iteration cap (Jacobi)", "warm start (Jacobi CG 1e-6)",
-        "element model", "symplectic Euler (largest stable dt)"});
+        "element model", "symplectic Euler (largest stable dt)", "Bullet FEM (peer)"});
   fmt::print("\n### cantilever_static ({})\n\n", st_csv);
   print_table(st, false);
   fmt::print("\n### cantilever_dynamic ({})\n\n", dy_csv);

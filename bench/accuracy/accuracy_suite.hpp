@@ -44,6 +44,9 @@ struct AccuracyOptions {
   std::string source_dir;   ///< repository (scenarios/, meshes)
   std::string out_dir = "out/bench/accuracy";
   bool progress = true;
+  /// The Bullet peer program (build/bench/stroma_bench_bullet), run in the same benchmark and
+  /// put on the same tables and plots; empty: no peers.
+  std::string peer_program;
 };
 
 /// Runs both problems; writes CSVs, plots and prints tables; returns every point.

@@ -255,6 +255,7 @@ struct Row {
   std::string quantity;
   double value, error;
   double ms_per_step, s_per_sim_s;
+  double wall_s;  // to the answer: static = the run to rest; f1 = per simulated second
   std::string notes;
 };
 std::vector<Row> rows;
@@ -263,8 +264,11 @@ void add(const std::string& peer, const Mesh& m, double dt, const std::string& q
          const Run& r, const std::string& notes) {
   double total = 0;
   for (double v : r.step_ms) total += v;
-  rows.push_back({peer, m.name, dt, q, value, (value - ref) / ref, median(r.step_ms),
-                  total * 1e-3 / (double(r.step_ms.size()) * dt), notes});
+  const double per_sim_s = total * 1e-3 / (double(r.step_ms.size()) * dt);
+  const bool is_static = q.rfind("static", 0) == 0;
+  const double steps_to_answer = r.rest_step > 0 ? r.rest_step : double(r.step_ms.size());
+  rows.push_back({peer, m.name, dt, q, value, (value - ref) / ref, median(r.step_ms), per_sim_s,
+                  is_static ? steps_to_answer * median(r.step_ms) * 1e-3 : per_sim_s, notes});
   std::printf("  %s %s dt=%g %s = %.5g (%s)\n", peer.c_str(), m.name.c_str(), dt, q.c_str(), value, notes.c_str());
   std::fflush(stdout);
 }
@@ -366,8 +370,19 @@ void peer_b(const Mesh& h5, const Mesh& h3, double dt) {
 
 int main(int argc, char** argv) {
   const std::string root = STROMA_SOURCE_DIR;
-  const bool only_a = argc > 1 && std::string(argv[1]) == "A";
-  const bool only_b = argc > 1 && std::string(argv[1]) == "B";
+  // Usage: stroma_bench_bullet [A|B] [--out FILE.csv]   (stroma bench accuracy --peers runs it)
+  bool only_a = false, only_b = false;
+  std::filesystem::path csv_path = root + "/out/bench/peers/bullet_cantilever.csv";
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "A") only_a = true;
+    else if (a == "B") only_b = true;
+    else if (a == "--out" && i + 1 < argc) csv_path = argv[++i];
+    else {
+      std::fprintf(stderr, "usage: stroma_bench_bullet [A|B] [--out FILE.csv]\n");
+      return 2;
+    }
+  }
   const Mesh h5 = prepare(root + "/scenarios/meshes/beam_tet4_h5p000mm.msh", "h5");
   const Mesh h3 = prepare(root + "/scenarios/meshes/beam_tet4_h3p333mm.msh", "h3.333");
   const double dt = 1e-3;
@@ -383,12 +398,13 @@ int main(int argc, char** argv) {
   for (const auto& r : rows)
     std::printf("| %s | %s | %g | %s | %.5g | %+.1f%% | %.3g | %.3g | %s |\n", r.peer.c_str(), r.mesh.c_str(), r.dt,
                 r.quantity.c_str(), r.value, 100 * r.error, r.ms_per_step, r.s_per_sim_s, r.notes.c_str());
-  const std::filesystem::path out = root + "/out/bench/peers";
-  std::filesystem::create_directories(out);
-  std::ofstream csv(out / "bullet_cantilever.csv");
-  csv << "peer,mesh,dt,quantity,value,error_vs_reference,ms_per_step,s_per_simulated_s,notes\n";
+  if (csv_path.has_parent_path()) std::filesystem::create_directories(csv_path.parent_path());
+  std::ofstream csv(csv_path);
+  // wall_s: the wall time to the answer — static rows: the steps to rest; f1 rows: per
+  // simulated second (the x axes of stroma bench accuracy's plots).
+  csv << "peer,mesh,dt,quantity,value,error_vs_reference,ms_per_step,s_per_simulated_s,wall_s,notes\n";
   for (const auto& r : rows)
     csv << '"' << r.peer << "\"," << r.mesh << ',' << r.dt << ",\"" << r.quantity << "\"," << r.value << ','
-        << r.error << ',' << r.ms_per_step << ',' << r.s_per_sim_s << ",\"" << r.notes << "\"\n";
+        << r.error << ',' << r.ms_per_step << ',' << r.s_per_sim_s << ',' << r.wall_s << ",\"" << r.notes << "\"\n";
   return 0;
 }

@@ -185,6 +185,8 @@ int main(int argc, char** argv) {
   acc->add_flag("--quick", aco.quick, "Fewer levels: a few minutes");
   acc->add_option("--runs", aco.runs, "Timing repetitions per configuration (median)")->capture_default_str()->check(CLI::Range(1, 50));
   acc->add_option("--out", aco.out_dir, "Output directory (CSV, PNG plots, gnuplot scripts)")->capture_default_str();
+  bool with_peers = false;
+  acc->add_flag("--peers", with_peers, "Also run the Bullet peers (build/bench/stroma_bench_bullet) and put them on the same tables and plots (+4 min)");
   acc->add_option("--source-dir", aco.source_dir, "Repository with scenarios/ (default: where stroma was built from)")->check(CLI::ExistingDirectory);
   acc->footer("References: tip deflection -1.4735e-3 m (refs/a, converged C3D10), first frequency 16.100 Hz\n"
               "(refs/d). Writes cantilever_static.csv/.png and cantilever_dynamic.csv/.png and prints the tables.");
@@ -230,6 +232,12 @@ int main(int argc, char** argv) {
     if (*tool) return run_tool_client(tco);
     if (*acc) {
       ensure_writable_dir(aco.out_dir);
+      if (with_peers) {
+        const fs::path peer = fs::canonical("/proc/self/exe").parent_path() / "bench" / "stroma_bench_bullet";
+        if (!fs::exists(peer))
+          throw InputError("", 0, "--peers", fmt::format("{} not found (it is built when libbullet-dev is installed: scripts/setup.sh)", peer.string()));
+        aco.peer_program = peer.string();
+      }
       const auto points = run_accuracy_suite(aco);
       const long failed = std::count_if(points.begin(), points.end(), [](const AccuracyPoint& p) { return !p.ok; });
       fmt::print("{} configurations, {} failed to produce a measurement; results in {}/\n", points.size(), failed, aco.out_dir);
