@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "bench/accuracy/quarter_block_mesh.hpp"
 #include "engine/headless_runner.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
@@ -156,6 +157,66 @@ bodies:
   p.error = std::abs(p.value - p.reference) / p.reference;
   p.s_per_sim_s = median(secs);
   p.time_error = block_c3d4_force(src, c.mesh);  // (reused column: C3D4 force on this mesh)
+  return p;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sphere indentation (refs/e)
+
+constexpr double kIndentForce = 0.019604;  // N, Hertz with the bonded-layer correction
+
+struct IndentConfig {
+  double h0 = 1e-4;            // first cell at the contact point
+  double stiffness = 1e9;      // penalty (Pa/m)
+  bool linear = true;
+  std::string sweep;
+};
+
+AccuracyPoint run_indentation(const std::string& src, const std::string& out_dir, const IndentConfig& c, int runs) {
+  const double a = 0.05, H = 0.05, R = 0.005, d = 0.001;
+  const std::string mesh = write_quarter_block((fs::path(out_dir) / "indentation_block.msh").string(), a, H, c.h0, 1.3);
+  const std::string traj = (fs::path(out_dir) / "indentation_sphere.csv").string();
+  {
+    std::ofstream f(traj);
+    f << fmt::format("t,x,y,z\n0,0,0,{:.17g}\n", H + R - d);
+  }
+  const std::string yaml = fmt::format(R"(name: indentation
+gravity: [0, 0, 0]
+solver: {{integrator: static, linear_solver: cholmod, static_tolerance: 1.0e-9, static_max_newton: 40}}
+bodies:
+  - name: block
+    mesh: {}
+    material: {{model: {}, young_modulus: 5000, poisson_ratio: 0.45, density: 1000}}
+    fixed:
+      - box: {{min: [-1, -1, -1.0e-9], max: [1, 1, 1.0e-9]}}
+      - {{box: {{min: [-1.0e-9, -1, -1], max: [1.0e-9, 1, 1]}}, axes: [x]}}
+      - {{box: {{min: [-1, -1.0e-9, -1], max: [1, 1.0e-9, 1]}}, axes: [y]}}
+tools:
+  - name: sphere
+    script: {}
+    shape: {{type: sphere, radius: 0.005}}
+    contact: {{stiffness: {:g}}}
+)", mesh, c.linear ? "linear" : "corotational", traj, c.stiffness);
+  auto m = compile_model(parse_scenario(yaml, "indentation (accuracy suite)", src));
+  AccuracyPoint p;
+  p.problem = "indentation";
+  p.sweep = c.sweep;
+  p.label = fmt::format("first cell {:g} mm, penalty {:.0e}, {}", c.h0 * 1e3, c.stiffness, c.linear ? "linear" : "corot.");
+  p.nodes = m->fem.num_nodes;
+  p.reference = kIndentForce;
+  std::vector<double> secs;
+  for (int r = 0; r < runs; ++r) {
+    RunOptions o;
+    o.progress = false;
+    o.metrics = false;
+    const RunResult res = run_headless(*m, o);
+    secs.push_back(res.wall_seconds);
+    p.value = 4.0 * res.final_state.tools.at(0).force[2];  // quarter model
+    p.ok = res.static_converged;
+    if (!p.ok) p.failure = "static Newton did not converge";
+  }
+  p.error = std::abs(p.value - p.reference) / p.reference;
+  p.s_per_sim_s = median(secs);
   return p;
 }
 
@@ -411,6 +472,36 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
                  p.ok ? "" : "FAILED (" + p.failure + ")", p.error, p.s_per_sim_s);
   };
 
+  auto wanted = [&](const char* problem) { return o.only.empty() || o.only == problem; };
+  std::vector<AccuracyPoint> all;
+
+  // Sphere indentation: mesh grading at the contact, penalty stiffness, element model.
+  if (wanted("indentation")) {
+    std::vector<AccuracyPoint> in;
+    for (double h0 : o.quick ? std::vector<double>{4e-4, 2e-4} : std::vector<double>{8e-4, 4e-4, 2e-4, 1e-4}) {
+      in.push_back(run_indentation(src, o.out_dir, {h0, 1e9, true, "mesh grading (linear, penalty 1e9)"}, runs));
+      note(in.back());
+    }
+    for (double k : o.quick ? std::vector<double>{1e8} : std::vector<double>{1e8, 1e10}) {
+      in.push_back(run_indentation(src, o.out_dir, {2e-4, k, true, "penalty stiffness (first cell 0.2 mm)"}, runs));
+      note(in.back());
+    }
+    in.push_back(run_indentation(src, o.out_dir, {2e-4, 1e9, false, "element model (first cell 0.2 mm)"}, runs));
+    note(in.back());
+    mark_pareto(in);
+    const std::string csv = (fs::path(o.out_dir) / "indentation.csv").string();
+    write_csv(csv, in);
+    plot(csv, (fs::path(o.out_dir) / "indentation.png").string(),
+         "Sphere indentation (refs/e): force at 1 mm vs 0.019604 N", "static solve wall time (s)",
+         {"mesh grading (linear, penalty 1e9)", "penalty stiffness (first cell 0.2 mm)", "element model (first cell 0.2 mm)"});
+    fmt::print("\n### indentation\n\n| sweep | configuration | nodes | force (N) | error | solve s | Pareto |\n|---|---|---|---|---|---|---|\n");
+    for (const auto& p : in)
+      fmt::print("| {} | {} | {} | {:.6f} | {:+.2f} % | {:.3f} | {} |\n", p.sweep, p.label, p.nodes, p.value,
+                 100 * (p.value / p.reference - 1), p.s_per_sim_s, p.pareto ? "●" : "");
+    all.insert(all.end(), in.begin(), in.end());
+    if (!o.only.empty()) return all;
+  }
+
   // Static deflection.
   std::vector<AccuracyPoint> st;
   const std::vector<std::string> static_meshes = o.quick ? std::vector<std::string>{"5p000", "3p333", "2p500", "2p000"}
@@ -553,7 +644,7 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     fmt::print("| {} | {} | {:.5f} | {:.2f} % | {:.5f} | {:+.3f} % | {:.3f} | {} |\n", p.label, p.nodes, p.value,
                100 * p.error, p.time_error, p.time_error > 0 ? 100 * (p.value / p.time_error - 1) : 0.0,
                p.s_per_sim_s, p.pareto ? "●" : "");
-  std::vector<AccuracyPoint> all = st;
+  all.insert(all.end(), st.begin(), st.end());
   all.insert(all.end(), bl.begin(), bl.end());
   all.insert(all.end(), dy.begin(), dy.end());
   return all;

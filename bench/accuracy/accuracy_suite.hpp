@@ -6,6 +6,8 @@
 ///    reference −1.4735e-3 m; sweeps mesh × element model × linear solver and tolerance;
 ///  - block_compression (refs/c): bonded block, ν = 0.49, pressed 1 %: top force against
 ///    0.3049 N (volumetric locking of linear tets), with CalculiX C3D4 on the same mesh;
+///  - indentation (refs/e): rigid sphere 1 mm into a soft bonded block, force against 0.019604 N;
+///    sweeps mesh grading at the contact, penalty stiffness, element model;
 ///  - cantilever_dynamic (refs/d): first bending frequency measured from the tip's motion after
 ///    gravity is switched on, against 16.100 Hz; sweeps mesh × time step, CG tolerance, CG
 ///    iteration cap, warm start, element model, and symplectic Euler at its largest stable step.
@@ -47,6 +49,8 @@ struct AccuracyOptions {
   /// The Bullet peer program (build/bench/stroma_bench_bullet), run in the same benchmark and
   /// put on the same tables and plots; empty: no peers.
   std::string peer_program;
+  /// Run only this problem ("indentation"; empty: all).
+  std::string only;
 };
 
 /// Runs both problems; writes CSVs, plots and prints tables; returns every point.
