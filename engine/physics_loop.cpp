@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "haptics/tool_shape.hpp"
+
 namespace stroma {
 
 namespace {
@@ -189,7 +191,7 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       f.tool_count = static_cast<int>(std::min<size_t>(state_.tools.size(), kMaxTools));
       for (int t = 0; t < f.tool_count; ++t) {
         const ToolState& ts = state_.tools[t];
-        f.tools[t] = ToolSnapshot{ts.pose, ts.has_proxy, ts.proxy, ts.device_force, ts.active,
+        f.tools[t] = ToolSnapshot{ts.pose, tool_center(model_->tools[t], ts), ts.device_force, ts.active,
                                   ts.last_command_time >= 0, ts.contacts, ts.grasped};
       }
       state_out.publish();

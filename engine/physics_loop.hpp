@@ -37,8 +37,7 @@ inline constexpr int kMaxTools = 8;
 /// What renderers need of a tool, copied with each state frame.
 struct ToolSnapshot {
   ToolPose pose;
-  bool has_proxy = false;
-  Vec3 proxy{0, 0, 0};
+  Vec3 center{0, 0, 0};    ///< tool_center(): where contact has the tool (proxy when coupled)
   Vec3 device_force{0, 0, 0};
   bool active = false;     ///< a client is driving it now
   bool commanded = false;  ///< it has had a command (it is somewhere in the scene)

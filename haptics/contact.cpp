@@ -153,7 +153,7 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& sur
     ts.contact_energy = 0;
     ts.torque = {0, 0, 0};
     if (spec.shape == ToolShape::None || ts.last_command_time < 0) return;
-    const double* c = kv > 0 ? ts.proxy.data() : ts.pose.position.data();
+    const double* c = tool_center(spec, ts).data();
     if (spec.can_grasp && grasp(surf, spec, ts, c, x, bvh, springs)) return;  // holding tissue: no tip contact
     // Tool velocity (for friction), from its contact centre one tick ago.
     double vt[3] = {0, 0, 0};

@@ -12,6 +12,12 @@ struct Capsule {
   double a[3], b[3], r;
 };
 
+/// Where the simulated tool is: the proxy when the tool is coupled (once it has one), else the
+/// commanded device position. Contact, grasping and what renderers draw all use this centre.
+inline const Vec3& tool_center(const ToolSpec& spec, const ToolState& ts) {
+  return spec.coupling_stiffness > 0 && ts.has_proxy ? ts.proxy : ts.pose.position;
+}
+
 /// Most capsules a tool shape has.
 inline constexpr int kMaxCapsules = 3;
 

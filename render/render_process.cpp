@@ -186,6 +186,7 @@ Look make_look(const RenderOptions& o, const SceneState& s) {
   }
   if (o.color_field)
     look.field = *o.color_field == "none" ? ColorField::None : *o.color_field == "stress" ? ColorField::Stress : ColorField::Damage;
+  if (o.light_direction) look.light_direction = vec3f(o.light_direction->data());
   if (o.wireframe) look.wireframe = true;
   if (o.no_contacts) look.contacts = false;
   return look;

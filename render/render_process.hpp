@@ -28,6 +28,7 @@ struct RenderOptions {
   int png_level = 1;
   std::optional<std::array<double, 3>> camera_position, camera_target, view_direction;
   std::optional<double> fov;
+  std::optional<std::array<double, 3>> light_direction;  ///< key light, world (towards the scene)
   std::optional<std::string> color_field;  ///< none | stress | damage
   bool wireframe = false;
   bool no_contacts = false;

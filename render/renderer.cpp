@@ -302,6 +302,17 @@ struct Renderer::Impl {
     }
   }
 
+  /// Bounding box of every body's rest positions (zero box without bodies).
+  void rest_bounds(Vector3f& lo, Vector3f& hi) const {
+    lo = Vector3f::Constant(1e30f);
+    hi = Vector3f::Constant(-1e30f);
+    for (const Body& b : bodies) {
+      lo = lo.cwiseMin(b.rest_lo);
+      hi = hi.cwiseMax(b.rest_hi);
+    }
+    if (lo.x() > hi.x()) lo = hi = Vector3f::Zero();
+  }
+
   float scene_radius() const {
     Vector3f lo = Vector3f::Constant(1e30f), hi = Vector3f::Constant(-1e30f);
     for (const Body& b : bodies)
@@ -413,12 +424,8 @@ size_t Renderer::last_triangles() const { return impl_->last_triangles; }
 size_t Renderer::last_markers() const { return impl_->markers.size() / 3; }
 
 Camera Renderer::fit_camera(Vec3f view_direction, Vec3f up, float fov_deg) const {
-  Vector3f lo = Vector3f::Constant(1e30f), hi = Vector3f::Constant(-1e30f);
-  for (const Body& b : impl_->bodies) {
-    lo = lo.cwiseMin(b.rest_lo);
-    hi = hi.cwiseMax(b.rest_hi);
-  }
-  if (lo.x() > hi.x()) lo = hi = Vector3f::Zero();
+  Vector3f lo, hi;
+  impl_->rest_bounds(lo, hi);
   const Vector3f centre = 0.5f * (lo + hi);
   const float radius = std::max(0.5f * (hi - lo).norm(), 1e-6f);
   // Fit the bounding sphere in the smaller of the two fields of view (no margin: the sphere
@@ -440,12 +447,8 @@ Camera Renderer::fit_camera(Vec3f view_direction, Vec3f up, float fov_deg) const
 
 void Renderer::warm_up() {
   Impl& s = *impl_;
-  Vector3f lo = Vector3f::Constant(1e30f), hi = Vector3f::Constant(-1e30f);
-  for (const Body& b : s.bodies) {
-    lo = lo.cwiseMin(b.rest_lo);
-    hi = hi.cwiseMax(b.rest_hi);
-  }
-  if (lo.x() > hi.x()) lo = hi = Vector3f::Zero();
+  Vector3f lo, hi;
+  s.rest_bounds(lo, hi);
   // A sphere around the first body's first vertex: it touches the surface, so markers show.
   Vector3f c = 0.5f * (lo + hi);
   for (const Body& b : s.bodies)

@@ -140,8 +140,7 @@ stroma_ToolState tool_state_message(const Model& m, int t, const StateFrame& f, 
   msg.active = ts.active;
   msg.in_contact = ts.contacts > 0 || ts.grasped > 0;
   msg.grasped = static_cast<uint32_t>(ts.grasped);
-  // Where contact puts the tool: the proxy when coupled (the same rule as haptics/contact.cpp).
-  const Vec3& c = spec.coupling_stiffness > 0 && ts.has_proxy ? ts.proxy : ts.pose.position;
+  const Vec3& c = ts.center;
   for (int k = 0; k < 3; ++k) {
     msg.position[k] = c[k];
     msg.device_position[k] = ts.pose.position[k];

@@ -144,7 +144,7 @@ int main(int argc, char** argv) {
 
   // ---- render ----
   RenderOptions rdo;
-  std::vector<double> cam_pos, cam_target, view_dir;
+  std::vector<double> cam_pos, cam_target, view_dir, light_dir;
   std::string color_field;
   auto* rnd = app.add_subcommand("render", "Record what a running server simulates: off-screen frames (PNG) and an MP4, no display needed");
   rnd->add_option("--out", rdo.out_dir, "Output directory (frame_NNNNNN.png, frames.csv, render_stats.json, video.mp4)")->capture_default_str();
@@ -162,6 +162,8 @@ int main(int argc, char** argv) {
       ->expected(3)->delimiter(',');
   rnd->add_option("--target", cam_target, "Point the camera looks at X Y Z")->expected(3)->delimiter(',');
   rnd->add_option("--view", view_dir, "Automatic camera: frame the scene looking along X Y Z")->expected(3)->delimiter(',');
+  rnd->add_option("--light", light_dir, "Key light direction X Y Z, world, from the light towards the scene (default: the scenario's, else above-left of the camera)")
+      ->expected(3)->delimiter(',');
   rnd->add_option("--fov", rdo.fov, "Vertical field of view (degrees)")->check(CLI::Range(1.0, 170.0));
   rnd->add_option("--color", color_field, "Tissue colour: damage (default), stress, none")->check(CLI::IsMember({"none", "stress", "damage"}));
   rnd->add_flag("--wireframe", rdo.wireframe, "Draw the mesh edges");
@@ -253,6 +255,11 @@ int main(int argc, char** argv) {
     if (*rnd) {
       if (!cam_pos.empty()) rdo.camera_position = std::array<double, 3>{cam_pos[0], cam_pos[1], cam_pos[2]};
       if (!cam_target.empty()) rdo.camera_target = std::array<double, 3>{cam_target[0], cam_target[1], cam_target[2]};
+      if (!light_dir.empty()) {
+        if (light_dir[0] == 0 && light_dir[1] == 0 && light_dir[2] == 0)
+          throw InputError("", 0, "--light", "the light direction must not be zero");
+        rdo.light_direction = std::array<double, 3>{light_dir[0], light_dir[1], light_dir[2]};
+      }
       if (!view_dir.empty()) rdo.view_direction = std::array<double, 3>{view_dir[0], view_dir[1], view_dir[2]};
       if (cam_pos.empty() != cam_target.empty())
         throw InputError("", 0, cam_pos.empty() ? "--target" : "--camera", "--camera and --target go together");
