@@ -5,6 +5,9 @@
 # Usage: bench/realtime.sh [DURATION=60] [--idle]      (after scripts/build.sh)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Loopback only: every DDS participant started here uses Stroma's built-in loopback config,
+# never an inherited CYCLONEDDS_URI that could point at another interface or multicast.
+unset CYCLONEDDS_URI
 dur="${1:-60}"
 idle="${2:-}"
 out=$(mktemp -d /tmp/stroma_rt.XXXX)

@@ -9,6 +9,9 @@
 # Environment: OUT (default out/demo), STROMA_DOMAIN (default 7), FPS (30), SIZE (640x480).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Loopback only: every DDS participant started here uses Stroma's built-in loopback config,
+# never an inherited CYCLONEDDS_URI that could point at another interface or multicast.
+unset CYCLONEDDS_URI
 
 scenario="${1:-scenarios/liver.yaml}"
 trajectory="${2:-scenarios/trajectories/liver_demo.yaml}"

@@ -4,6 +4,9 @@
 # physics loop's threads under ThreadSanitizer. This is exactly what CI runs (.ci/run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Loopback only: every DDS participant started here uses Stroma's built-in loopback config,
+# never an inherited CYCLONEDDS_URI that could point at another interface or multicast.
+unset CYCLONEDDS_URI
 scripts/setup.sh
 scripts/build.sh
 jobs=$(nproc 2>/dev/null || echo 2)
