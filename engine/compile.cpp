@@ -64,9 +64,8 @@ void compile_visuals(const ScenarioSpec& spec, const std::vector<PreparedMesh>& 
     } catch (const InputError& e) {
       throw InputError(v.where.file, v.where.line, field, e.what());
     }
-    if (b.scale != 1.0)
-      for (Vec3& p : surf.vertices)
-        for (double& c : p) c *= b.scale;
+    for (Vec3& p : surf.vertices)
+      for (int k = 0; k < 3; ++k) p[k] = p[k] * b.scale + b.translate[k];
     const TetMesh& tm = meshes[bi].mesh;
     double max_distance = v.max_distance;
     if (max_distance <= 0) {  // automatic: 5 % of the body's bounding-box diagonal
@@ -101,6 +100,87 @@ void compile_visuals(const ScenarioSpec& spec, const std::vector<PreparedMesh>& 
   }
 }
 
+/// Body–body contact: each body's rest-boundary vertices with a third of their adjacent
+/// surface area, their diagonal slots, the body of every collision triangle, and the automatic
+/// stiffness (from the stiffest material and the mean surface edge) and each body's depth (a
+/// quarter of its smallest extent).
+void compile_body_contact(const BodyContactSpec& spec, const ScenarioSpec& scenario, Model& model) {
+  const FemModel& fem = model.fem;
+  BodyContactModel bc;
+  double e_max = 0;
+  for (const BodySpec& b : scenario.bodies) e_max = std::max(e_max, b.material.young_modulus);
+  std::vector<double> area(fem.num_nodes, 0.0);
+  std::vector<uint8_t> on_surface(fem.num_nodes, 0);
+  for (const BodyRange& b : fem.bodies) {
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (int32_t i = b.node_begin; i < b.node_end; ++i)
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], fem.rest[3 * i + k]);
+        hi[k] = std::max(hi[k], fem.rest[3 * i + k]);
+      }
+    const double extent = std::min({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    bc.body_depth.push_back(spec.max_depth > 0 ? spec.max_depth : 0.25 * extent);
+    for (const Tri& t : b.boundary) {
+      const double* a = &fem.rest[3 * t[0]];
+      const double* p = &fem.rest[3 * t[1]];
+      const double* q = &fem.rest[3 * t[2]];
+      const double u[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]}, w[3] = {q[0] - a[0], q[1] - a[1], q[2] - a[2]};
+      const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2], cz = u[0] * w[1] - u[1] * w[0];
+      const double third = std::sqrt(cx * cx + cy * cy + cz * cz) / 6.0;
+      for (int32_t n : t) {
+        area[n] += third;
+        on_surface[n] = 1;
+      }
+    }
+  }
+  // Automatic stiffness: a vertex's spring k·A is ~10× the stiffness E·h of the elements
+  // behind it (h: mean rest surface edge), stiff enough that resting penetration is a tenth
+  // of an element's strain-equivalent, soft enough not to dominate CG's conditioning.
+  double edge_sum = 0;
+  int64_t edges = 0;
+  for (const BodyRange& b : fem.bodies)
+    for (const Tri& t : b.boundary)
+      for (int a = 0; a < 3; ++a) {
+        double d2 = 0;
+        for (int k = 0; k < 3; ++k) {
+          const double d = fem.rest[3 * t[a] + k] - fem.rest[3 * t[(a + 1) % 3] + k];
+          d2 += d * d;
+        }
+        edge_sum += std::sqrt(d2);
+        ++edges;
+      }
+  const double h_mean = edge_sum / static_cast<double>(std::max<int64_t>(edges, 1));
+  bc.stiffness = spec.stiffness > 0 ? spec.stiffness : 10.0 * e_max / h_mean;
+  for (const BodyRange& b : fem.bodies) {
+    bc.body_vertex_begin.push_back(static_cast<int32_t>(bc.vertex.size()));
+    for (int32_t i = b.node_begin; i < b.node_end; ++i)
+      if (on_surface[i]) {
+        bc.vertex.push_back(i);
+        bc.vertex_area.push_back(area[i]);
+        bc.vertex_slot.push_back(fem.pattern.find(i, i));
+      }
+  }
+  bc.body_vertex_begin.push_back(static_cast<int32_t>(bc.vertex.size()));
+  std::vector<std::vector<int32_t>> tris_of(fem.num_nodes);  // rest-boundary triangles per node
+  std::vector<Tri> all_boundary;
+  for (const BodyRange& b : fem.bodies)
+    for (const Tri& t : b.boundary) {
+      for (int32_t n : t) tris_of[n].push_back(static_cast<int32_t>(all_boundary.size()));
+      all_boundary.push_back(t);
+    }
+  for (int32_t v : bc.vertex) {
+    bc.vertex_tri_begin.push_back(static_cast<int32_t>(bc.vertex_tris.size()));
+    for (int32_t t : tris_of[v]) bc.vertex_tris.push_back({all_boundary[t][0], all_boundary[t][1], all_boundary[t][2]});
+  }
+  bc.vertex_tri_begin.push_back(static_cast<int32_t>(bc.vertex_tris.size()));
+  for (const auto& t : model.collision_triangles) {
+    int32_t body = 0;
+    while (t[0] >= fem.bodies[body].node_end) ++body;
+    bc.triangle_body.push_back(body);
+  }
+  model.body_contact = std::move(bc);
+}
+
 }  // namespace
 
 std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
@@ -125,9 +205,8 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
       // Say which scenario line asked for this mesh, then what is wrong inside it.
       throw InputError(b.mesh_where.file, b.mesh_where.line, field + ".mesh", e.what());
     }
-    if (b.scale != 1.0)
-      for (Vec3& p : mesh.nodes)
-        for (double& c : p) c *= b.scale;
+    for (Vec3& p : mesh.nodes)  // scale, then place: selections are in scene coordinates
+      for (int k = 0; k < 3; ++k) p[k] = p[k] * b.scale + b.translate[k];
     try {
       meshes.push_back(prepare_mesh(std::move(mesh)));
     } catch (const InputError& e) {
@@ -257,6 +336,7 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
     }
     model->tool_scripts.push_back(std::move(tr));
   }
+  if (spec.body_contact) model->has_contact = true;
   if (model->has_contact) {
     // Bodies that can rupture get every tetrahedron face as a potential collision face (inactive
     // while both its elements are intact), so a tear exposes new surface without any rebuild.
@@ -308,6 +388,7 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
         }
     }
   }
+  if (spec.body_contact) compile_body_contact(*spec.body_contact, spec, *model);
   return model;
 }
 

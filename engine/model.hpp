@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "engine/scenario_spec.hpp"
+#include "collision/body_contact.hpp"
 #include "engine/trajectory.hpp"
 #include "tissue/barycentric.hpp"
 #include "tissue/fem_model.hpp"
@@ -46,7 +47,9 @@ struct Model {
   bool has_damage = false;                ///< some body has a damage model: damage stage runs
   std::vector<double> element_node_mass;  ///< ρV/4 of each element (damage: removed at rupture)
   std::vector<int32_t> node_elem_ptr, node_elem;  ///< CSR: elements of each node (damage only)
-  bool has_contact = false;               ///< some tool has a shape: collide stage and BVH exist
+  /// Some tool has a shape, or the scenario has body contact: the collide stage and BVH exist.
+  bool has_contact = false;
+  std::optional<BodyContactModel> body_contact;  ///< scenario `body_contact:` (none: not computed)
   std::vector<std::array<int32_t, 3>> collision_triangles;  ///< all bodies' surfaces (outward)
   std::vector<std::array<int32_t, 9>> collision_slots;      ///< BSR slots of each triangle's node pairs
   std::vector<double> collision_edge;  ///< longest rest edge of each collision triangle

@@ -264,6 +264,7 @@ class Field {
   }
 
   bool is_scalar() const { return node_.IsScalar(); }
+  bool is_null() const { return node_.IsNull(); }
 
   bool boolean() const {
     const std::string text = plain_scalar("true or false");
@@ -603,6 +604,7 @@ BodySpec parse_body(const MapReader& m, const Context& ctx) {
   b.mesh_where = m.req("mesh").location();
   b.mesh_path = resolve_path(mesh, ctx.base_dir);
   m.read("scale", b.scale, greater_than(0));
+  m.read("translate", b.translate);
   b.material = parse_material(m.req("material"));
   for (const auto& item : m.list("fixed")) b.fixed.push_back(parse_fixed(item));
   for (const auto& item : m.list("loads")) b.loads.push_back(parse_load(item));
@@ -702,6 +704,16 @@ RunSpec parse_run(const Field& f) {
   m.read("duration", run.duration, greater_than(0));
   m.read("steps", run.steps, greater_than(0));
   return run;
+}
+
+BodyContactSpec parse_body_contact(const Field& f) {
+  BodyContactSpec c;
+  c.where = f.location();
+  if (f.is_null()) return c;  // `body_contact:` alone: automatic settings
+  const MapReader m = f.map({"stiffness", "max_depth"});
+  m.read("stiffness", c.stiffness, at_least(0));
+  m.read("max_depth", c.max_depth, at_least(0));
+  return c;
 }
 
 CheckSpec parse_check(const Field& f) {
@@ -805,7 +817,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   if (body_items.empty()) bodies.fail("at least one body is required");
   std::map<std::string, int> body_names;
   for (const auto& item : body_items) {
-    const MapReader bm = item.map({"name", "mesh", "scale", "material", "fixed", "loads", "visual"});
+    const MapReader bm = item.map({"name", "mesh", "scale", "translate", "material", "fixed", "loads", "visual"});
     s.bodies.push_back(parse_body(bm, ctx));
     check_unique_name(body_names, s.bodies.back().name, bm.req("name"), "body");
   }
@@ -832,6 +844,10 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
     check_unique_name(tool_names, s.tools.back().spec.name, tm.req("name"), "tool");
   }
 
+  if (auto f = m.opt("body_contact")) {
+    if (s.bodies.size() < 2) f->fail("body_contact needs at least two bodies (this scenario has one)");
+    s.body_contact = parse_body_contact(*f);
+  }
   if (auto f = m.opt("run")) s.run = parse_run(*f);
   if (auto f = m.opt("check")) s.check = parse_check(*f);
   if (auto f = m.opt("render")) s.render = parse_render(*f);
@@ -862,7 +878,8 @@ ScenarioSpec parse_scenario(const std::string& yaml_text, const std::string& fil
   const int root_line = root.Mark().line >= 0 ? root.Mark().line + 1 : 1;
   const Field root_field(&ctx.file, root, "", root_line);
   const MapReader m = root_field.map(
-      {"name", "time_step", "gravity", "solver", "bodies", "probes", "tools", "run", "check", "render"});
+      {"name", "time_step", "gravity", "solver", "bodies", "probes", "tools", "body_contact", "run", "check",
+       "render"});
   return parse_root(m, ctx);
 }
 

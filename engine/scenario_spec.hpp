@@ -103,6 +103,7 @@ struct BodySpec {
   std::string mesh_path;   ///< resolved path of the tetrahedral mesh file
   SourceLocation mesh_where;  ///< where `mesh:` is in the scenario file
   double scale = 1.0;      ///< multiplies node coordinates as read (unit conversion)
+  Vec3 translate{0, 0, 0}; ///< added to the coordinates after scaling (placing a body)
   MaterialSpec material;
   std::vector<NodeSelection> fixed;
   std::vector<NodalLoadSpec> loads;
@@ -156,6 +157,16 @@ struct RenderSpec {
   bool contacts = true;                 ///< contact markers
 };
 
+/// `body_contact:` section: frictionless penalty contact between different bodies (each
+/// body's surface vertices against the other bodies' surface triangles). Absent: no body–body
+/// contact and no cost.
+struct BodyContactSpec {
+  double stiffness = 0;  ///< Pa/m: pressure per metre of penetration; 0: automatic (10·E_max / mean surface edge)
+  double max_depth = 0;  ///< m: deepest penetration resolved; 0: automatic, per body (¼ of its
+                         ///< smallest extent)
+  SourceLocation where;
+};
+
 /// A whole scenario.
 struct ScenarioSpec {
   std::string name;
@@ -166,6 +177,7 @@ struct ScenarioSpec {
   std::vector<BodySpec> bodies;
   std::vector<ProbeSpec> probes;
   std::vector<ToolEntry> tools;
+  std::optional<BodyContactSpec> body_contact;
   RunSpec run;
   CheckSpec check;
   RenderSpec render;

@@ -25,6 +25,7 @@ struct State {
   /// 2 active reversed (its first element ruptured, the second is intact). Empty unless a body
   /// with a damage model can be touched by a tool.
   std::vector<uint8_t> face_active;
+  BodyContactState body_contact;  ///< this tick's body–body contacts (zero without body_contact:)
   double time = 0;     ///< simulated time (s)
   int64_t step = 0;    ///< ticks done
 

@@ -98,7 +98,8 @@ bool step(TimeStepper& stepper, TissueState& t, TickWorkspace& w, double h, Tick
 }  // namespace
 
 /// Collide stage: refit the surface BVH, then each tool's coupling, grasp and contact
-/// (haptics/contact.hpp); the springs go to the time stepper for this tick's assembly.
+/// (haptics/contact.hpp) and body–body contact (collision/body_contact.hpp); the springs go to
+/// the time stepper for this tick's assembly.
 void collide(const Model& m, State& s, TickWorkspace& w) {
   const double* x = s.tissue.x.data();
   w.bvh.refit(x);
@@ -109,6 +110,10 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
     tool_contact(m.tools[k], s.tools[k], surf, w.bvh, x, s.tissue.v.data(), m.time_step, w.springs);
     device_feedback(m.tools[k], s.tools[k], m.time_step);
   }
+  if (m.body_contact)
+    body_contact(*m.body_contact, surf, w.bvh, x, s.tissue.v.data(), m.time_step, m.fem.gravity.data(),
+                 m.fem.constrained.data(),
+                 w.body_boxes.data(), w.springs, w.body_pairs, s.body_contact);
   w.stepper().set_contact_springs(w.springs.data(), static_cast<int>(w.springs.size()));
 }
 
@@ -144,6 +149,14 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
   std::copy(s.tissue.x.begin(), s.tissue.x.end(), w.backup_x.begin());
   std::copy(s.tissue.v.begin(), s.tissue.v.end(), w.backup_v.begin());
   bool ok = step(stepper, s.tissue, w, h, r, true);
+  // Speculative body contacts whose vertex never reached its face would pull it in: release them
+  // and redo the step (only ticks where something is about to touch pay for this).
+  for (int pass = 0; ok && m.body_contact && pass < kMaxContactReleases &&
+                     release_pulling_contacts(s.tissue.x.data(), w.body_pairs, w.springs) > 0;
+       ++pass) {
+    restore(s.tissue, w);
+    ok = step(stepper, s.tissue, w, h, r, false);
+  }
   if (!ok) {
     // The engine defends itself: roll back and redo the tick in 2, 4, … sub-steps (a smaller
     // step is both more stable and better conditioned), warm start cleared.

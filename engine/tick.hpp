@@ -40,6 +40,8 @@ enum class TickStatus : uint8_t {
 
 /// Most sub-steps a failed tick is retried with (2, 4, 8, then 16).
 inline constexpr int kMaxSubsteps = 16;
+/// Most times a tick is re-solved after releasing speculative body contacts that ended pulling.
+inline constexpr int kMaxContactReleases = 2;
 
 /// What one tick reports.
 struct TickReport {
@@ -74,6 +76,10 @@ class TickWorkspace {
       bvh.build(m.collision_triangles, m.fem.rest.data());
       springs.reserve(kMaxContacts);
     }
+    if (m.body_contact) {
+      body_boxes.resize(6 * m.fem.bodies.size());
+      body_pairs.reserve(kMaxContacts / 2);
+    }
   }
   TimeStepper& stepper() { return stepper_; }
   const TimeStepper& stepper() const { return stepper_; }
@@ -82,6 +88,8 @@ class TickWorkspace {
   static constexpr size_t kMaxContacts = 16384;
   TriangleBvh bvh;                      ///< surface triangles, refitted every tick
   std::vector<ContactSpring> springs;   ///< this tick's contacts (capacity fixed at load)
+  std::vector<double> body_boxes;       ///< body contact's per-body boxes (sized at load)
+  std::vector<BodyContactPair> body_pairs;  ///< this tick's body contacts (capacity fixed at load)
   /// Elements that reached a new damage level this tick (capacity fixed at load).
   std::vector<DamageEventRecord> damage_events;
   /// Positions and velocities at the start of the tick, for rollback (sized once).

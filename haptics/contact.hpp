@@ -17,21 +17,12 @@
 #include <cstdint>
 #include <vector>
 
+#include "collision/contact_surface.hpp"
 #include "collision/triangle_bvh.hpp"
 #include "haptics/tool.hpp"
 #include "tissue/contact_spring.hpp"
 
 namespace stroma {
-
-/// The contact surface of all bodies, as compiled: outward triangles (global node ids), the
-/// BSR slots of each triangle's node pairs, and each triangle's longest rest edge.
-struct ContactSurface {
-  const std::vector<std::array<int32_t, 3>>& triangles;
-  const std::vector<std::array<int32_t, 9>>& slots;
-  const std::vector<double>& longest_edge;
-  /// Per face 0 inactive / 1 active / 2 active with reversed orientation; null: all active.
-  const uint8_t* active = nullptr;
-};
 
 /// Samples per triangle edge: clamp(ceil(edge·kContactSamplesPerRadius / radius), 1, 24), so the
 /// sample spacing stays a fraction of the tool's size whatever the mesh (smooth while sliding).

@@ -76,6 +76,8 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
     }
     for (const auto& [i, mask] : b.fixed) m.constrained[i + node_off] |= mask;
     for (int32_t i : b.mesh->unused_nodes) m.constrained[i + node_off] = 7;
+    m.ranges.back().fixed = std::all_of(m.constrained.begin() + br.node_begin, m.constrained.begin() + br.node_end,
+                                        [](uint8_t c) { return c == 7; });
     for (const auto& [i, f] : b.nodal_forces)
       for (int k = 0; k < 3; ++k) m.f_ext[3 * (i + node_off) + k] += f[k];
     m.bodies.push_back(std::move(br));

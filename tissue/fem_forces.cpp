@@ -275,6 +275,7 @@ double dispatch_flags(const FemModel& m, const ElasticPass& p, int32_t b, int32_
 double elastic_pass(const FemModel& m, const ElasticPass& p) {
   double energy = 0.0;
   for (const ElementRange& r : m.ranges) {
+    if (r.fixed) continue;  // a fixed body: nothing it computes could move anything
     switch (r.kernel) {
       case ElementKernel::Linear:
         energy += dispatch_flags<ElementKernel::Linear>(m, p, r.begin, r.end);

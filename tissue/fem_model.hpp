@@ -34,6 +34,10 @@ struct ElementRange {
   int32_t begin = 0;
   int32_t end = 0;
   ElementKernel kernel = ElementKernel::CorotationalPolar;
+  /// Every node of the body is fixed: a rigid obstacle (e.g. a table for body contact). The
+  /// elastic pass skips it — its forces and stiffness would only land on fixed DOFs, and it
+  /// stays at rest with zero energy — so a fixed body costs nothing per tick.
+  bool fixed = false;
 };
 
 /// One body's slice of the global arrays.

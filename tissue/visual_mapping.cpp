@@ -16,6 +16,7 @@
 
 #include "tissue/barycentric.hpp"
 #include "tissue/input_error.hpp"
+#include "tissue/triangle_closest_point.hpp"
 
 namespace stroma {
 namespace {
@@ -26,40 +27,6 @@ constexpr double kInsideTol = 1e-9;
 
 double dot3(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 Vec3 sub3(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-
-/// Closest point of triangle (a, b, c) to p, as weights of a, b, c: the Voronoi-region walk of
-/// Ericson, Real-Time Collision Detection §5.1.5. Exact in the regions (weights 0 or 1 where
-/// the point is a vertex or on an edge), so clamped weights are never negative.
-std::array<double, 3> closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b,
-                                          const Vec3& c) {
-  const Vec3 ab = sub3(b, a), ac = sub3(c, a), ap = sub3(p, a);
-  const double d1 = dot3(ab, ap), d2 = dot3(ac, ap);
-  if (d1 <= 0 && d2 <= 0) return {1, 0, 0};
-  const Vec3 bp = sub3(p, b);
-  const double d3 = dot3(ab, bp), d4 = dot3(ac, bp);
-  if (d3 >= 0 && d4 <= d3) return {0, 1, 0};
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    const double v = d1 / (d1 - d3);
-    return {1 - v, v, 0};
-  }
-  const Vec3 cp = sub3(p, c);
-  const double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
-  if (d6 >= 0 && d5 <= d6) return {0, 0, 1};
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    const double w = d2 / (d2 - d6);
-    return {1 - w, 0, w};
-  }
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return {0, 1 - w, w};
-  }
-  const double denom = 1 / (va + vb + vc);
-  const double v = vb * denom, w = vc * denom;
-  return {1 - v - w, v, w};
-}
 
 /// Where a point landed: weights on the tet's 4 nodes, the tet, its distance (0 if inside).
 struct Location {

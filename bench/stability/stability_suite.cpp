@@ -34,6 +34,7 @@ struct CaseSetup {
   double duration = 0.5;
   std::function<void(const Model&, State&)> init;            ///< initial state changes
   std::function<bool(const Model&, State&, ToolInput*, int*)> drive;  ///< per tick; false once the drive is over
+  std::function<std::string(const Model&, const State&)> check;      ///< case-specific failure at the end, or ""
 };
 
 double elapsed(std::chrono::steady_clock::time_point t0) {
@@ -54,13 +55,33 @@ double volume_ratios(const Model& m, const std::vector<double>& x, int* inverted
   return worst;
 }
 
+/// Body–body penalty energy at the state's current positions. (The tick computes contacts at the
+/// start of the step; pairing that with the kinetic energy after the step would count the
+/// penetration of the step just solved, which the step itself removed.)
+double body_contact_energy(const Model& m, const State& s, TickWorkspace& w) {
+  if (!m.body_contact) return 0;
+  static thread_local std::vector<ContactSpring> springs;
+  static thread_local std::vector<BodyContactPair> pairs;
+  springs.clear();
+  springs.reserve(TickWorkspace::kMaxContacts);
+  pairs.reserve(TickWorkspace::kMaxContacts / 2);
+  w.bvh.refit(s.tissue.x.data());  // (the next tick's collide refits again)
+  const ContactSurface surf{m.collision_triangles, m.collision_slots, m.collision_edge,
+                            s.face_active.empty() ? nullptr : s.face_active.data()};
+  BodyContactState out;
+  body_contact(*m.body_contact, surf, w.bvh, s.tissue.x.data(), nullptr, 0.0, nullptr, m.fem.constrained.data(),
+               w.body_boxes.data(), springs, pairs, out);
+  return out.energy;
+}
+
 /// Total mechanical energy: kinetic + elastic + gravity/load potential + contact penalty.
-double total_energy(const TickWorkspace& w, const State& s, double* ke, double* ee, double* pe) {
+double total_energy(const Model& m, TickWorkspace& w, const State& s, double* ke, double* ee, double* pe) {
   *ke = w.stepper().kinetic_energy(s.tissue);
   *ee = w.stepper().elastic_energy(s.tissue);
   *pe = w.stepper().external_potential(s.tissue);
   double contact = 0;
   for (const ToolState& t : s.tools) contact += t.contact_energy;
+  contact += body_contact_energy(m, s, w);
   return *ke + *ee + *pe + contact;
 }
 
@@ -80,7 +101,7 @@ StabilityResult run_case(const CaseSetup& c) {
   if (c.init) c.init(*m, s);
   TickWorkspace w(*m);
   double ke, ee, pe;
-  const double e0 = total_energy(w, s, &ke, &ee, &pe);
+  const double e0 = total_energy(*m, w, s, &ke, &ee, &pe);
   double scale = std::max({std::abs(e0), ke, ee, std::abs(pe)});
   res.min_volume_ratio = volume_ratios(*m, s.tissue.x, &res.inverted_start);
   // The bound: the energy at the start (or when the drive stops) plus 1 % of the energies seen.
@@ -93,7 +114,7 @@ StabilityResult run_case(const CaseSetup& c) {
     if (driving) {
       driving = c.drive(*m, s, inputs, &n_in);
       if (!driving) {  // the drive is over: from here the energy may only go down
-        reference = total_energy(w, s, &ke, &ee, &pe);
+        reference = total_energy(*m, w, s, &ke, &ee, &pe);
         worst_excess = -1e300;
       }
     }
@@ -109,7 +130,7 @@ StabilityResult run_case(const CaseSetup& c) {
     int inv = 0;
     res.min_volume_ratio = std::min(res.min_volume_ratio, volume_ratios(*m, s.tissue.x, &inv));
     res.inverted_end = inv;
-    const double e = total_energy(w, s, &ke, &ee, &pe);
+    const double e = total_energy(*m, w, s, &ke, &ee, &pe);
     scale = std::max({scale, ke, ee, std::abs(pe)});
     if (!driving) worst_excess = std::max(worst_excess, e - reference);
   }
@@ -119,6 +140,8 @@ StabilityResult run_case(const CaseSetup& c) {
   if (res.energy_ratio > 0.01) why.push_back(fmt::format("energy grew by {:.3g} of its scale", res.energy_ratio));
   if (res.inverted_end > 0) why.push_back(fmt::format("{} elements still inverted", res.inverted_end));
   if (res.rolled_back > 0) why.push_back(fmt::format("{} ticks could not advance", res.rolled_back));
+  if (c.check && res.finite)
+    if (std::string w = c.check(*m, s); !w.empty()) why.push_back(w);
   for (size_t i = 0; i < why.size(); ++i) res.why += (i ? "; " : "") + why[i];
   res.pass = why.empty();
   res.wall_seconds = elapsed(t0);
@@ -290,6 +313,36 @@ std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
     cases.push_back(std::move(c));
   }
 
+  // A soft bar dropped from 20 mm onto a fixed block (body contact): it must come to rest on
+  // the block's top face, not in it or through it.
+  const std::vector<double> drop_dts = o.quick ? std::vector<double>{1e-3, 10e-3} : std::vector<double>{1e-3, 10e-3, 33e-3};
+  const std::vector<double> drop_Es = o.quick ? std::vector<double>{1e5} : std::vector<double>{1e4, 1e5, 1e6};
+  for (double dt : drop_dts)
+    for (double E : drop_Es) {
+      CaseSetup c;
+      c.group = "extreme";
+      c.name = fmt::format("bar dropped 20 mm onto a fixed block (E {}Pa, dt {:g} ms)", fmt_si(E), dt * 1e3);
+      c.spec = load_scenario(src + "/scenarios/drop_on_block.yaml");
+      c.spec.time_step = dt;
+      c.spec.bodies[1].translate[1] += 0.015;  // the scenario's 5 mm gap → 20 mm
+      c.spec.probes[0].point[1] += 0.015;
+      c.spec.bodies[1].material.young_modulus = E;
+      c.duration = o.quick ? 0.3 : 0.6;
+      c.check = [](const Model& m, const State& s) -> std::string {
+        // Lowest bar node vs the block's top face (y = 0.05): resting means within a millimetre.
+        const BodyRange& bar = m.fem.bodies[1];
+        double lowest = 1e300;
+        for (int32_t i = bar.node_begin; i < bar.node_end; ++i) lowest = std::min(lowest, s.tissue.x[3 * i + 1]);
+        const double below = 0.05 - lowest;
+        if (below > 1e-3) return fmt::format("the bar ended {:.3g} mm below the block's top face", below * 1e3);
+        if (below < -1e-3) return fmt::format("the bar ended {:.3g} mm above the block", -below * 1e3);
+        return "";
+      };
+      cases.push_back(std::move(c));
+    }
+
+  if (!o.only.empty())
+    std::erase_if(cases, [&](const CaseSetup& c) { return c.name.find(o.only) == std::string::npos; });
   if (o.progress && !o.markdown)
     fmt::print("{} cases ({}); the sliver mesh's worst element has {:.4f} of its regular volume\n", cases.size(),
                o.quick ? "quick subset" : "full grid", sliver_ratio);

@@ -4,7 +4,7 @@
 ///  - grid: time step × Young's modulus × Poisson's ratio × mesh (good; with slivers; with
 ///    elements initially inverted), the cantilever of refs/d released under gravity;
 ///  - extreme loads: the clamped end turned 180° in 0.1 s, large initial velocities, the tool
-///    driven at 5 m/s into the liver.
+///    driven at 5 m/s into the liver, a bar dropped onto a fixed block (body contact).
 /// A case passes when no NaN/Inf ever reaches the state, the total energy stays within the work
 /// put in (never above its start plus 1 % of the energies involved; for driven cases, it does
 /// not grow once the drive stops), inverted elements have recovered at the end, and every tick
@@ -39,6 +39,7 @@ struct StabilityOptions {
   std::string source_dir;    ///< the repository (scenarios/ and meshes)
   std::string csv;           ///< write every result here ("" = none)
   bool markdown = false;     ///< print the table in Markdown
+  std::string only;          ///< run only the cases whose name contains this ("" = all)
   bool progress = true;
 };
 

@@ -194,6 +194,7 @@ int main(int argc, char** argv) {
   acc->footer("References: tip deflection -1.4735e-3 m (refs/a, converged C3D10), first frequency 16.100 Hz\n"
               "(refs/d). Writes cantilever_static.csv/.png and cantilever_dynamic.csv/.png and prints the tables.");
   stab->add_flag("--quick", sto.quick, "A subset that runs in under a minute (what ctest runs)");
+  stab->add_option("--only", sto.only, "Run only the cases whose name contains this text (e.g. dropped)");
   stab->add_option("--csv", sto.csv, "Write every case's figures here");
   stab->add_flag("--markdown", sto.markdown, "Print the table as Markdown (docs/STABILITY.md)");
   stab->add_option("--source-dir", sto.source_dir, "Repository with scenarios/ (default: where stroma was built from)")->check(CLI::ExistingDirectory);

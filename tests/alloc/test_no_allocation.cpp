@@ -83,6 +83,12 @@ TEST(NoAllocation, ContactGraspAndDamageStages) {
   EXPECT_EQ(allocations_during_ticks(s, 300), 0);
 }
 
+TEST(NoAllocation, BodyContactStage) {
+  ScenarioSpec s = load_scenario(kDir + "drop_on_block.yaml");
+  s.time_step = 0.004;  // lands after ~8 ticks: most of the counted ticks are in contact
+  EXPECT_EQ(allocations_during_ticks(s, 100), 0);
+}
+
 // The counter works (so a zero above means something).
 TEST(NoAllocation, CounterSeesAllocations) {
   const long before = g_allocations.load();
