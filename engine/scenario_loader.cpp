@@ -481,9 +481,11 @@ std::string resolve_path(const std::string& p, const std::string& base_dir) {
 
 // Each parser takes the Field of its section and declares the section's allowed keys.
 
+const Choices<bool> kCapPolicies = {{"substep", true}, {"continue", false}};
+
 SolverSpec parse_solver(const Field& f) {
   const MapReader m = f.map({"integrator", "linear_solver", "preconditioner", "max_iterations",
-                             "tolerance", "warm_start", "static_tolerance", "static_max_newton"});
+                             "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap"});
   SolverSpec s;
   m.read("integrator", s.integrator, kIntegrators);
   m.read("linear_solver", s.linear_solver, kLinearSolvers);
@@ -493,6 +495,7 @@ SolverSpec parse_solver(const Field& f) {
   m.read("warm_start", s.warm_start, kWarmStarts);
   m.read("static_tolerance", s.static_tolerance, greater_than(0));
   m.read("static_max_newton", s.static_max_newton, greater_than(0));
+  m.read("on_cg_cap", s.substep_on_cg_cap, kCapPolicies);
   return s;
 }
 

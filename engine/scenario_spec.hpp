@@ -33,6 +33,11 @@ struct SolverSpec {
   WarmStart warm_start = WarmStart::Extrapolate;  ///< CG initial guess (off | previous | extrapolate)
   double static_tolerance = 1.0e-8;   ///< static: Newton stops when ‖residual‖ ≤ this·‖f_ext‖
   int static_max_newton = 50;     ///< static: Newton iteration cap
+  /// A tick whose CG hits its cap is redone in sub-steps (2, 4, … 16; the last level keeps its
+  /// capped solve) rather than kept: a capped solve of a badly conditioned step (ν → 0.5, slivers,
+  /// large dt) can add energy. `on_cg_cap: continue` keeps the capped step (the cap then bounds
+  /// the tick's cost, as benchmarks of the cap itself need).
+  bool substep_on_cg_cap = true;
 };
 
 /// Which per-element quantity damage thresholds apply to.

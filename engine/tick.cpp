@@ -72,9 +72,10 @@ bool sane_step(const TissueState& t, double h, double limit) {
 }
 
 /// assemble → solve → integrate over h. False (state possibly half-updated: the caller rolls
-/// back) if the solve is non-finite or the result is not sane. `first` says whether this is the tick's full step (timed stages
-/// report into r either way).
-bool step(TimeStepper& stepper, TissueState& t, TickWorkspace& w, double h, TickReport& r, bool first) {
+/// back) if the solve is non-finite, capped while `cap_fails`, or the result is not sane.
+/// `first` says whether this is the tick's full step (timed stages report into r either way).
+bool step(TimeStepper& stepper, TissueState& t, TickWorkspace& w, double h, TickReport& r, bool first,
+          bool cap_fails) {
   {
     StageTimer st(r, Stage::Assemble);
     const double e = stepper.assemble(t, h);
@@ -84,10 +85,12 @@ bool step(TimeStepper& stepper, TissueState& t, TickWorkspace& w, double h, Tick
     StageTimer st(r, Stage::Solve);
     r.solve = stepper.solve(t);
   }
-  // (A capped CG is not a failure: its residual may exceed ‖b‖ — CG minimises the error's
-  // energy norm, not the residual — and the step is still usable. A diverging one shows up as
-  // NaN/Inf or as an absurd displacement below.)
+  // A capped CG is usable (its residual may exceed ‖b‖ — CG minimises the error's energy norm,
+  // not the residual) but on a badly conditioned step it can add energy: by default the tick is
+  // redone in sub-steps, whose systems are better conditioned (solver.on_cg_cap). A diverging
+  // solve shows up as NaN/Inf or as an absurd displacement below.
   if (!std::isfinite(r.solve.relative_residual) || !all_finite(t.dv)) return false;
+  if (cap_fails && !r.solve.converged) return false;
   {
     StageTimer st(r, Stage::Integrate);
     stepper.integrate(t, h);
@@ -148,14 +151,15 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
   // Rollback point: the tissue's positions and velocities (two copies of 3n doubles).
   std::copy(s.tissue.x.begin(), s.tissue.x.end(), w.backup_x.begin());
   std::copy(s.tissue.v.begin(), s.tissue.v.end(), w.backup_v.begin());
-  bool ok = step(stepper, s.tissue, w, h, r, true);
+  const bool cap_fails = m.spec.solver.substep_on_cg_cap;
+  bool ok = step(stepper, s.tissue, w, h, r, true, cap_fails);
   // Speculative body contacts whose vertex never reached its face would pull it in: release them
   // and redo the step (only ticks where something is about to touch pay for this).
   for (int pass = 0; ok && m.body_contact && pass < kMaxContactReleases &&
                      release_pulling_contacts(s.tissue.x.data(), w.body_pairs, w.springs) > 0;
        ++pass) {
     restore(s.tissue, w);
-    ok = step(stepper, s.tissue, w, h, r, false);
+    ok = step(stepper, s.tissue, w, h, r, false, cap_fails);
   }
   if (!ok) {
     // The engine defends itself: roll back and redo the tick in 2, 4, … sub-steps (a smaller
@@ -163,7 +167,8 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
     for (int k = 2; k <= kMaxSubsteps && !ok; k *= 2) {
       restore(s.tissue, w);
       ok = true;
-      for (int i = 0; i < k && ok; ++i) ok = step(stepper, s.tissue, w, h / k, r, false);
+      // The last level keeps a capped solve: a finite, advanced state beats none.
+      for (int i = 0; i < k && ok; ++i) ok = step(stepper, s.tissue, w, h / k, r, false, cap_fails && k < kMaxSubsteps);
       r.substeps = k;
     }
     if (!ok) {
