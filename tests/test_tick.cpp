@@ -116,6 +116,29 @@ TEST(Tick, ExplicitBlowUpNeverPutsANaNInTheState) {
   EXPECT_GT(recovered + rolled_back, 0) << "the blow-up was not detected at all";
 }
 
+// solver.on_cg_cap: by default a capped CG redoes the tick in sub-steps (each better
+// conditioned, so fewer iterations suffice); `continue` keeps the capped step.
+TEST(Tick, CappedSolveIsRedoneInSubstepsUnlessTold) {
+  ScenarioSpec spec = load_scenario(kDir + "cantilever_dynamic.yaml");
+  spec.solver.preconditioner = Preconditioner::Jacobi;
+  spec.solver.max_iterations = 12;
+  spec.solver.tolerance = 1e-8;
+  spec.time_step = 0.004;
+  auto run = [&](bool substep) {
+    spec.solver.substep_on_cg_cap = substep;
+    auto m = compile_model(spec);
+    State s = State::initial(*m);
+    TickWorkspace w(*m);
+    return tick(*m, s, w);
+  };
+  const TickReport kept = run(false);
+  EXPECT_EQ(kept.status, TickStatus::SolverNotConverged);
+  EXPECT_EQ(kept.substeps, 1);
+  const TickReport redone = run(true);
+  EXPECT_EQ(redone.status, TickStatus::Recovered);
+  EXPECT_GT(redone.substeps, 1);
+}
+
 TEST(Tick, SnapshotAndRestoreIsACopyAndReproducesBitForBit) {
   auto m = compile_model(load_scenario(kDir + "liver.yaml"));
   State s = State::initial(*m);
