@@ -179,7 +179,8 @@ const Choices<WarmStart> kWarmStarts = {{"extrapolate", WarmStart::Extrapolate},
 const Choices<DamageMeasure> kDamageMeasures = {{"von_mises", DamageMeasure::VonMises},
                                                 {"principal_strain", DamageMeasure::PrincipalStrain}};
 const Choices<ElementModel> kElementModels = {{"corotational", ElementModel::Corotational},
-                                              {"linear", ElementModel::Linear}};
+                                              {"linear", ElementModel::Linear},
+                                              {"stable_neo_hookean", ElementModel::StableNeoHookean}};
 const Choices<ColorFieldSpec> kColorFields = {{"none", ColorFieldSpec::None},
                                               {"stress", ColorFieldSpec::Stress},
                                               {"damage", ColorFieldSpec::Damage}};

@@ -66,6 +66,7 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
     br.element_end = static_cast<int32_t>(m.elements.size());
     ElementRange range{br.element_begin, br.element_end, ElementKernel::CorotationalPolar};
     if (b.model == ElementModel::Linear) range.kernel = ElementKernel::Linear;
+    else if (b.model == ElementModel::StableNeoHookean) range.kernel = ElementKernel::StableNeoHookean;
     else if (b.rotation == RotationMethod::QR) range.kernel = ElementKernel::CorotationalQR;
     m.ranges.push_back(range);
     for (const Tri& f : b.mesh->boundary)

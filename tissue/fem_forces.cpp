@@ -5,6 +5,7 @@
 
 #include "tissue/mat3.hpp"
 #include "tissue/rotation.hpp"
+#include "tissue/stable_neo_hookean.hpp"
 
 namespace stroma {
 
@@ -286,6 +287,9 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
       case ElementKernel::CorotationalQR:
         energy += dispatch_flags<ElementKernel::CorotationalQR>(m, p, r.begin, r.end);
         break;
+      case ElementKernel::StableNeoHookean:
+        energy += stable_neo_hookean_pass(m, p, r.begin, r.end);
+        break;
     }
   }
   return energy;
@@ -297,7 +301,8 @@ void element_von_mises(const FemModel& m, const double* x, double* out) {
       const ElementParams& ep = m.elements[e];
       double F[9], d1[3], d2[3], R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
       deformation_gradient(x, ep, F, d1, d2);
-      if (r.kernel == ElementKernel::CorotationalPolar) polar_rotation(F, R);
+      if (r.kernel == ElementKernel::CorotationalPolar || r.kernel == ElementKernel::StableNeoHookean)
+        polar_rotation(F, R);
       else if (r.kernel == ElementKernel::CorotationalQR)
         qr_rotation(m.rest_frame[e].data(), d1, d2, R);
       double P[9], eps[9];

@@ -27,7 +27,7 @@ struct ElementParams {
 };
 
 /// How a contiguous range of elements is computed (one body; one kernel, no per-element branch).
-enum class ElementKernel : uint8_t { Linear, CorotationalPolar, CorotationalQR };
+enum class ElementKernel : uint8_t { Linear, CorotationalPolar, CorotationalQR, StableNeoHookean };
 
 /// A contiguous range of elements sharing one kernel (one body).
 struct ElementRange {

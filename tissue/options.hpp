@@ -32,7 +32,8 @@ enum class WarmStart {
 /// Element formulation.
 enum class ElementModel {
   Corotational,  ///< small strain in a per-element rotated frame (large rotations)
-  Linear         ///< small strain, small rotation (fails under rotation: for comparison)
+  Linear,        ///< small strain, small rotation (fails under rotation: for comparison)
+  StableNeoHookean  ///< hyperelastic, inversion-robust (tissue/stable_neo_hookean.hpp): large strain
 };
 /// How the corotational element rotation is extracted.
 enum class RotationMethod {
