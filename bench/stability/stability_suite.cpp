@@ -18,6 +18,7 @@
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "haptics/contact.hpp"
 #include "tissue/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
 
@@ -33,7 +34,7 @@ struct CaseSetup {
   ScenarioSpec spec;
   double duration = 0.5;
   std::function<void(const Model&, State&)> init;            ///< initial state changes
-  std::function<bool(const Model&, State&, ToolInput*, int*)> drive;  ///< per tick; false once the drive is over
+  std::function<bool(const Model&, State&, ToolInput*, int*)> drive;  ///< per tick; false with its last command
   std::function<std::string(const Model&, const State&)> check;      ///< case-specific failure at the end, or ""
 };
 
@@ -55,11 +56,14 @@ double volume_ratios(const Model& m, const std::vector<double>& x, int* inverted
   return worst;
 }
 
-/// Body–body penalty energy at the state's current positions. (The tick computes contacts at the
-/// start of the step; pairing that with the kinetic energy after the step would count the
-/// penetration of the step just solved, which the step itself removed.)
-double body_contact_energy(const Model& m, const State& s, TickWorkspace& w) {
-  if (!m.body_contact) return 0;
+/// Contact penalty energy (tools and body–body) at the state's current positions. The tick
+/// computes contacts at the start of the step; pairing that with the kinetic energy after the
+/// step would count the penetration of the step just solved (or, for a tool that just moved,
+/// the penetration its move made before the tissue answered), which the step itself removed.
+/// Tools are evaluated on copies of their states: the proxy and friction history stay as the
+/// tick left them.
+double contact_energy(const Model& m, const State& s, TickWorkspace& w) {
+  if (!m.body_contact && m.tools.empty()) return 0;
   static thread_local std::vector<ContactSpring> springs;
   static thread_local std::vector<BodyContactPair> pairs;
   springs.clear();
@@ -68,21 +72,31 @@ double body_contact_energy(const Model& m, const State& s, TickWorkspace& w) {
   w.bvh.refit(s.tissue.x.data());  // (the next tick's collide refits again)
   const ContactSurface surf{m.collision_triangles, m.collision_slots, m.collision_edge,
                             s.face_active.empty() ? nullptr : s.face_active.data()};
-  BodyContactState out;
-  body_contact(*m.body_contact, surf, w.bvh, s.tissue.x.data(), nullptr, 0.0, nullptr, m.fem.constrained.data(),
-               w.body_boxes.data(), springs, pairs, out);
-  return out.energy;
+  double energy = 0;
+  for (size_t k = 0; k < m.tools.size(); ++k) {
+    ToolState ts = s.tools[k];
+    springs.clear();
+    tool_contact(m.tools[k], ts, surf, w.bvh, s.tissue.x.data(), nullptr, 0.0, springs);
+    energy += ts.contact_energy;
+  }
+  if (m.body_contact) {
+    springs.clear();
+    BodyContactState out;
+    body_contact(*m.body_contact, surf, w.bvh, s.tissue.x.data(), nullptr, 0.0, nullptr, m.fem.constrained.data(),
+                 w.body_boxes.data(), springs, pairs, out);
+    energy += out.energy;
+  }
+  return energy;
 }
 
-/// Total mechanical energy: kinetic + elastic + gravity/load potential + contact penalty.
-double total_energy(const Model& m, TickWorkspace& w, const State& s, double* ke, double* ee, double* pe) {
+/// Total mechanical energy: kinetic + elastic + gravity/load potential + contact penalty (*ce).
+double total_energy(const Model& m, TickWorkspace& w, const State& s, double* ke, double* ee, double* pe,
+                    double* ce) {
   *ke = w.stepper().kinetic_energy(s.tissue);
   *ee = w.stepper().elastic_energy(s.tissue);
   *pe = w.stepper().external_potential(s.tissue);
-  double contact = 0;
-  for (const ToolState& t : s.tools) contact += t.contact_energy;
-  contact += body_contact_energy(m, s, w);
-  return *ke + *ee + *pe + contact;
+  *ce = contact_energy(m, s, w);
+  return *ke + *ee + *pe + *ce;
 }
 
 StabilityResult run_case(const CaseSetup& c) {
@@ -100,24 +114,19 @@ StabilityResult run_case(const CaseSetup& c) {
   State s = State::initial(*m);
   if (c.init) c.init(*m, s);
   TickWorkspace w(*m);
-  double ke, ee, pe;
-  const double e0 = total_energy(*m, w, s, &ke, &ee, &pe);
-  double scale = std::max({std::abs(e0), ke, ee, std::abs(pe)});
+  double ke, ee, pe, ce;
+  const double e0 = total_energy(*m, w, s, &ke, &ee, &pe, &ce);
+  double scale = std::max({std::abs(e0), ke, ee, std::abs(pe), ce});
   res.min_volume_ratio = volume_ratios(*m, s.tissue.x, &res.inverted_start);
-  // The bound: the energy at the start (or when the drive stops) plus 1 % of the energies seen.
+  // The bound: the energy at the start (or after the drive's last command) plus 1 % of the
+  // energies seen.
   double reference = e0, worst_excess = -1e300;
-  bool driving = static_cast<bool>(c.drive);
+  bool driving = static_cast<bool>(c.drive), last_command = false;
   const int ticks = std::max(10, static_cast<int>(std::lround(c.duration / m->time_step)));
   ToolInput inputs[4];
   for (int k = 0; k < ticks; ++k) {
     int n_in = 0;
-    if (driving) {
-      driving = c.drive(*m, s, inputs, &n_in);
-      if (!driving) {  // the drive is over: from here the energy may only go down
-        reference = total_energy(*m, w, s, &ke, &ee, &pe);
-        worst_excess = -1e300;
-      }
-    }
+    if (driving) last_command = !c.drive(*m, s, inputs, &n_in);
     const TickReport r = tick(*m, s, w, inputs, n_in);
     ++res.ticks;
     res.max_cg_iterations = std::max(res.max_cg_iterations, r.solve.iterations);
@@ -130,9 +139,14 @@ StabilityResult run_case(const CaseSetup& c) {
     int inv = 0;
     res.min_volume_ratio = std::min(res.min_volume_ratio, volume_ratios(*m, s.tissue.x, &inv));
     res.inverted_end = inv;
-    const double e = total_energy(*m, w, s, &ke, &ee, &pe);
-    scale = std::max({scale, ke, ee, std::abs(pe)});
-    if (!driving) worst_excess = std::max(worst_excess, e - reference);
+    const double e = total_energy(*m, w, s, &ke, &ee, &pe, &ce);
+    scale = std::max({scale, ke, ee, std::abs(pe), ce});
+    if (last_command) {  // the tick that applied the drive's last command is over: from here the
+      reference = e;     // energy may only go down
+      driving = last_command = false;
+    } else if (!driving) {
+      worst_excess = std::max(worst_excess, e - reference);
+    }
   }
   res.energy_ratio = worst_excess > -1e300 ? worst_excess / std::max(scale, 1e-300) : 0.0;
   std::vector<std::string> why;
