@@ -7,6 +7,8 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -15,6 +17,7 @@
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "tissue/fem_forces.hpp"
+#include "tissue/stable_neo_hookean.hpp"
 #include "tissue/mesh_prepare.hpp"
 
 using namespace stroma;
@@ -148,4 +151,76 @@ TEST(StableNeoHookean, SoftBeamUnderItsOwnWeightEndsWithNoElementInverted) {
   };
   EXPECT_GT(run(ElementModel::Corotational), 0);  // the failure this material exists for
   EXPECT_EQ(run(ElementModel::StableNeoHookean), 0);
+}
+
+// The analytic eigensystem (twist, flip and scaling modes from the SVD of F) must reproduce the
+// exact 9×9 Hessian for any F — stretched, sheared, inverted, with repeated singular values —
+// with orthonormal modes; otherwise the projected tangent is not the projection of the tangent.
+TEST(StableNeoHookean, AnalyticEigensystemReproducesTheExactHessian) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<std::array<double, 9>> Fs = {
+      {1, 0, 0, 0, 1, 0, 0, 0, 1},       // rest: repeated σ = 1
+      {1, 0, 0, 0, 1, 0, 0, 0, -1},      // mirrored: inverted, |σ| repeated
+      {0.5, 0, 0, 0, 0.5, 0, 0, 0, 2},   // two equal σ
+      {1e-3, 0, 0, 0, 1, 0, 0, 0, 1},    // nearly flat
+  };
+  for (double eps : {1e-14, 1e-12, 1e-8}) {  // rest plus round-off: nearly repeated eigenvalues
+    std::array<double, 9> F = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    for (double& f : F) f += eps * u(rng);
+    Fs.push_back(F);
+  }
+  for (int t = 0; t < 40; ++t) {
+    std::array<double, 9> F;
+    for (double& f : F) f = u(rng) * 1.5;
+    Fs.push_back(F);
+  }
+  const double lambda = 9.0, mu = 1.0;  // nu = 0.45
+  for (const auto& F : Fs) {
+    double H[81], values[9], modes[81];
+    stable_neo_hookean_hessian(F.data(), lambda, mu, H);
+    stable_neo_hookean_eigensystem(F.data(), lambda, mu, values, modes);
+    Eigen::Matrix<double, 9, 9> Q, Hr = Eigen::Matrix<double, 9, 9>::Zero(), He;
+    for (int m = 0; m < 9; ++m)
+      for (int r = 0; r < 9; ++r) Q(r, m) = modes[9 * m + r];
+    for (int m = 0; m < 9; ++m) Hr += values[m] * Q.col(m) * Q.col(m).transpose();
+    for (int r = 0; r < 81; ++r) He(r / 9, r % 9) = H[r];
+    EXPECT_LT((Q.transpose() * Q - Eigen::Matrix<double, 9, 9>::Identity()).norm(), 1e-9);
+    EXPECT_LT((Hr - He).norm(), 1e-9 * (1 + He.norm())) << "F0 " << F[0] << " F4 " << F[4] << " F8 " << F[8];
+    // And its eigenvalues are the Hessian's (sorted comparison).
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(He);
+    std::vector<double> a(values, values + 9);
+    std::sort(a.begin(), a.end());
+    for (int m = 0; m < 9; ++m) EXPECT_NEAR(a[m], eig.eigenvalues()(m), 1e-9 * (1 + He.norm()));
+  }
+}
+
+// Damage scales λ and μ by (1 − d); a ruptured element (d = 1) has no material left and must
+// contribute nothing — not a NaN from α = 1 + μ/λ' with λ' = 0.
+TEST(StableNeoHookean, RupturedElementsContributeNothingAndStayFinite) {
+  auto m = beam(ElementModel::StableNeoHookean);
+  const std::vector<double> x = randomly_deformed(m->fem, 1e-3, 5);
+  std::vector<float> damage(m->fem.elements.size(), 1.0f);
+  damage[0] = 0.0f;  // one intact element: the others must add nothing to it
+  std::vector<double> f(x.size(), 0.0), vals(9 * m->fem.pattern.col.size(), 0.0);
+  ElasticPass p;
+  p.x = x.data();
+  p.force = f.data();
+  p.kvals = vals.data();
+  p.k_const = 1.0;
+  p.damage = damage.data();
+  const double e = elastic_pass(m->fem, p);
+  EXPECT_TRUE(std::isfinite(e));
+  for (double v : f) ASSERT_TRUE(std::isfinite(v));
+  for (double v : vals) ASSERT_TRUE(std::isfinite(v));
+  // Only element 0's four nodes feel a force; its energy is the whole energy.
+  const auto& n0 = m->fem.elements[0].node;
+  for (int32_t i = 0; i < m->fem.num_nodes; ++i) {
+    const bool in0 = i == n0[0] || i == n0[1] || i == n0[2] || i == n0[3];
+    if (!in0) EXPECT_EQ(f[3 * i] * f[3 * i] + f[3 * i + 1] * f[3 * i + 1] + f[3 * i + 2] * f[3 * i + 2], 0.0) << i;
+  }
+  damage[0] = 1.0f;
+  std::fill(f.begin(), f.end(), 0.0);
+  EXPECT_EQ(elastic_pass(m->fem, p), 0.0);
+  for (double v : f) EXPECT_EQ(v, 0.0);
 }

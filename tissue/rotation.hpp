@@ -77,12 +77,12 @@ inline void sort_pair(double (&ev)[3][W], double (&V)[9][W]) {
 /// every 3×3 matrix tried (tests/test_rotation.cpp checks against Eigen's SVD).
 inline constexpr int kPolarSweeps = 4;
 
-/// Polar rotations of W deformation gradients at once. F and R are [entry][lane]
-/// (row-major 3×3 entries). Fixed cost and branch-free, so the compiler vectorises across
-/// elements: with AVX-512 eight elements go through every instruction together.
+/// Rotation-variant SVD of W deformation gradients at once: F = U·Σ·Vᵀ with U, V ∈ SO(3)
+/// (row-major, [entry][lane]) and Σ sorted by magnitude, the sign of det F on the last singular
+/// value (Irving et al. 2004). Σ itself is not returned (σ_i = u_i·F·v_i when needed).
 template <int W>
-inline void polar_rotation_batch(const double (&F)[9][W], double (&R)[9][W]) {
-  double S[9][W], V[9][W], ev[3][W];
+inline void svd_rotations_batch(const double (&F)[9][W], double (&U)[9][W], double (&V)[9][W]) {
+  double S[9][W], ev[3][W];
 #pragma omp simd
   for (int l = 0; l < W; ++l) {
     for (int i = 0; i < 3; ++i)
@@ -138,12 +138,43 @@ inline void polar_rotation_batch(const double (&F)[9][W], double (&R)[9][W]) {
     u2[0] *= i2; u2[1] *= i2; u2[2] *= i2;
     const double u3[3] = {u1[1] * u2[2] - u1[2] * u2[1], u1[2] * u2[0] - u1[0] * u2[2],
                           u1[0] * u2[1] - u1[1] * u2[0]};
-    // R = U·Vᵀ
     for (int i = 0; i < 3; ++i) {
-      const double ui[3] = {u1[i], u2[i], u3[i]};
-      for (int j = 0; j < 3; ++j)
-        R[3 * i + j][l] = ui[0] * V[3 * j][l] + ui[1] * V[3 * j + 1][l] + ui[2] * V[3 * j + 2][l];
+      U[3 * i][l] = u1[i];
+      U[3 * i + 1][l] = u2[i];
+      U[3 * i + 2][l] = u3[i];
     }
+  }
+}
+
+/// Polar rotations R = U·Vᵀ of W deformation gradients at once (svd_rotations_batch). F and R
+/// are [entry][lane] (row-major 3×3 entries). Fixed cost and branch-free, so the compiler
+/// vectorises across elements: with AVX-512 eight elements go through every instruction together.
+template <int W>
+inline void polar_rotation_batch(const double (&F)[9][W], double (&R)[9][W]) {
+  double U[9][W], V[9][W];
+  svd_rotations_batch<W>(F, U, V);
+#pragma omp simd
+  for (int l = 0; l < W; ++l)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        R[3 * i + j][l] = U[3 * i][l] * V[3 * j][l] + U[3 * i + 1][l] * V[3 * j + 1][l] + U[3 * i + 2][l] * V[3 * j + 2][l];
+}
+
+/// Rotation-variant SVD of one F (row-major 3×3): F = U·diag(sigma)·Vᵀ, U, V ∈ SO(3), the sign
+/// of det F on sigma[2] (svd_rotations_batch).
+inline void svd_rotations(const double* F, double* U, double* sigma, double* V) {
+  double Fb[9][1], Ub[9][1], Vb[9][1];
+  for (int k = 0; k < 9; ++k) Fb[k][0] = F[k];
+  svd_rotations_batch<1>(Fb, Ub, Vb);
+  for (int k = 0; k < 9; ++k) {
+    U[k] = Ub[k][0];
+    V[k] = Vb[k][0];
+  }
+  for (int i = 0; i < 3; ++i) {  // σ_i = u_i · F v_i
+    double s = 0;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) s += U[3 * r + i] * F[3 * r + c] * V[3 * c + i];
+    sigma[i] = s;
   }
 }
 

@@ -16,10 +16,13 @@
 /// (defined and smooth through J ≤ 0; no SVD sign fix-ups).
 ///
 /// The tangent ∂²Ψ/∂F² = μI + λ' vec(cof F) vec(cof F)ᵀ + λ'(J − α) ∂²J/∂F² is indefinite
-/// away from rest; it is projected to the nearest positive semi-definite matrix (9×9
-/// eigen-decomposition, negative eigenvalues set to 0) so implicit Euler and CG see a
-/// symmetric PSD system. Cost: a scalar 9×9 eigensolve per element per assembly — several
-/// times the corotational kernel (docs/PERFORMANCE.md).
+/// away from rest; it is projected to the nearest positive semi-definite matrix (negative
+/// eigenvalues set to 0) so implicit Euler and CG see a symmetric PSD system. Its eigensystem is
+/// analytic (Smith, de Goes & Kim 2018, §4; Smith et al. 2019): with the rotation-variant SVD
+/// F = U·Σ·Vᵀ, three "scaling" modes U·diag(e)·Vᵀ from the 3×3 Hessian in σ, and per pair
+/// (i, j) a twist mode (eigenvalue μ + λ'(J − α)σ_k) and a flip mode (μ − λ'(J − α)σ_k).
+/// A 3×3 SVD and a 3×3 eigensolve per element instead of a 9×9 eigensolve: ~8× cheaper
+/// (docs/PERFORMANCE.md).
 
 #include <cstdint>
 
@@ -34,5 +37,13 @@ double stable_neo_hookean_pass(const FemModel& m, const ElasticPass& p, int32_t 
 
 /// Energy density Ψ(F) and first Piola stress P (row-major) for Lamé (λ, μ) of the scenario.
 double stable_neo_hookean_stress(const double* F, double lambda, double mu, double* P);
+
+/// The exact (unprojected) Hessian ∂²Ψ/∂F² as a 9×9 row-major matrix H[9·(3i+j) + 3k+l]:
+/// the reference the analytic eigensystem is tested against.
+void stable_neo_hookean_hessian(const double* F, double lambda, double mu, double* H);
+
+/// The analytic eigensystem of ∂²Ψ/∂F²: values[9] and orthonormal modes[9][9] (mode m is the
+/// row-major 3×3 matrix modes + 9m), so that H = Σ_m values[m]·vec(Q_m)·vec(Q_m)ᵀ.
+void stable_neo_hookean_eigensystem(const double* F, double lambda, double mu, double* values, double* modes);
 
 }  // namespace stroma
