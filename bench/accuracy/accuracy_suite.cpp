@@ -221,6 +221,9 @@ struct DynamicConfig {
   double dt = 1e-3;
   double tolerance = 1e-6;
   int cap = 200;
+  /// The engine's default redoes a capped tick in sub-steps; the cap sweep turns that off so
+  /// that it measures what a capped solve itself costs in accuracy (solver.on_cg_cap).
+  bool substep_on_cap = true;
   Preconditioner pc = Preconditioner::WarpedCholesky;
   WarmStart warm = WarmStart::Extrapolate;
   bool linear = false;
@@ -236,6 +239,7 @@ ScenarioSpec dynamic_spec(const std::string& src, const DynamicConfig& c) {
   spec.solver.integrator = c.symplectic ? Integrator::SymplecticEuler : Integrator::ImplicitEuler;
   spec.solver.tolerance = c.tolerance;
   spec.solver.max_iterations = c.cap;
+  spec.solver.substep_on_cg_cap = c.substep_on_cap;
   spec.solver.preconditioner = c.pc;
   spec.solver.warm_start = c.warm;
   return spec;
@@ -334,9 +338,6 @@ double largest_stable_symplectic_step(const std::string& src, const std::string&
 
 // ---------------------------------------------------------------------------------------------
 
-/// Pareto-optimal: no other point is at least as fast and at least as accurate, and better in
-/// one. Errors within 1e-4 of each other (relative) count as equal: solver round-off in the
-/// 6th digit must not make a slower point "more accurate".
 /// Splits one CSV line (fields may be double-quoted, without embedded quotes).
 std::vector<std::string> csv_fields(const std::string& line) {
   std::vector<std::string> out;
@@ -355,44 +356,73 @@ std::vector<std::string> csv_fields(const std::string& line) {
   return out;
 }
 
-/// Runs the Bullet peer program and turns its rows into points of the static and dynamic
-/// cantilever problems (sweeps "Bullet FEM (peer)" and "Bullet soft body (peer)").
-void run_peers(const AccuracyOptions& o, std::vector<AccuracyPoint>& st, std::vector<AccuracyPoint>& dy) {
-  const std::string csv = (fs::path(o.out_dir) / "bullet_cantilever.csv").string();
-  if (o.progress) fmt::print(stderr, "  peers: {} (about 4 minutes)\n", o.peer_program);
-  const int rc = std::system(fmt::format("'{}' --out '{}' > '{}' 2>&1", o.peer_program, csv,
-                                         (fs::path(o.out_dir) / "bullet_cantilever.log").string()).c_str());
-  std::ifstream f(csv);
-  if (rc != 0 || !f) {
-    fmt::print(stderr, "  peers: {} failed (exit {}); see {}/bullet_cantilever.log\n", o.peer_program, rc, o.out_dir);
-    return;
-  }
-  std::string line;
-  std::getline(f, line);  // header
-  while (std::getline(f, line)) {
-    const auto c = csv_fields(line);
-    if (c.size() < 10) continue;
-    // Bullet's neo-Hookean force with the same Lamé parameters is ~39 % softer than its linear
-    // one at these small strains: not the same material, so not on the same axes (docs).
-    if (c[0].find("neohookean") != std::string::npos) continue;
-    AccuracyPoint p;
-    p.nodes = c[1] == "h5" ? 191 : c[1] == "h3.333" ? 594 : 0;  // the same mesh files as ours
-    const bool fem = c[0].rfind("A ", 0) == 0;
-    const bool is_static = c[3].rfind("static", 0) == 0;
+/// The Bullet peers' points, per problem (sweeps "Bullet FEM (peer)", "Bullet soft body (peer)").
+struct PeerPoints {
+  std::vector<AccuracyPoint> cantilever_static, cantilever_dynamic, block, indentation;
+};
+
+/// Runs the Bullet peer program (only the indentation problem with --only indentation; its
+/// quick mode with --quick) and turns its CSV rows (out_dir/bullet_<problem>.csv) into points.
+/// Static problems: the time is the peer's wall time to rest (it has no static solve).
+PeerPoints run_peers(const AccuracyOptions& o) {
+  PeerPoints pp;
+  const std::string log = (fs::path(o.out_dir) / "bullet_peers.log").string();
+  const std::string problem = o.only.empty() ? "all" : o.only;
+  if (o.progress) fmt::print(stderr, "  peers: {} --problem {} (all: about {} minutes)\n", o.peer_program, problem, o.quick ? 13 : 27);
+  const int rc = std::system(fmt::format("'{}' --problem {} {}--out '{}' > '{}' 2>&1", o.peer_program, problem,
+                                         o.quick ? "--quick " : "", o.out_dir, log).c_str());
+  if (rc != 0) fmt::print(stderr, "  peers: {} failed (exit {}); see {}\n", o.peer_program, rc, log);
+  // Columns: peer,mesh,nodes,dt,quantity,value,error_vs_reference,ms_per_step,s_per_simulated_s,
+  // wall_s,steps,same_mesh,notes (bench/peers/bullet_common.cpp).
+  auto read = [&](const std::string& name, const std::function<void(const std::vector<std::string>&, AccuracyPoint&)>& to) {
+    std::ifstream f(fs::path(o.out_dir) / ("bullet_" + name + ".csv"));
+    std::string line;
+    std::getline(f, line);  // header (no file: no rows)
+    while (std::getline(f, line)) {
+      const auto c = csv_fields(line);
+      if (c.size() < 13) continue;
+      // Bullet's neo-Hookean force with the same Lamé parameters is ~39 % softer than its linear
+      // one at these small strains: not the same material, so not on the same axes (docs).
+      if (c[0].find("neohookean") != std::string::npos) continue;
+      AccuracyPoint p;
+      p.sweep = c[0].rfind("A ", 0) == 0 ? "Bullet FEM (peer)" : "Bullet soft body (peer)";
+      p.nodes = std::stoi(c[2]);
+      p.value = std::stod(c[5]);
+      p.ok = std::isfinite(p.value);
+      p.error = p.ok ? std::abs(std::stod(c[6])) : 0;
+      p.ms_per_tick = std::stod(c[7]);
+      p.s_per_sim_s = std::stod(c[9]);
+      p.failure = c[12];
+      const double dt_ms = 1e3 * std::stod(c[3]);
+      p.label = fmt::format("{} {}, dt {:g} ms", c[0].substr(2), c[1], dt_ms);
+      to(c, p);
+    }
+  };
+  read("cantilever", [&](const std::vector<std::string>& c, AccuracyPoint& p) {
+    const bool is_static = c[4].rfind("static", 0) == 0;
     p.problem = is_static ? "cantilever_static" : "cantilever_dynamic";
-    p.sweep = fem ? "Bullet FEM (peer)" : "Bullet soft body (peer)";
-    p.label = fmt::format("{} h {} mm{}", c[0].substr(2), c[1].substr(1), std::stod(c[2]) != 1e-3 ? fmt::format(", dt {:g} ms", 1e3 * std::stod(c[2])) : "");
-    p.value = std::stod(c[4]);
-    p.ok = std::isfinite(p.value);
     p.reference = is_static ? kStaticReference : kF1Reference;
-    p.error = std::abs(std::stod(c[5]));
-    p.ms_per_tick = std::stod(c[6]);
-    p.s_per_sim_s = std::stod(c[8]);
-    p.failure = c[9];
-    (is_static ? st : dy).push_back(p);
-  }
+    p.label = fmt::format("{} h {} mm{}", c[0].substr(2), c[1].substr(1),
+                          std::stod(c[3]) != 1e-3 ? fmt::format(", dt {:g} ms", 1e3 * std::stod(c[3])) : "");
+    (is_static ? pp.cantilever_static : pp.cantilever_dynamic).push_back(p);
+  });
+  read("block", [&](const std::vector<std::string>& c, AccuracyPoint& p) {
+    p.problem = "block_compression";
+    p.reference = kBlockForce;
+    p.time_error = std::stod(c[11]);  // (reused column: C3D4 force on this mesh, as for Stroma)
+    pp.block.push_back(p);
+  });
+  read("indentation", [&](const std::vector<std::string>&, AccuracyPoint& p) {
+    p.problem = "indentation";
+    p.reference = kIndentForce;
+    pp.indentation.push_back(p);
+  });
+  return pp;
 }
 
+/// Pareto-optimal: no other point is at least as fast and at least as accurate, and better in
+/// one. Errors within 1e-4 of each other (relative) count as equal: solver round-off in the
+/// 6th digit must not make a slower point "more accurate".
 void mark_pareto(std::vector<AccuracyPoint>& pts) {
   auto no_worse = [](double a, double b) { return a <= b * (1 + 1e-4) + 1e-12; };
   for (AccuracyPoint& p : pts) {
@@ -410,7 +440,7 @@ void write_csv(const std::string& path, const std::vector<AccuracyPoint>& pts) {
   std::ofstream f(path);
   f << "problem,sweep,label,nodes,value,reference,error,ms_per_tick,s_per_sim_s,pareto,ok,time_error\n";
   for (const auto& p : pts)
-    f << fmt::format("{},{},\"{}\",{},{:.8g},{:.8g},{:.6g},{:.6g},{:.6g},{},{},{:.6g}\n", p.problem, p.sweep, p.label,
+    f << fmt::format("{},\"{}\",\"{}\",{},{:.8g},{:.8g},{:.6g},{:.6g},{:.6g},{},{},{:.6g}\n", p.problem, p.sweep, p.label,
                      p.nodes, p.value, p.reference, p.error, p.ms_per_tick, p.s_per_sim_s, p.pareto ? 1 : 0,
                      p.ok ? 1 : 0, p.time_error);
 }
@@ -426,9 +456,11 @@ void plot(const std::string& csv, const std::string& png, const std::string& tit
   f << fmt::format("set title \"{}\"\nset xlabel \"{}\"\nset ylabel 'relative error against the reference'\n", title, xlabel);
   f << "set format y '%.0e'\n";
   f << "plot ";
+  // gnuplot splits quoted fields right but its strcol() stops at a comma even inside quotes:
+  // a sweep is matched by its name up to the first comma.
   for (size_t i = 0; i < sweeps.size(); ++i)
     f << fmt::format("'{}' skip 1 using (strcol(2) eq '{}' && $11 == 1 ? $9 : NaN):7 with points pt {} ps 1.4 title '{}', \\\n",
-                     csv, sweeps[i], 5 + 2 * static_cast<int>(i), sweeps[i]);
+                     csv, sweeps[i].substr(0, sweeps[i].find(',')), 5 + 2 * static_cast<int>(i), sweeps[i]);
   f << fmt::format("'< (head -1 {0}; grep \",1,1,[^,]*$\" {0} | sort -t, -k9 -g)' skip 1 using 9:7 with lines lw 2 lc rgb '#444444' title 'Pareto front', \\\n", csv);
   f << fmt::format("'{}' skip 1 using ($11 == 1 ? $9 : NaN):7:3 with labels font ',7' offset 0.6,0.4 left notitle\n", csv);
   f.close();
@@ -467,6 +499,9 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
 
   auto wanted = [&](const char* problem) { return o.only.empty() || o.only == problem; };
   std::vector<AccuracyPoint> all;
+  // The peers run first: their points join each problem's table, CSV and plot.
+  const PeerPoints peers = o.peer_program.empty() ? PeerPoints{} : run_peers(o);
+  const std::string to_answer = "wall time to the answer (s): static solve; peers: the run to rest";
 
   // Sphere indentation: mesh grading at the contact, penalty stiffness, element model.
   if (wanted("indentation")) {
@@ -481,16 +516,20 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     }
     in.push_back(run_indentation(src, o.out_dir, {2e-4, 1e9, false, "element model (first cell 0.2 mm)"}, runs));
     note(in.back());
+    in.insert(in.end(), peers.indentation.begin(), peers.indentation.end());
     mark_pareto(in);
     const std::string csv = (fs::path(o.out_dir) / "indentation.csv").string();
     write_csv(csv, in);
     plot(csv, (fs::path(o.out_dir) / "indentation.png").string(),
-         "Sphere indentation (refs/e): force at 1 mm vs 0.019604 N", "static solve wall time (s)",
-         {"mesh grading (linear, penalty 1e9)", "penalty stiffness (first cell 0.2 mm)", "element model (first cell 0.2 mm)"});
-    fmt::print("\n### indentation\n\n| sweep | configuration | nodes | force (N) | error | solve s | Pareto |\n|---|---|---|---|---|---|---|\n");
+         "Sphere indentation (refs/e): force at 1 mm vs 0.019604 N", to_answer,
+         {"mesh grading (linear, penalty 1e9)", "penalty stiffness (first cell 0.2 mm)", "element model (first cell 0.2 mm)",
+          "Bullet FEM (peer)"});
+    fmt::print("\n### indentation\n\n| sweep | configuration | nodes | force (N) | error | s to answer | Pareto |\n|---|---|---|---|---|---|---|\n");
     for (const auto& p : in)
-      fmt::print("| {} | {} | {} | {:.6f} | {:+.2f} % | {:.3f} | {} |\n", p.sweep, p.label, p.nodes, p.value,
-                 100 * (p.value / p.reference - 1), p.s_per_sim_s, p.pareto ? "●" : "");
+      fmt::print("| {} | {} | {} | {} | {} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
+                 p.ok ? fmt::format("{:.6f}", p.value) : "—",
+                 p.ok ? fmt::format("{:+.2f} %", 100 * (p.value / p.reference - 1)) : "failed: " + p.failure,
+                 p.s_per_sim_s, p.pareto ? "●" : "");
     all.insert(all.end(), in.begin(), in.end());
     if (!o.only.empty()) return all;
   }
@@ -510,7 +549,6 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
       note(st.back());
     }
   }
-  mark_pareto(st);
 
   // Bonded block, nu = 0.49.
   std::vector<AccuracyPoint> bl;
@@ -522,6 +560,7 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
         bl.push_back(run_block(src, {mesh, cholmod ? "mesh x element (CHOLMOD)" : "mesh x element (CG 1e-8)", linear, cholmod}, runs));
         note(bl.back());
       }
+  bl.insert(bl.end(), peers.block.begin(), peers.block.end());
   mark_pareto(bl);
 
   // Dynamic: first frequency.
@@ -564,6 +603,7 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     c.pc = Preconditioner::Jacobi;
     c.tolerance = 1e-10;
     c.cap = cap;
+    c.substep_on_cap = false;
     c.sweep = "CG iteration cap (Jacobi)";
     c.label = fmt::format("Jacobi cap {}", cap);
     dy.push_back(run_dynamic(src, c, runs, T));
@@ -602,25 +642,23 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     dy.push_back(run_dynamic(src, c, runs, T));
     note(dy.back());
   }
+  st.insert(st.end(), peers.cantilever_static.begin(), peers.cantilever_static.end());
+  dy.insert(dy.end(), peers.cantilever_dynamic.begin(), peers.cantilever_dynamic.end());
+  mark_pareto(st);
   mark_pareto(dy);
 
-  if (!o.peer_program.empty()) {
-    run_peers(o, st, dy);
-    mark_pareto(st);
-    mark_pareto(dy);
-  }
   const std::string bl_csv = (fs::path(o.out_dir) / "block_compression.csv").string();
   write_csv(bl_csv, bl);
   plot(bl_csv, (fs::path(o.out_dir) / "block_compression.png").string(),
-       "Bonded block, nu 0.49, pressed 1 % (refs/c): top force vs 0.3049 N", "static solve wall time (s)",
-       {"mesh x element (CHOLMOD)", "mesh x element (CG 1e-8)"});
+       "Bonded block, nu 0.49, pressed 1 % (refs/c): top force vs 0.3049 N", to_answer,
+       {"mesh x element (CHOLMOD)", "mesh x element (CG 1e-8)", "Bullet FEM (peer)"});
   const std::string st_csv = (fs::path(o.out_dir) / "cantilever_static.csv").string();
   const std::string dy_csv = (fs::path(o.out_dir) / "cantilever_dynamic.csv").string();
   write_csv(st_csv, st);
   write_csv(dy_csv, dy);
   plot(st_csv, (fs::path(o.out_dir) / "cantilever_static.png").string(),
        "Cantilever (refs/a): static tip deflection vs -1.4735e-3 m",
-       "wall time to the answer (s): static solve; peers: the run to rest",
+       to_answer,
        {"mesh x element (CHOLMOD)", "CG tolerance (warped Cholesky PCG)", "Bullet FEM (peer)", "Bullet soft body (peer)"});
   plot(dy_csv, (fs::path(o.out_dir) / "cantilever_dynamic.png").string(),
        "Cantilever (refs/d): first frequency from the released tip vs 16.100 Hz",
@@ -632,10 +670,11 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
   fmt::print("\n### cantilever_dynamic ({})\n\n", dy_csv);
   print_table(dy, true);
   fmt::print("\n### block_compression ({})\n\n", bl_csv);
-  fmt::print("| configuration | nodes | top force (N) | error | C3D4 same mesh (N) | engine vs C3D4 | solve s | Pareto |\n|---|---|---|---|---|---|---|---|\n");
+  fmt::print("| sweep | configuration | nodes | top force (N) | error | C3D4 same mesh (N) | engine vs C3D4 | s to answer | Pareto |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& p : bl)
-    fmt::print("| {} | {} | {:.5f} | {:.2f} % | {:.5f} | {:+.3f} % | {:.3f} | {} |\n", p.label, p.nodes, p.value,
-               100 * p.error, p.time_error, p.time_error > 0 ? 100 * (p.value / p.time_error - 1) : 0.0,
+    fmt::print("| {} | {} | {} | {} | {} | {:.5f} | {} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
+               p.ok ? fmt::format("{:.5f}", p.value) : "—", p.ok ? fmt::format("{:.2f} %", 100 * p.error) : "failed: " + p.failure,
+               p.time_error, p.ok && p.time_error > 0 ? fmt::format("{:+.3f} %", 100 * (p.value / p.time_error - 1)) : "",
                p.s_per_sim_s, p.pareto ? "●" : "");
   all.insert(all.end(), st.begin(), st.end());
   all.insert(all.end(), bl.begin(), bl.end());
