@@ -190,7 +190,8 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
   const SolverSpec& s = spec.solver;
   model->stepper = StepperSettings{s.integrator,   s.linear_solver, s.preconditioner,
                                    s.max_iterations, s.tolerance,   s.warm_start,
-                                   s.static_tolerance, s.static_max_newton};
+                                   s.static_tolerance, s.static_max_newton,
+                                   s.newton_iterations, s.newton_tolerance};
 
   std::vector<PreparedMesh> meshes;
   meshes.reserve(spec.bodies.size());

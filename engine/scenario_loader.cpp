@@ -486,7 +486,8 @@ const Choices<bool> kCapPolicies = {{"substep", true}, {"continue", false}};
 
 SolverSpec parse_solver(const Field& f) {
   const MapReader m = f.map({"integrator", "linear_solver", "preconditioner", "max_iterations",
-                             "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap"});
+                             "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap",
+                             "newton_iterations", "newton_tolerance"});
   SolverSpec s;
   m.read("integrator", s.integrator, kIntegrators);
   m.read("linear_solver", s.linear_solver, kLinearSolvers);
@@ -497,6 +498,8 @@ SolverSpec parse_solver(const Field& f) {
   m.read("static_tolerance", s.static_tolerance, greater_than(0));
   m.read("static_max_newton", s.static_max_newton, greater_than(0));
   m.read("on_cg_cap", s.substep_on_cg_cap, kCapPolicies);
+  m.read("newton_iterations", s.newton_iterations, greater_than(0));
+  m.read("newton_tolerance", s.newton_tolerance, open_interval(0, 1));
   return s;
 }
 

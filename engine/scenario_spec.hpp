@@ -38,6 +38,12 @@ struct SolverSpec {
   /// large dt) can add energy. `on_cg_cap: continue` keeps the capped step (the cap then bounds
   /// the tick's cost, as benchmarks of the cap itself need).
   bool substep_on_cg_cap = true;
+  /// Implicit Euler: Newton iterations per tick (1: the linearised step alone, the default).
+  /// More re-linearise at the iterate, with a backtracking line search on the residual, until
+  /// ‖residual‖ ≤ newton_tolerance × the step's scale: for large steps on soft, near-
+  /// incompressible or badly shaped meshes, where one linearisation can add energy.
+  int newton_iterations = 1;
+  double newton_tolerance = 1.0e-3;
 };
 
 /// Which per-element quantity damage thresholds apply to.

@@ -91,6 +91,11 @@ bool step(TimeStepper& stepper, TissueState& t, TickWorkspace& w, double h, Tick
   // solve shows up as NaN/Inf or as an absurd displacement below.
   if (!std::isfinite(r.solve.relative_residual) || !all_finite(t.dv)) return false;
   if (cap_fails && !r.solve.converged) return false;
+  if (stepper.settings().newton_iterations > 1) {
+    StageTimer st(r, Stage::Solve);
+    r.newton = stepper.newton(t, h);
+    if (!all_finite(t.dv)) return false;
+  }
   {
     StageTimer st(r, Stage::Integrate);
     stepper.integrate(t, h);

@@ -47,6 +47,7 @@ inline constexpr int kMaxContactReleases = 2;
 struct TickReport {
   TickStatus status = TickStatus::Ok;
   SolveStats solve;                         ///< linear solver iterations and residual
+  NewtonStats newton;                       ///< Newton iterations (solver.newton_iterations > 1)
   double elastic_energy = 0;                ///< at the state the tick started from
   std::array<int64_t, kStageCount> stage_ns{};  ///< wall time per stage
   std::array<bool, kStageCount> stage_ran{};    ///< false: skipped (nothing to do)

@@ -17,6 +17,8 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
   rhs_.assign(n3, 0.0);
   tmp_.assign(n3, 0.0);
   rot_.assign(9 * m_.elements.size(), 0.0);
+  if (cfg_.newton_iterations > 1 && cfg_.integrator == Integrator::ImplicitEuler)
+    for (auto* v : {&newton_x_, &newton_v_, &newton_r_, &newton_trial_r_, &newton_delta_, &newton_dv_}) v->assign(n3, 0.0);
   A_.assign(9 * static_cast<size_t>(m_.pattern.nnzb()), 0.0);
   const bool needs_direct = cfg_.linear_solver == LinearSolverKind::Cholmod &&
                             cfg_.integrator != Integrator::SymplecticEuler;
@@ -221,6 +223,147 @@ SolveStats TimeStepper::solve(TissueState& s) {
   }
   return cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner,
                    cfg_.max_iterations, cfg_.tolerance, warp_op_.apply ? &warp_op_ : nullptr);
+}
+
+double TimeStepper::implicit_residual(const TissueState& s, double h, const double* dv, bool matrix, double* R) {
+  const int32_t n = m_.num_nodes;
+  double* xk = newton_x_.data();
+  double* vk = newton_v_.data();
+  for (int32_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const int32_t d = 3 * i + k;
+      const bool fixed = (m_.constrained[i] >> k) & 1;
+      vk[d] = fixed ? 0.0 : s.v[d] + dv[d];
+      xk[d] = fixed ? s.x[d] : s.x[d] + h * vk[d];
+    }
+  std::fill(force_.begin(), force_.end(), 0.0);
+  ElasticPass p;
+  p.x = xk;
+  p.force = force_.data();
+  p.damage = damage_;
+  if (matrix) {
+    std::fill(A_.begin(), A_.end(), 0.0);
+    p.kvals = A_.data();
+    p.k_beta = h;
+    p.k_const = h * h;
+    p.rotations = rot_.data();
+  }
+  if (any_beta_) {  // hβK(x)v: the stiffness damping at the iterate
+    std::fill(kv_.begin(), kv_.end(), 0.0);
+    p.v = vk;
+    p.kv = kv_.data();
+    p.kv_beta = h;
+    p.kv_const = 0.0;
+  }
+  elastic_pass(m_, p);
+  // Contacts, linearised at the step's start as in assemble(): force f_c − (hK_c + C_c)v at the
+  // iterate, so h·that = h f_c − (h²K_c + hC_c)v; tmp_ collects the (h²K_c + hC_c)v part.
+  std::fill(tmp_.begin(), tmp_.end(), 0.0);
+  for (int c = 0; c < n_springs_; ++c) {
+    const ContactSpring& sp = springs_[c];
+    double vc[3] = {0, 0, 0};
+    for (int a = 0; a < 3; ++a)
+      for (int k = 0; k < 3; ++k) vc[k] += sp.w[a] * vk[3 * sp.node[a] + k];
+    double lin[3];
+    for (int k = 0; k < 3; ++k)
+      lin[k] = (h * h * sp.K[3 * k] + h * sp.C[3 * k]) * vc[0] + (h * h * sp.K[3 * k + 1] + h * sp.C[3 * k + 1]) * vc[1] +
+               (h * h * sp.K[3 * k + 2] + h * sp.C[3 * k + 2]) * vc[2];
+    for (int a = 0; a < 3; ++a)
+      for (int k = 0; k < 3; ++k) {
+        force_[3 * sp.node[a] + k] += sp.w[a] * sp.force[k];
+        tmp_[3 * sp.node[a] + k] += sp.w[a] * lin[k];
+      }
+    if (matrix)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          const double ww = sp.w[a] * sp.w[b];
+          double* B = A_.data() + 9 * sp.slot[3 * a + b];
+          for (int k = 0; k < 9; ++k) B[k] += ww * (h * h * sp.K[k] + h * sp.C[k]);
+        }
+  }
+  const double* fe = m_.f_ext.data();
+  double r2 = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    const double mi = mass(i), dm = mi - m_.mass[i];
+    if (matrix) {
+      double* D = A_.data() + 9 * m_.pattern.diag[i];
+      const double md = (1.0 + h * m_.alpha[i]) * mi;
+      D[0] += md;
+      D[4] += md;
+      D[8] += md;
+    }
+    for (int k = 0; k < 3; ++k) {
+      const int32_t d = 3 * i + k;
+      if (dof_constrained(m_, i, k)) {
+        R[d] = 0.0;
+        continue;
+      }
+      R[d] = h * (fe[d] + dm * m_.gravity[k] + force_[d]) - (1.0 + h * m_.alpha[i]) * mi * vk[d] + mi * s.v[d] -
+             (any_beta_ ? kv_[d] : 0.0) - tmp_[d];
+      r2 += R[d] * R[d];
+    }
+  }
+  if (matrix) {
+    project_constraints(A_.data(), 1.0);
+    if (warp_op_.apply) update_node_rotations();
+  }
+  return std::sqrt(r2);
+}
+
+NewtonStats TimeStepper::newton(TissueState& s, double h) {
+  NewtonStats st;
+  if (cfg_.newton_iterations <= 1 || cfg_.integrator != Integrator::ImplicitEuler) return st;
+  const size_t n3 = rhs_.size();
+  double* dv = s.dv.data();
+  // Scale: the largest of the linearised system's right-hand side, the step's momentum change
+  // M·Δv and the impulses h·f of the elastic and external forces at the start (at rest under a
+  // balanced load the first two are ~0; the residual is then measured against the load).
+  // force_ still holds assemble()'s elastic + contact forces.
+  double b2 = 0, m2 = 0, f2 = 0, e2 = 0;
+  for (size_t d = 0; d < n3; ++d) {
+    b2 += rhs_[d] * rhs_[d];
+    const double md = mass(static_cast<int32_t>(d / 3)) * dv[d];
+    m2 += md * md;
+    f2 += force_[d] * force_[d];
+    e2 += m_.f_ext[d] * m_.f_ext[d];
+  }
+  const double scale = std::max({std::sqrt(b2), std::sqrt(m2), h * std::sqrt(f2), h * std::sqrt(e2), 1e-300});
+  // The first check is a forces-only pass: most ticks end here (the linearised step is good).
+  double rn = implicit_residual(s, h, dv, false, newton_r_.data());
+  bool a_current = false;  // A_ assembled at the current iterate?
+  while (st.iterations < cfg_.newton_iterations && rn > cfg_.newton_tolerance * scale && std::isfinite(rn)) {
+    if (!a_current) rn = implicit_residual(s, h, dv, true, newton_r_.data());
+    a_current = true;  // (line-search trials assemble at the point they try)
+    std::fill(newton_delta_.begin(), newton_delta_.end(), 0.0);
+    if (cfg_.linear_solver == LinearSolverKind::Cholmod) {
+      if (!cholmod_->factor(A_.data())) break;
+      cholmod_->solve(newton_r_.data(), newton_delta_.data());
+    } else {
+      const SolveStats cs = cg_.solve(m_.pattern, A_.data(), newton_r_.data(), newton_delta_.data(), cfg_.preconditioner,
+                                      cfg_.max_iterations, cfg_.tolerance, warp_op_.apply ? &warp_op_ : nullptr);
+      st.linear_iterations += cs.iterations;
+    }
+    ++st.iterations;
+    // Backtracking: keep the longest of Δ, Δ/2, … Δ/16 that lowers ‖R‖ (the tangent is an
+    // approximation — PSD-projected, damping frozen — so the full step may overshoot).
+    bool accepted = false;
+    double t = 1.0;
+    for (int ls = 0; ls < 5 && !accepted; ++ls, t *= 0.5) {
+      for (size_t d = 0; d < n3; ++d) newton_dv_[d] = dv[d] + t * newton_delta_[d];
+      const double r_try = implicit_residual(s, h, newton_dv_.data(), true, newton_trial_r_.data());
+      if (std::isfinite(r_try) && r_try < rn) {
+        accepted = true;
+        rn = r_try;
+        std::copy(newton_dv_.begin(), newton_dv_.end(), dv);
+        newton_r_.swap(newton_trial_r_);
+      } else {
+        ++st.line_search_halvings;
+      }
+    }
+    if (!accepted) break;
+  }
+  st.relative_residual = rn / scale;
+  return st;
 }
 
 void TimeStepper::integrate(TissueState& s, double h) {

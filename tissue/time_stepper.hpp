@@ -32,6 +32,19 @@ struct StepperSettings {
   WarmStart warm_start = WarmStart::Extrapolate;
   double static_tolerance = 1e-8;
   int static_max_newton = 50;
+  /// Implicit Euler: Newton iterations per step (1: the linearised step alone). Further
+  /// iterations re-linearise at the iterate and are kept only if they lower the residual
+  /// (backtracking line search); they stop once ‖residual‖ ≤ newton_tolerance × the step's scale.
+  int newton_iterations = 1;
+  double newton_tolerance = 1e-3;
+};
+
+/// What the Newton iterations after the linearised step did (TimeStepper::newton).
+struct NewtonStats {
+  int iterations = 1;              ///< linear solves in the step, the first (linearised) included
+  int linear_iterations = 0;       ///< CG iterations of the extra solves
+  double relative_residual = 0;    ///< ‖R(Δv)‖ / scale at exit (0: not measured, iterations = 1)
+  int line_search_halvings = 0;    ///< step halvings the line search needed, summed
 };
 
 /// Result of a static solve.
@@ -70,6 +83,11 @@ class TimeStepper {
   double assemble(const TissueState& s, double h);
   /// Stage "solve": Δv (implicit Euler) into s.dv. No-op for symplectic Euler.
   SolveStats solve(TissueState& s);
+  /// Newton iterations on the implicit-Euler equations after solve() (StepperSettings::
+  /// newton_iterations > 1; no-op otherwise): R(Δv) = h(f_ext + f(x) + f_c − αMv − βK(x)v)
+  /// − M Δv with v = v₀ + Δv and x = x₀ + h v (contacts as linearised at x₀, the same springs).
+  /// Refines s.dv in place; s.x and s.v are not touched (integrate() applies the result).
+  NewtonStats newton(TissueState& s, double h);
   /// Stage "integrate": update v and x; constrained nodes keep v = 0.
   void integrate(TissueState& s, double h);
 
@@ -97,6 +115,9 @@ class TimeStepper {
 
  private:
   void project_constraints(double* A, double diag_scale);
+  /// R(dv) of the implicit-Euler equations into R (see newton()); with `matrix`, also A at the
+  /// iterate (A_, its constraints projected; node rotations updated). Returns ‖R‖.
+  double implicit_residual(const TissueState& s, double h, const double* dv, bool matrix, double* R);
   /// Factors A₀ = (1 + h_mass·α)·M + (k_beta·β + k_const)·K(rest) for the warped
   /// preconditioner (h_mass < 0: no mass term, for static solves).
   void build_rest_factor(double h_mass, double k_beta, double k_const);
@@ -112,6 +133,7 @@ class TimeStepper {
   const ContactSpring* springs_ = nullptr;
   int n_springs_ = 0;
   std::vector<double> force_, kv_, rhs_, A_, rot_, tmp_;
+  std::vector<double> newton_x_, newton_v_, newton_r_, newton_trial_r_, newton_delta_, newton_dv_;  // Newton scratch
   CgSolver cg_;
   std::unique_ptr<CholmodSolver> cholmod_;
   // Warped rest-pose Cholesky preconditioner (only when selected).

@@ -361,6 +361,8 @@ std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
       cases.push_back(std::move(c));
     }
 
+  if (o.newton_iterations > 0)
+    for (CaseSetup& c : cases) c.spec.solver.newton_iterations = o.newton_iterations;
   if (!o.only.empty())
     std::erase_if(cases, [&](const CaseSetup& c) { return c.name.find(o.only) == std::string::npos; });
   if (o.progress && !o.markdown)

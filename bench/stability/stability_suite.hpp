@@ -40,6 +40,7 @@ struct StabilityOptions {
   std::string csv;           ///< write every result here ("" = none)
   bool markdown = false;     ///< print the table in Markdown
   std::string only;          ///< run only the cases whose name contains this ("" = all)
+  int newton_iterations = 0; ///< > 0: every case's solver.newton_iterations (0 = the scenarios')
   bool progress = true;
 };
 

@@ -196,6 +196,7 @@ int main(int argc, char** argv) {
               "Writes <problem>.csv and <problem>.png per problem into --out and prints Markdown tables.");
   stab->add_flag("--quick", sto.quick, "A subset that runs in under a minute (what ctest runs)");
   stab->add_option("--only", sto.only, "Run only the cases whose name contains this text (e.g. dropped)");
+  stab->add_option("--newton", sto.newton_iterations, "Run every case with this many Newton iterations per tick (solver.newton_iterations)")->check(CLI::Range(1, 50));
   stab->add_option("--csv", sto.csv, "Write every case's figures here");
   stab->add_flag("--markdown", sto.markdown, "Print the table as Markdown (docs/STABILITY.md)");
   stab->add_option("--source-dir", sto.source_dir, "Repository with scenarios/ (default: where stroma was built from)")->check(CLI::ExistingDirectory);
