@@ -346,7 +346,13 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
       model->collision_triangles.push_back({t[0], t[1], t[2]});
       std::array<int32_t, 9> sl;
         for (int a = 0; a < 3; ++a)
-          for (int c = 0; c < 3; ++c) sl[3 * a + c] = model->fem.pattern.find(t[a], t[c]);
+          for (int c = 0; c < 3; ++c) {
+            // A pair missing from the pattern joins two nodes of a fully fixed body (whose
+            // elements are not in it): its row is projected to identity, so its diagonal block
+            // is a harmless place for what contact would add there.
+            const int32_t slot = model->fem.pattern.find(t[a], t[c]);
+            sl[3 * a + c] = slot >= 0 ? slot : model->fem.pattern.diag[t[a]];
+          }
         model->collision_slots.push_back(sl);
         double e = 0;
         for (int a = 0; a < 3; ++a) {

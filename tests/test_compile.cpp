@@ -117,3 +117,21 @@ TEST(Compile, NodalLoadIsSplitOverTheSelection) {
   EXPECT_NEAR(fy, -2.0, 1e-12);
   EXPECT_GT(loaded, 4);
 }
+
+// A fully fixed body costs only its surface: its elements stay out of the matrix pattern (each of
+// its nodes keeps just its diagonal block), so CG products do not walk blocks that can only hold
+// zeros. The moving body's pattern is what it would be alone.
+TEST(Compile, FullyFixedBodyKeepsOnlyDiagonalBlocks) {
+  const ScenarioSpec both = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/drop_on_block.yaml");
+  ScenarioSpec bar_only = both;
+  bar_only.bodies.erase(bar_only.bodies.begin());
+  bar_only.probes.clear();
+  bar_only.body_contact.reset();
+  const auto m = compile_model(both);
+  const auto b = compile_model(bar_only);
+  const BodyRange& block = m->fem.bodies[0];
+  const int32_t block_nodes = block.node_end - block.node_begin;
+  for (int32_t i = block.node_begin; i < block.node_end; ++i)
+    ASSERT_EQ(m->fem.pattern.row_ptr[i + 1] - m->fem.pattern.row_ptr[i], 1) << "block node " << i;
+  EXPECT_EQ(m->fem.pattern.nnzb(), b->fem.pattern.nnzb() + block_nodes);
+}

@@ -90,7 +90,26 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
     if (m.constrained[i]) m.constrained_nodes.push_back(i);
     m.inv_mass[i] = m.mass[i] <= 0 ? 0.0 : 1.0 / m.mass[i];
   }
-  m.pattern = build_bsr_pattern(nn, all_tets, m.slots);
+  // Elements of fully fixed bodies stay out of the matrix pattern: the elastic pass skips them
+  // and their nodes' rows are the constraint projection's identity, so their blocks would only
+  // ever hold zeros — which every CG product would still walk (a fixed 1,205-node block under a
+  // 191-node bar: ~85 % of each SpMV). Their slots point at their own nodes' diagonal blocks.
+  std::vector<Tet> moving_tets;
+  for (const ElementRange& r : m.ranges)
+    if (!r.fixed) moving_tets.insert(moving_tets.end(), all_tets.begin() + r.begin, all_tets.begin() + r.end);
+  std::vector<ElementSlots> moving_slots;
+  m.pattern = build_bsr_pattern(nn, moving_tets, moving_slots);
+  m.slots.resize(all_tets.size());
+  size_t next = 0;
+  for (const ElementRange& r : m.ranges)
+    for (int32_t e = r.begin; e < r.end; ++e) {
+      if (!r.fixed) {
+        m.slots[e] = moving_slots[next++];
+        continue;
+      }
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b) m.slots[e][4 * a + b] = m.pattern.diag[all_tets[e][a]];
+    }
   for (int32_t i = 0; i < nn; ++i)
     for (int32_t s = m.pattern.row_ptr[i]; s < m.pattern.row_ptr[i + 1]; ++s) {
       const int32_t j = m.pattern.col[s];
