@@ -463,7 +463,9 @@ void plot(const std::string& csv, const std::string& png, const std::string& tit
   for (size_t i = 0; i < sweeps.size(); ++i)
     f << fmt::format("'{}' skip 1 using (strcol(2) eq '{}' && $11 == 1 ? $9 : NaN):7 with points pt {} ps 1.4 title '{}', \\\n",
                      csv, sweeps[i].substr(0, sweeps[i].find(',')), 5 + 2 * static_cast<int>(i), sweeps[i]);
-  f << fmt::format("'< (head -1 {0}; grep \",1,1,[^,]*$\" {0} | sort -t, -k9 -g)' skip 1 using 9:7 with lines lw 2 lc rgb '#444444' title 'Pareto front', \\\n", csv);
+  // The front in time order: gnuplot sorts it (smooth unique); a shell sort on comma fields
+  // would split the quoted labels.
+  f << fmt::format("'< (head -1 {0}; grep \",1,1,[^,]*$\" {0})' skip 1 using 9:7 smooth unique with lines lw 2 lc rgb '#444444' title 'Pareto front', \\\n", csv);
   f << fmt::format("'{}' skip 1 using ($11 == 1 ? $9 : NaN):7:3 with labels font ',7' offset 0.6,0.4 left notitle\n", csv);
   f.close();
   const int rc = std::system(fmt::format("gnuplot '{}' 2>/dev/null", gp).c_str());
