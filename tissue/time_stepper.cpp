@@ -225,7 +225,8 @@ SolveStats TimeStepper::solve(TissueState& s) {
                    cfg_.max_iterations, cfg_.tolerance, warp_op_.apply ? &warp_op_ : nullptr);
 }
 
-double TimeStepper::implicit_residual(const TissueState& s, double h, const double* dv, bool matrix, double* R) {
+double TimeStepper::implicit_residual(const TissueState& s, double h, const double* dv, bool matrix, double* R,
+                                      double* merit) {
   const int32_t n = m_.num_nodes;
   double* xk = newton_x_.data();
   double* vk = newton_v_.data();
@@ -255,7 +256,8 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
     p.kv_beta = h;
     p.kv_const = 0.0;
   }
-  elastic_pass(m_, p);
+  const double elastic_energy = elastic_pass(m_, p);
+  double contact_merit = 0;  // the contact terms of the merit (see below)
   // Contacts, linearised at the step's start as in assemble(): force f_c − (hK_c + C_c)v at the
   // iterate, so h·that = h f_c − (h²K_c + hC_c)v; tmp_ collects the (h²K_c + hC_c)v part.
   std::fill(tmp_.begin(), tmp_.end(), 0.0);
@@ -273,6 +275,7 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
         force_[3 * sp.node[a] + k] += sp.w[a] * sp.force[k];
         tmp_[3 * sp.node[a] + k] += sp.w[a] * lin[k];
       }
+    for (int k = 0; k < 3; ++k) contact_merit += -h * sp.force[k] * vc[k] + 0.5 * vc[k] * lin[k];
     if (matrix)
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) {
@@ -282,7 +285,7 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
         }
   }
   const double* fe = m_.f_ext.data();
-  double r2 = 0;
+  double r2 = 0, phi = elastic_energy + contact_merit;
   for (int32_t i = 0; i < n; ++i) {
     const double mi = mass(i), dm = mi - m_.mass[i];
     if (matrix) {
@@ -298,15 +301,20 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
         R[d] = 0.0;
         continue;
       }
-      R[d] = h * (fe[d] + dm * m_.gravity[k] + force_[d]) - (1.0 + h * m_.alpha[i]) * mi * vk[d] + mi * s.v[d] -
-             (any_beta_ ? kv_[d] : 0.0) - tmp_[d];
+      const double kv = any_beta_ ? kv_[d] : 0.0;
+      R[d] = h * (fe[d] + dm * m_.gravity[k] + force_[d]) - (1.0 + h * m_.alpha[i]) * mi * vk[d] + mi * s.v[d] - kv -
+             tmp_[d];
       r2 += R[d] * R[d];
+      const double dvd = vk[d] - s.v[d];
+      phi += 0.5 * mi * dvd * dvd - h * (fe[d] + dm * m_.gravity[k]) * vk[d] + 0.5 * h * m_.alpha[i] * mi * vk[d] * vk[d] +
+             0.5 * kv * vk[d];
     }
   }
   if (matrix) {
     project_constraints(A_.data(), 1.0);
     if (warp_op_.apply) update_node_rotations();
   }
+  if (merit) *merit = phi;
   return std::sqrt(r2);
 }
 
@@ -329,10 +337,23 @@ NewtonStats TimeStepper::newton(TissueState& s, double h) {
   }
   const double scale = std::max({std::sqrt(b2), std::sqrt(m2), h * std::sqrt(f2), h * std::sqrt(e2), 1e-300});
   // The first check is a forces-only pass: most ticks end here (the linearised step is good).
-  double rn = implicit_residual(s, h, dv, false, newton_r_.data());
+  double phi = 0;
+  double rn = implicit_residual(s, h, dv, false, newton_r_.data(), &phi);
+  if (rn > cfg_.newton_tolerance * scale && std::isfinite(rn)) {
+    // The linearised step may have gone uphill in the incremental potential (large steps on
+    // soft, inverted or near-incompressible elements): then shorten it towards Δv = 0 first.
+    double phi0 = 0;
+    std::fill(newton_dv_.begin(), newton_dv_.end(), 0.0);
+    implicit_residual(s, h, newton_dv_.data(), false, newton_trial_r_.data(), &phi0);
+    for (int ls = 0; ls < 5 && !(phi <= phi0) && std::isfinite(phi0); ++ls) {
+      ++st.line_search_halvings;
+      for (size_t d = 0; d < n3; ++d) dv[d] *= 0.5;
+      rn = implicit_residual(s, h, dv, false, newton_r_.data(), &phi);
+    }
+  }
   bool a_current = false;  // A_ assembled at the current iterate?
   while (st.iterations < cfg_.newton_iterations && rn > cfg_.newton_tolerance * scale && std::isfinite(rn)) {
-    if (!a_current) rn = implicit_residual(s, h, dv, true, newton_r_.data());
+    if (!a_current) rn = implicit_residual(s, h, dv, true, newton_r_.data(), &phi);
     a_current = true;  // (line-search trials assemble at the point they try)
     std::fill(newton_delta_.begin(), newton_delta_.end(), 0.0);
     if (cfg_.linear_solver == LinearSolverKind::Cholmod) {
@@ -344,16 +365,27 @@ NewtonStats TimeStepper::newton(TissueState& s, double h) {
       st.linear_iterations += cs.iterations;
     }
     ++st.iterations;
-    // Backtracking: keep the longest of Δ, Δ/2, … Δ/16 that lowers ‖R‖ (the tangent is an
-    // approximation — PSD-projected, damping frozen — so the full step may overshoot).
+    // Backtracking on the incremental potential Φ (Armijo): keep the longest of Δ, Δ/2, … Δ/16
+    // that lowers Φ enough — Δ solves with a PSD-projected tangent, a descent direction of Φ,
+    // so descending Φ rather than ‖R‖ never trades a smaller residual for an energy gain.
+    // Where Φ's decrease is lost in round-off (near the solution), a smaller ‖R‖ decides.
+    double slope = 0;  // −∇Φ·Δ = R·Δ
+    for (size_t d = 0; d < n3; ++d) slope += newton_r_[d] * newton_delta_[d];
+    const bool descent = slope > 0;
+    const double phi_noise = 1e-12 * (std::abs(phi) + scale * scale);
     bool accepted = false;
     double t = 1.0;
     for (int ls = 0; ls < 5 && !accepted; ++ls, t *= 0.5) {
       for (size_t d = 0; d < n3; ++d) newton_dv_[d] = dv[d] + t * newton_delta_[d];
-      const double r_try = implicit_residual(s, h, newton_dv_.data(), true, newton_trial_r_.data());
-      if (std::isfinite(r_try) && r_try < rn) {
+      double phi_try = 0;
+      const double r_try = implicit_residual(s, h, newton_dv_.data(), true, newton_trial_r_.data(), &phi_try);
+      const bool finite = std::isfinite(r_try) && std::isfinite(phi_try);
+      const bool armijo = descent && phi_try <= phi - 1e-4 * t * slope;
+      const bool round_off = std::abs(phi_try - phi) <= phi_noise && r_try < rn;
+      if (finite && (armijo || round_off || (!descent && r_try < rn))) {
         accepted = true;
         rn = r_try;
+        phi = phi_try;
         std::copy(newton_dv_.begin(), newton_dv_.end(), dv);
         newton_r_.swap(newton_trial_r_);
       } else {

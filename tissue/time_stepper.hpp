@@ -105,6 +105,14 @@ class TimeStepper {
   double elastic_energy(const TissueState& s) const;
   /// Elastic force at s.x into `f` (3n), for tests and diagnostics.
   void elastic_force(const TissueState& s, double* f) const;
+  /// The implicit-Euler step's incremental potential Φ(Δv) (the merit newton()'s line search
+  /// descends) and, into R (3n), its negative gradient R(Δv), for tests and diagnostics.
+  /// Contacts: the springs of the last set_contact_springs. Uses the Newton scratch.
+  double implicit_step_merit(const TissueState& s, double h, const double* dv, double* R) {
+    double phi = 0;
+    implicit_residual(s, h, dv, false, R, &phi);
+    return phi;
+  }
   /// Assembled tangent stiffness K(x) (unscaled, unprojected) into BSR values, for tests.
   void stiffness(const TissueState& s, std::vector<double>& kvals) const;
 
@@ -116,8 +124,13 @@ class TimeStepper {
  private:
   void project_constraints(double* A, double diag_scale);
   /// R(dv) of the implicit-Euler equations into R (see newton()); with `matrix`, also A at the
-  /// iterate (A_, its constraints projected; node rotations updated). Returns ‖R‖.
-  double implicit_residual(const TissueState& s, double h, const double* dv, bool matrix, double* R);
+  /// iterate (A_, its constraints projected; node rotations updated). Returns ‖R‖. `merit`:
+  /// the incremental potential Φ(Δv) whose gradient is −R (up to a constant; damping and
+  /// contact stiffness frozen as in R): ½ΔvᵀMΔv + U(x + h·v') − h·f_ext·v' + ½h·α·v'ᵀMv'
+  /// + ½v'ᵀ(hβK)v' + the linearised contacts' potential, v' = v + Δv. The line search of
+  /// newton() descends it, so an accepted iteration never adds energy the equations lack.
+  double implicit_residual(const TissueState& s, double h, const double* dv, bool matrix, double* R,
+                           double* merit = nullptr);
   /// Factors A₀ = (1 + h_mass·α)·M + (k_beta·β + k_const)·K(rest) for the warped
   /// preconditioner (h_mass < 0: no mass term, for static solves).
   void build_rest_factor(double h_mass, double k_beta, double k_const);
