@@ -191,7 +191,8 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
   model->stepper = StepperSettings{s.integrator,   s.linear_solver, s.preconditioner,
                                    s.max_iterations, s.tolerance,   s.warm_start,
                                    s.static_tolerance, s.static_max_newton,
-                                   s.newton_iterations, s.newton_tolerance};
+                                   resolved_newton_iterations(s.newton_iterations, spec.time_step),
+                                   s.newton_tolerance};
 
   std::vector<PreparedMesh> meshes;
   meshes.reserve(spec.bodies.size());

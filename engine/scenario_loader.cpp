@@ -498,7 +498,15 @@ SolverSpec parse_solver(const Field& f) {
   m.read("static_tolerance", s.static_tolerance, greater_than(0));
   m.read("static_max_newton", s.static_max_newton, greater_than(0));
   m.read("on_cg_cap", s.substep_on_cg_cap, kCapPolicies);
-  m.read("newton_iterations", s.newton_iterations, greater_than(0));
+  if (const auto f = m.opt("newton_iterations")) {  // a count ≥ 1, or auto (stored as 0)
+    const std::string v = f->yaml().IsScalar() ? f->yaml().Scalar() : std::string();
+    if (v == "auto")
+      s.newton_iterations = 0;
+    else if (v.empty() || v.find_first_not_of("+-0123456789") != std::string::npos)
+      f->fail("expected a whole number >= 1 or auto, got " + f->got());
+    else
+      f->get(s.newton_iterations, greater_than(0));
+  }
   m.read("newton_tolerance", s.newton_tolerance, open_interval(0, 1));
   return s;
 }

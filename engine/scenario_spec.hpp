@@ -38,13 +38,28 @@ struct SolverSpec {
   /// large dt) can add energy. `on_cg_cap: continue` keeps the capped step (the cap then bounds
   /// the tick's cost, as benchmarks of the cap itself need).
   bool substep_on_cg_cap = true;
-  /// Implicit Euler: Newton iterations per tick (1: the linearised step alone, the default).
-  /// More re-linearise at the iterate, with a backtracking line search on the residual, until
-  /// ‖residual‖ ≤ newton_tolerance × the step's scale: for large steps on soft, near-
-  /// incompressible or badly shaped meshes, where one linearisation can add energy.
-  int newton_iterations = 1;
+  /// Implicit Euler: Newton iterations per tick (1: the linearised step alone). More
+  /// re-linearise at the iterate, with a backtracking line search on the step's incremental
+  /// potential, until ‖residual‖ ≤ newton_tolerance × the step's scale: for large steps on
+  /// soft, near-incompressible or badly shaped meshes, where one linearisation adds energy.
+  /// 0 = `auto` (the default): kAutoNewtonLargeStep iterations when time_step > 1 ms, else 1
+  /// (see resolved_newton_iterations; docs/STABILITY.md has the data behind the choice).
+  int newton_iterations = 0;
   double newton_tolerance = 1.0e-3;
 };
+
+/// Newton iterations `newton_iterations: auto` gives steps longer than 1 ms. In the stability
+/// suite (docs/STABILITY.md) 4 iterations at 5–33 ms pass 48 cases the single linearised step
+/// fails (its energy gains; stable-Neo-Hookean elements that could not un-invert) and fail 5 it
+/// passes (corotational, initially inverted, ν = 0.49: 4–7 elements settle inverted); at ≤ 1 ms
+/// they change 6 of 150 cases (4 fixed, 2 failed) for ~1.35× per tick: the 1 kHz loop keeps 1.
+inline constexpr int kAutoNewtonLargeStep = 4;
+
+/// The Newton iterations a solver section asks for at this time step (resolves `auto`).
+inline int resolved_newton_iterations(int newton_iterations, double time_step) {
+  if (newton_iterations > 0) return newton_iterations;
+  return time_step > 1.0e-3 * (1 + 1e-9) ? kAutoNewtonLargeStep : 1;
+}
 
 /// Which per-element quantity damage thresholds apply to.
 enum class DamageMeasure {
