@@ -35,6 +35,10 @@ struct AccuracyPoint {
   double s_per_sim_s = 0;      ///< dynamic: wall seconds per simulated second; static: solve seconds
   int nodes = 0;
   bool pareto = false;         ///< no other point of the problem is both faster and more accurate
+  /// false: the point does not solve the problem as stated (a peer whose material differs from
+  /// the reference's, e.g. Bullet's neo-Hookean given μ, λ unchanged: its error is partly a
+  /// material error), so it is shown but neither on nor against the Pareto front.
+  bool same_problem = true;
   bool ok = true;              ///< false: the run failed (diverged, no oscillation found)
   std::string failure;         ///< why it failed ("" if ok)
 };
@@ -49,7 +53,8 @@ struct AccuracyOptions {
   /// The Bullet peer program (build/bench/stroma_bench_bullet), run in the same benchmark and
   /// put on the same tables and plots; empty: no peers.
   std::string peer_program;
-  /// Run only this problem ("indentation"; empty: all).
+  /// Run only this problem ("cantilever" (static and dynamic), "indentation" or
+  /// "block_compression"; empty: all).
   std::string only;
 };
 

@@ -88,7 +88,12 @@ double tip_uy(const btSoftBody* sb, const Beam& b) {
   return u;
 }
 
-enum class Law { Linear, NeoHookean };
+/// Bullet's neo-Hookean force is Smith et al. 2018's stable neo-Hookean with the log term,
+/// Ψ = μ/2 (I_C − 3) + λ/2 (J − 1 − ¾ μ/λ)² − μ/2 log(I_C + 1), and takes μ, λ as they are:
+/// linearised at rest that is linear elasticity with μ_eff = ¾ μ and λ_eff = λ − ⅝ μ (27 %
+/// softer than E for ν = 0.3). The paper's re-parametrisation μ' = 4/3 μ, λ' = λ + 5/6 μ
+/// restores μ, λ at rest: NeoHookeanMatched passes those (what a user who read the paper does).
+enum class Law { Linear, NeoHookean, NeoHookeanMatched };
 
 /// Peer A: Bullet's deformable FEM world (default, non-Newton step; see the \file comment).
 Run run_deformable(const Beam& b, Law law, double dt, double beta, int max_steps, bool stop_at_rest) {
@@ -100,8 +105,11 @@ Run run_deformable(const Beam& b, Law law, double dt, double beta, int max_steps
   std::unique_ptr<btDeformableLagrangianForce> elastic;
   if (law == Law::Linear)
     elastic = std::make_unique<btDeformableLinearElasticityForce>(btScalar(kMu), btScalar(kLambda), btScalar(0), btScalar(beta));
-  else
+  else if (law == Law::NeoHookean)
     elastic = std::make_unique<btDeformableNeoHookeanForce>(btScalar(kMu), btScalar(kLambda), btScalar(beta));
+  else  // (damping: Bullet scales μ', λ' by beta, so beta keeps its meaning up to the 4/3)
+    elastic = std::make_unique<btDeformableNeoHookeanForce>(btScalar(4.0 / 3.0 * kMu), btScalar(kLambda + 5.0 / 6.0 * kMu),
+                                                            btScalar(beta));
   w.world.addForce(sb, elastic.get());
 
   // float: ~1e-6 jitter, hence 1e-5.
@@ -171,7 +179,9 @@ std::string rest(const Run& r) {
 /// Peer A on one beam: static deflection (damped run to rest) and f1 (least stable damping).
 void peer_a(Table& t, const Beam& b, Law law, double dt) {
   const Mesh& m = b.m;
-  const std::string peer = law == Law::Linear ? "A bullet-fem linear" : "A bullet-fem neohookean";
+  const std::string peer = law == Law::Linear       ? "A bullet-fem linear"
+                           : law == Law::NeoHookean ? "A bullet-fem neohookean"
+                                                    : "A bullet-fem neohookean matched";
   const double beta = 0.015;  // ~critical for mode 1 (zeta = beta*omega/2)
   Run s = run_deformable(b, law, dt, beta, 5000, true);
   const double uy = s.q.empty() ? NAN : s.q.back();
@@ -194,7 +204,8 @@ void peer_a(Table& t, const Beam& b, Law law, double dt) {
   }
   const double f = fb < 0 ? NAN : frequency(d.q, dt);
   if (const char* dump = std::getenv("STROMA_BULLET_DUMP")) {  // tip series, for inspection
-    std::ofstream o(std::string(dump) + "/" + m.name + (law == Law::Linear ? "_linear" : "_neohookean") + ".txt");
+    std::ofstream o(std::string(dump) + "/" + m.name +
+                    (law == Law::Linear ? "_linear" : law == Law::NeoHookean ? "_neohookean" : "_neohookean_matched") + ".txt");
     for (double v : d.q) o << v << '\n';
   }
   t.add(peer, m, dt, "f1 [Hz]", f, kRefF1, d,
@@ -266,6 +277,7 @@ Table run_cantilever(const std::string& root, bool run_a, bool run_b) {
   if (run_a) {
     for (const Beam* b : {&h5, &h3}) peer_a(t, *b, Law::Linear, dt);
     for (const Beam* b : {&h5, &h3}) peer_a(t, *b, Law::NeoHookean, dt);
+    for (const Beam* b : {&h5, &h3}) peer_a(t, *b, Law::NeoHookeanMatched, dt);
   }
   if (run_b) peer_b(t, h5, h3, dt);
   return t;

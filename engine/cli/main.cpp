@@ -188,7 +188,7 @@ int main(int argc, char** argv) {
   acc->add_option("--runs", aco.runs, "Timing repetitions per configuration (median)")->capture_default_str()->check(CLI::Range(1, 50));
   acc->add_option("--out", aco.out_dir, "Output directory (CSV, PNG plots, gnuplot scripts)")->capture_default_str();
   bool with_peers = false;
-  acc->add_option("--only", aco.only, "Run one problem only (with --peers: only its peer)")->check(CLI::IsMember({"indentation", "block_compression"}));
+  acc->add_option("--only", aco.only, "Run one problem only (cantilever: static and dynamic; with --peers: only its peer)")->check(CLI::IsMember({"cantilever", "indentation", "block_compression"}));
   acc->add_flag("--peers", with_peers, "Also run the Bullet peers (build/bench/stroma_bench_bullet) on the same problems and meshes and put them on the same tables and plots (adds ~25 min; ~12 min with --quick)");
   acc->add_option("--source-dir", aco.source_dir, "Repository with scenarios/ (default: where stroma was built from)")->check(CLI::ExistingDirectory);
   acc->footer("References: tip deflection -1.4735e-3 m (refs/a, converged C3D10), first frequency 16.100 Hz\n"
