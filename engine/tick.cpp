@@ -172,8 +172,9 @@ TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inp
     for (int k = 2; k <= kMaxSubsteps && !ok; k *= 2) {
       restore(s.tissue, w);
       ok = true;
-      // The last level keeps a capped solve: a finite, advanced state beats none.
-      for (int i = 0; i < k && ok; ++i) ok = step(stepper, s.tissue, w, h / k, r, false, cap_fails && k < kMaxSubsteps);
+      // From kKeepCappedSubsteps on a capped solve is kept: a finite, advanced state beats none.
+      for (int i = 0; i < k && ok; ++i)
+        ok = step(stepper, s.tissue, w, h / k, r, false, cap_fails && k < kKeepCappedSubsteps);
       r.substeps = k;
     }
     if (!ok) {

@@ -80,8 +80,14 @@ TEST(Tick, DivergedStepIsRolledBackAndRedoneInSubsteps) {
   EXPECT_EQ(a.step, s.step + 1);
   EXPECT_NEAR(a.tissue.x[0] - s.tissue.x[0], 1.5 * L, 1e-3 * L) << "the step was really taken, in full";
   for (double x : a.tissue.x) ASSERT_TRUE(std::isfinite(x));
-  // 40 L per step: even 16 sub-steps move 2.5 L each: rolled back, not advanced.
-  State b = throw_at(40 * L / h);
+  // 20 L per step: 16 sub-steps still move 1.25 L each; 32 move 0.625 L: recovered there.
+  State d = throw_at(20 * L / h);
+  const TickReport rd = tick(*m, d, w);
+  EXPECT_EQ(rd.status, TickStatus::Recovered);
+  EXPECT_EQ(rd.substeps, 32);
+  EXPECT_NEAR(d.tissue.x[0] - s.tissue.x[0], 20 * L, 1e-2 * L);
+  // 200 L per step: even 64 sub-steps move 3.1 L each: rolled back, not advanced.
+  State b = throw_at(200 * L / h);
   const std::vector<double> x0 = b.tissue.x, v0 = b.tissue.v;
   const TickReport rb = tick(*m, b, w);
   EXPECT_EQ(rb.status, TickStatus::NonFinite);
