@@ -233,7 +233,7 @@ Table run_indentation(const std::string& work_dir, bool quick) {
     }
     // A reaction that never settles but wanders within ±10 % of its mean over the last 0.25 s
     // is reported as that mean (the notes say so and give the band); wider: no answer (NaN).
-    const bool banded = r.rest_step == 0 && std::isfinite(mean) && mean > 0 && hi - lo < 0.2 * mean;
+    const bool banded = r.rest_step <= 0 && std::isfinite(mean) && mean > 0 && hi - lo < 0.2 * mean;
     const double value = r.rest_step > 0 ? f : banded ? mean : NAN;
     t.add("A bullet-fem linear", m, dt, "indenter force [N]", value, kRefForce, r,
           (r.rest_step > 0 ? fmt("at rest after %.0f steps", r.rest_step)
