@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/headless_runner.hpp"
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
@@ -57,10 +58,11 @@ double static_tip(ScenarioSpec s, ElementModel model) {
   s.bodies[0].material.model = model;
   s.solver.integrator = Integrator::Static;
   s.solver.linear_solver = LinearSolverKind::Cholmod;
-  auto m = compile_model(s);
+  const CompiledScenario sc_m = compile_scenario(s);
+  const auto& m = sc_m.model;
   RunOptions o;
   o.progress = false;
-  const RunResult r = run_headless(*m, o);
+  const RunResult r = run_headless(sc_m, o);
   return probe_displacement(*m, r.final_state, m->probes[0])[1];
 }
 

@@ -121,7 +121,7 @@ void BM_CgSolve(benchmark::State& st) {
   auto m = model_for(static_cast<int>(st.range(0)));
   TickWorkspace w(*m);
   State s = warmed_state(*m, w);
-  w.stepper().assemble(s.tissue, m->time_step);
+  w.stepper().assemble(s.tissue, m->time_step, step_inputs(*m, s, w));
   int iters = 0;
   for (auto _ : st) {
     std::fill(s.tissue.dv.begin(), s.tissue.dv.end(), 0.0);

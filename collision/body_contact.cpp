@@ -39,8 +39,8 @@ inline double depth_at(const double* x, int32_t vertex, const std::array<int32_t
 void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const TriangleBvh& bvh,
                   const double* x, const double* v, double h, const double* g, const uint8_t* constrained,
                   double* boxes,
-                  std::vector<ContactSpring>& springs, std::vector<BodyContactPair>& pairs, BodyContactState& out) {
-  out = BodyContactState{};
+                  std::vector<ContactSpring>& springs, std::vector<BodyContactPair>& pairs, BodyContactOutput& out) {
+  out = BodyContactOutput{};
   pairs.clear();
   const int nb = static_cast<int>(bc.body_vertex_begin.size()) - 1;
   const double hv = v ? h : 0.0;

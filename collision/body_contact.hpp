@@ -65,8 +65,8 @@ struct BodyContactPair {
   bool active = true;
 };
 
-/// What body–body contact did in one tick (part of the state: published, summarised).
-struct BodyContactState {
+/// What body–body contact did in one tick (a tick output: TickReport::body_contact).
+struct BodyContactOutput {
   int32_t contacts = 0;  ///< vertices found inside another body
   int32_t dropped = 0;   ///< contacts beyond the springs' capacity (not applied)
   double energy = 0;     ///< J: penalty potential Σ ½ k A δ²
@@ -89,7 +89,7 @@ struct BodyContactState {
 void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const TriangleBvh& bvh,
                   const double* x, const double* v, double h, const double* g, const uint8_t* constrained,
                   double* boxes,
-                  std::vector<ContactSpring>& springs, std::vector<BodyContactPair>& pairs, BodyContactState& out);
+                  std::vector<ContactSpring>& springs, std::vector<BodyContactPair>& pairs, BodyContactOutput& out);
 
 /// After a step to positions x: the speculative contacts whose spring pulls at the end of the
 /// step (the vertex stayed in front of its face, δ < 0) are switched off (their springs zeroed).

@@ -5,8 +5,10 @@
 
 #include <fmt/format.h>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
+#include "tissue/bounding_box.hpp"
 #include "tissue/fem_build.hpp"
 #include "tissue/input_error.hpp"
 #include "tissue/material.hpp"
@@ -51,8 +53,9 @@ std::vector<int32_t> select_nodes(const NodeSelection& sel, const TetMesh& mesh,
 }
 
 /// Loads each body's `visual:` surface and maps it into the body's tetrahedra.
-void compile_visuals(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes, Model& model) {
-  model.visuals.resize(spec.bodies.size());
+std::vector<std::optional<VisualModel>> compile_visuals(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes,
+                                                        const Model& model, std::vector<std::string>& notes) {
+  std::vector<std::optional<VisualModel>> visuals(spec.bodies.size());
   for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
     const BodySpec& b = spec.bodies[bi];
     if (!b.visual) continue;
@@ -67,17 +70,8 @@ void compile_visuals(const ScenarioSpec& spec, const std::vector<PreparedMesh>& 
     for (Vec3& p : surf.vertices)
       for (int k = 0; k < 3; ++k) p[k] = p[k] * b.scale + b.translate[k];
     const TetMesh& tm = meshes[bi].mesh;
-    double max_distance = v.max_distance;
-    if (max_distance <= 0) {  // automatic: 5 % of the body's bounding-box diagonal
-      Vec3 lo = tm.nodes.front(), hi = tm.nodes.front();
-      for (const Vec3& p : tm.nodes)
-        for (int k = 0; k < 3; ++k) {
-          lo[k] = std::min(lo[k], p[k]);
-          hi[k] = std::max(hi[k], p[k]);
-        }
-      max_distance = 0.05 * std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                                      (hi[2] - lo[2]) * (hi[2] - lo[2]));
-    }
+    // Automatic: 5 % of the body's bounding-box diagonal.
+    const double max_distance = v.max_distance > 0 ? v.max_distance : 0.05 * bounding_box(tm.nodes).diagonal();
     const BodyRange& range = model.fem.bodies[bi];
     VisualModel vm;
     vm.source = v.mesh_path;
@@ -90,14 +84,15 @@ void compile_visuals(const ScenarioSpec& spec, const std::vector<PreparedMesh>& 
                                    "outside the tetrahedra)", e.what()));
     }
     if (vm.mapping.outside > 0)
-      model.notes.push_back(fmt::format("body '{}': {} of {} visual vertices lie outside the tetrahedra (at most "
+      notes.push_back(fmt::format("body '{}': {} of {} visual vertices lie outside the tetrahedra (at most "
                                         "{:.3g} away) and follow their nearest tetrahedron",
                                         b.name, vm.mapping.outside, surf.vertices.size(), vm.mapping.max_distance));
     vm.rest = std::move(surf.vertices);
     for (const Tri& t : surf.triangles)
       for (int32_t i : t) vm.triangles.push_back(static_cast<uint32_t>(i));
-    model.visuals[bi] = std::move(vm);
+    visuals[bi] = std::move(vm);
   }
+  return visuals;
 }
 
 /// Body–body contact: each body's rest-boundary vertices with a third of their adjacent
@@ -112,13 +107,8 @@ void compile_body_contact(const BodyContactSpec& spec, const ScenarioSpec& scena
   std::vector<double> area(fem.num_nodes, 0.0);
   std::vector<uint8_t> on_surface(fem.num_nodes, 0);
   for (const BodyRange& b : fem.bodies) {
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (int32_t i = b.node_begin; i < b.node_end; ++i)
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], fem.rest[3 * i + k]);
-        hi[k] = std::max(hi[k], fem.rest[3 * i + k]);
-      }
-    const double extent = std::min({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    const double extent =
+        bounding_box(fem.rest.data() + 3 * b.node_begin, static_cast<size_t>(b.node_end - b.node_begin)).min_extent();
     bc.body_depth.push_back(spec.max_depth > 0 ? spec.max_depth : 0.25 * extent);
     for (const Tri& t : b.boundary) {
       const double* a = &fem.rest[3 * t[0]];
@@ -181,54 +171,49 @@ void compile_body_contact(const BodyContactSpec& spec, const ScenarioSpec& scena
   model.body_contact = std::move(bc);
 }
 
-}  // namespace
-
-std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
-  auto model = std::make_shared<Model>();
-  model->spec = spec;
-  model->time_step = spec.time_step;
-  const SolverSpec& s = spec.solver;
-  model->stepper = StepperSettings{s.integrator,   s.linear_solver, s.preconditioner,
-                                   s.max_iterations, s.tolerance,   s.warm_start,
-                                   s.static_tolerance, s.static_max_newton,
-                                   resolved_newton_iterations(s.newton_iterations, spec.time_step),
-                                   s.newton_tolerance};
-
+/// Reads, scales and prepares each body's mesh; notes what preparation changed.
+std::vector<PreparedMesh> load_meshes(const ScenarioSpec& spec, std::vector<std::string>& notes) {
   std::vector<PreparedMesh> meshes;
   meshes.reserve(spec.bodies.size());
-  std::vector<FemBodyInput> inputs;
   for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
     const BodySpec& b = spec.bodies[bi];
-    const std::string field = fmt::format("bodies[{}]", bi);
+    const std::string field = fmt::format("bodies[{}].mesh", bi);
     TetMesh mesh;
     try {
       mesh = load_tet_mesh(b.mesh_path);
     } catch (const InputError& e) {
       // Say which scenario line asked for this mesh, then what is wrong inside it.
-      throw InputError(b.mesh_where.file, b.mesh_where.line, field + ".mesh", e.what());
+      throw InputError(b.mesh_where.file, b.mesh_where.line, field, e.what());
     }
     for (Vec3& p : mesh.nodes)  // scale, then place: selections are in scene coordinates
       for (int k = 0; k < 3; ++k) p[k] = p[k] * b.scale + b.translate[k];
     try {
       meshes.push_back(prepare_mesh(std::move(mesh)));
     } catch (const InputError& e) {
-      throw InputError(b.mesh_where.file, b.mesh_where.line, field + ".mesh", e.what());
+      throw InputError(b.mesh_where.file, b.mesh_where.line, field, e.what());
     }
     const PreparedMesh& pm = meshes.back();
     if (!pm.reoriented.empty())
-      model->notes.push_back(fmt::format("body '{}': {} inverted tetrahedra re-oriented", b.name,
-                                         pm.reoriented.size()));
+      notes.push_back(fmt::format("body '{}': {} inverted tetrahedra re-oriented", b.name, pm.reoriented.size()));
     if (!pm.unused_nodes.empty())
-      model->notes.push_back(fmt::format(
-          "body '{}': {} nodes are used by no tetrahedron and are kept out of the system "
-          "(first: {})", b.name, pm.unused_nodes.size(), pm.unused_nodes.front()));
+      notes.push_back(fmt::format("body '{}': {} nodes are used by no tetrahedron and are kept out of the system "
+                                  "(first: {})",
+                                  b.name, pm.unused_nodes.size(), pm.unused_nodes.front()));
+  }
+  return meshes;
+}
 
+/// Materials, constraints and loads of each body, validated against its mesh, as FEM inputs.
+std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes) {
+  std::vector<FemBodyInput> inputs;
+  for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
+    const BodySpec& b = spec.bodies[bi];
+    const std::string field = fmt::format("bodies[{}]", bi);
+    const PreparedMesh& pm = meshes[bi];
     const MaterialSpec& mat = b.material;
     const std::string err = validate_material(mat.young_modulus, mat.poisson_ratio, mat.density,
                                               mat.rayleigh_mass, mat.rayleigh_stiffness);
-    if (!err.empty())
-      throw InputError(mat.where.file, mat.where.line, field + ".material", err);
-
+    if (!err.empty()) throw InputError(mat.where.file, mat.where.line, field + ".material", err);
     FemBodyInput in;
     in.name = b.name;
     in.model = mat.model;
@@ -238,6 +223,7 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
     in.density = mat.density;
     in.rayleigh_mass = mat.rayleigh_mass;
     in.rayleigh_stiffness = mat.rayleigh_stiffness;
+    in.mesh = &pm;
     for (size_t k = 0; k < b.fixed.size(); ++k) {
       auto sel = select_nodes(b.fixed[k], pm.mesh, fmt::format("{}.fixed[{}]", field, k));
       for (int32_t i : sel) in.fixed.push_back({i, b.fixed[k].axes});
@@ -250,36 +236,26 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
     }
     inputs.push_back(std::move(in));
   }
-  for (size_t bi = 0; bi < inputs.size(); ++bi) inputs[bi].mesh = &meshes[bi];
-  model->fem = build_fem_model(inputs, spec.gravity);
-  compile_visuals(spec, meshes, *model);
+  return inputs;
+}
+
+/// Per-body damage models and, when any body has one, each element's share of nodal mass
+/// (removed from its nodes at rupture).
+void compile_damage(const ScenarioSpec& spec, Model& model) {
   for (const BodySpec& b : spec.bodies) {
-    model->body_damage.push_back(b.material.damage);
-    model->has_damage = model->has_damage || b.material.damage.enabled;
+    model.body_damage.push_back(b.material.damage);
+    model.has_damage = model.has_damage || b.material.damage.enabled;
   }
-  if (model->has_damage) {
-    const FemModel& f = model->fem;
-    model->element_node_mass.resize(f.elements.size());
-    for (size_t bi = 0; bi < f.bodies.size(); ++bi)
-      for (int32_t e = f.bodies[bi].element_begin; e < f.bodies[bi].element_end; ++e)
-        model->element_node_mass[e] = spec.bodies[bi].material.density * f.elements[e].volume / 4.0;
-    model->node_elem_ptr.assign(f.num_nodes + 1, 0);
-    for (const ElementParams& ep : f.elements)
-      for (int32_t n : ep.node) ++model->node_elem_ptr[n + 1];
-    for (int32_t i = 0; i < f.num_nodes; ++i) model->node_elem_ptr[i + 1] += model->node_elem_ptr[i];
-    model->node_elem.resize(model->node_elem_ptr.back());
-    std::vector<int32_t> fill(model->node_elem_ptr.begin(), model->node_elem_ptr.end() - 1);
-    for (size_t e = 0; e < f.elements.size(); ++e)
-      for (int32_t n : f.elements[e].node) model->node_elem[fill[n]++] = static_cast<int32_t>(e);
-  }
+  if (!model.has_damage) return;
+  const FemModel& f = model.fem;
+  model.element_node_mass.resize(f.elements.size());
+  for (size_t bi = 0; bi < f.bodies.size(); ++bi)
+    for (int32_t e = f.bodies[bi].element_begin; e < f.bodies[bi].element_end; ++e)
+      model.element_node_mass[e] = spec.bodies[bi].material.density * f.elements[e].volume / 4.0;
+}
 
-  model->body_tets.resize(meshes.size());
-  for (size_t bi = 0; bi < meshes.size(); ++bi) {
-    const int32_t off = model->fem.bodies[bi].node_begin;
-    for (const Tet& t : meshes[bi].mesh.tets)
-      model->body_tets[bi].push_back({t[0] + off, t[1] + off, t[2] + off, t[3] + off});
-  }
-
+/// Probes: each point located in its body's tetrahedra (a point far outside is an error).
+void compile_probes(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes, Model& model) {
   for (size_t pi = 0; pi < spec.probes.size(); ++pi) {
     const ProbeSpec& p = spec.probes[pi];
     int body = -1;
@@ -294,111 +270,143 @@ std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) {
     pmod.body = body;
     pmod.where = locate_point(pm.mesh, p.point);
     // A probe far outside its body is almost certainly a typo (wrong units or axis).
-    Vec3 lo = pm.mesh.nodes[0], hi = pm.mesh.nodes[0];
-    for (const Vec3& q : pm.mesh.nodes)
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], q[k]);
-        hi[k] = std::max(hi[k], q[k]);
-      }
-    const double diag = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                                  (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    const double diag = bounding_box(pm.mesh.nodes).diagonal();
     if (pmod.where.distance > 0.05 * diag)
       throw InputError(p.where.file, p.where.line, fmt::format("probes[{}].point", pi),
                        fmt::format("point [{}, {}, {}] is {:.3g} outside body '{}' (its size is {:.3g})",
                                    p.point[0], p.point[1], p.point[2], pmod.where.distance, p.body, diag));
-    for (int32_t& nidx : pmod.where.node) nidx += model->fem.bodies[body].node_begin;
-    model->probes.push_back(pmod);
+    for (int32_t& nidx : pmod.where.node) nidx += model.fem.bodies[body].node_begin;
+    model.probes.push_back(pmod);
   }
+}
+
+/// Tools with their automatic values resolved (contact and grasp stiffness), and their scripts.
+void compile_tools(const ScenarioSpec& spec, Model& model, std::vector<Trajectory>& scripts) {
+  double e_max = 0;
+  for (const BodySpec& b : spec.bodies) e_max = std::max(e_max, b.material.young_modulus);
   for (size_t ti = 0; ti < spec.tools.size(); ++ti) {
     const ToolEntry& t = spec.tools[ti];
-    const ToolSpec& ts = t.spec;
+    ToolSpec ts = t.spec;
     for (int k = 0; k < 3; ++k)
       if (ts.workspace_min[k] > ts.workspace_max[k])
         throw InputError(t.where.file, t.where.line, fmt::format("tools[{}].workspace", ti),
                          "min must not exceed max");
-    model->tools.push_back(ts);
     if (ts.shape != ToolShape::None) {
-      model->has_contact = true;
-      if (ts.contact_stiffness == 0) {  // automatic: stiff against the stiffest body at this size
-        double e_max = 0;
-        for (const BodySpec& b : spec.bodies) e_max = std::max(e_max, b.material.young_modulus);
-        model->tools.back().contact_stiffness = 100.0 * e_max / ts.radius;
-      }
-      ToolSpec& t2 = model->tools.back();
-      if (t2.can_grasp && t2.grasp_stiffness == 0)
-        t2.grasp_stiffness = 0.25 * t2.contact_stiffness * t2.radius * t2.radius;
+      model.has_contact = true;
+      // Automatic: stiff against the stiffest body at this size.
+      if (ts.contact_stiffness == 0) ts.contact_stiffness = 100.0 * e_max / ts.radius;
+      if (ts.can_grasp && ts.grasp_stiffness == 0) ts.grasp_stiffness = 0.25 * ts.contact_stiffness * ts.radius * ts.radius;
     }
+    model.tools.push_back(ts);
     Trajectory tr;
-    if (!ts.script.empty()) {
+    if (!t.script.empty()) {
       try {
-        tr = load_trajectory(ts.script);
+        tr = load_trajectory(t.script);
       } catch (const InputError& e) {
         throw InputError(t.where.file, t.where.line, fmt::format("tools[{}].script", ti), e.what());
       }
     }
-    model->tool_scripts.push_back(std::move(tr));
+    scripts.push_back(std::move(tr));
   }
-  if (spec.body_contact) model->has_contact = true;
-  if (model->has_contact) {
-    // Bodies that can rupture get every tetrahedron face as a potential collision face (inactive
-    // while both its elements are intact), so a tear exposes new surface without any rebuild.
-    auto add_face = [&](const Tri& t, int32_t ea, int32_t eb) {
-      model->collision_face_elem.push_back({ea, eb});
-      model->collision_triangles.push_back({t[0], t[1], t[2]});
-      std::array<int32_t, 9> sl;
-        for (int a = 0; a < 3; ++a)
-          for (int c = 0; c < 3; ++c) {
-            // A pair missing from the pattern joins two nodes of a fully fixed body (whose
-            // elements are not in it): its row is projected to identity, so its diagonal block
-            // is a harmless place for what contact would add there.
-            const int32_t slot = model->fem.pattern.find(t[a], t[c]);
-            sl[3 * a + c] = slot >= 0 ? slot : model->fem.pattern.diag[t[a]];
-          }
-        model->collision_slots.push_back(sl);
-        double e = 0;
-        for (int a = 0; a < 3; ++a) {
-          const int32_t p = t[a], q = t[(a + 1) % 3];
-          double d2 = 0;
-          for (int k = 0; k < 3; ++k) {
-            const double dk = model->fem.rest[3 * p + k] - model->fem.rest[3 * q + k];
-            d2 += dk * dk;
-          }
-          e = std::max(e, std::sqrt(d2));
-        }
-        model->collision_edge.push_back(e);
-    };
-    model->element_faces.assign(model->fem.elements.size(), {-1, -1, -1, -1});
-    for (size_t bi = 0; bi < model->fem.bodies.size(); ++bi) {
-      const BodyRange& b = model->fem.bodies[bi];
-      if (!model->body_damage[bi].enabled) {
-        for (const Tri& t : b.boundary) add_face(t, -1, -1);  // always active
-        continue;
-      }
-      static constexpr int kFaces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};  // outward
-      std::unordered_map<uint64_t, int32_t> seen;
-      for (int32_t e = b.element_begin; e < b.element_end; ++e)
-        for (int f = 0; f < 4; ++f) {
-          const auto& nd = model->fem.elements[e].node;
-          const Tri tri{nd[kFaces[f][0]], nd[kFaces[f][1]], nd[kFaces[f][2]]};
-          Tri key = tri;
-          std::sort(key.begin(), key.end());
-          const uint64_t k = (static_cast<uint64_t>(key[0]) << 42) ^ (static_cast<uint64_t>(key[1]) << 21) ^
-                             static_cast<uint64_t>(key[2]);
-          const auto it = seen.find(k);
-          if (it == seen.end()) {
-            seen.emplace(k, static_cast<int32_t>(model->collision_triangles.size()));
-            model->element_faces[e][f] = static_cast<int32_t>(model->collision_triangles.size());
-            add_face(tri, e, -1);
-          } else {
-            model->collision_face_elem[it->second][1] = e;
-            model->element_faces[e][f] = it->second;
-          }
-        }
-    }
-  }
-  if (spec.body_contact) compile_body_contact(*spec.body_contact, spec, *model);
-  return model;
 }
+
+/// The collision surface: each body's boundary, or — for bodies that can rupture — every
+/// tetrahedron face (inactive while both its elements are intact), so a tear exposes new surface
+/// without any rebuild. Each face gets its BSR slots and longest rest edge.
+void compile_collision_faces(Model& model) {
+  const FemModel& fem = model.fem;
+  auto add_face = [&](const Tri& t, int32_t ea, int32_t eb) {
+    model.collision_face_elem.push_back({ea, eb});
+    model.collision_triangles.push_back({t[0], t[1], t[2]});
+    std::array<int32_t, 9> sl;
+    for (int a = 0; a < 3; ++a)
+      for (int c = 0; c < 3; ++c) {
+        // A pair missing from the pattern joins two nodes of a fully fixed body (whose elements
+        // are not in it): its row is projected to identity, so its diagonal block is a harmless
+        // place for what contact would add there.
+        const int32_t slot = fem.pattern.find(t[a], t[c]);
+        sl[3 * a + c] = slot >= 0 ? slot : fem.pattern.diag[t[a]];
+      }
+    model.collision_slots.push_back(sl);
+    double e = 0;
+    for (int a = 0; a < 3; ++a) {
+      const int32_t p = t[a], q = t[(a + 1) % 3];
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double dk = fem.rest[3 * p + k] - fem.rest[3 * q + k];
+        d2 += dk * dk;
+      }
+      e = std::max(e, std::sqrt(d2));
+    }
+    model.collision_edge.push_back(e);
+  };
+  model.element_faces.assign(fem.elements.size(), {-1, -1, -1, -1});
+  for (size_t bi = 0; bi < fem.bodies.size(); ++bi) {
+    const BodyRange& b = fem.bodies[bi];
+    if (!model.body_damage[bi].enabled) {
+      for (const Tri& t : b.boundary) add_face(t, -1, -1);  // always active
+      continue;
+    }
+    static constexpr int kFaces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};  // outward
+    std::unordered_map<uint64_t, int32_t> seen;
+    for (int32_t e = b.element_begin; e < b.element_end; ++e)
+      for (int f = 0; f < 4; ++f) {
+        const auto& nd = fem.elements[e].node;
+        const Tri tri{nd[kFaces[f][0]], nd[kFaces[f][1]], nd[kFaces[f][2]]};
+        Tri key = tri;
+        std::sort(key.begin(), key.end());
+        const uint64_t k = (static_cast<uint64_t>(key[0]) << 42) ^ (static_cast<uint64_t>(key[1]) << 21) ^
+                           static_cast<uint64_t>(key[2]);
+        const auto it = seen.find(k);
+        if (it == seen.end()) {
+          seen.emplace(k, static_cast<int32_t>(model.collision_triangles.size()));
+          model.element_faces[e][f] = static_cast<int32_t>(model.collision_triangles.size());
+          add_face(tri, e, -1);
+        } else {
+          model.collision_face_elem[it->second][1] = e;
+          model.element_faces[e][f] = it->second;
+        }
+      }
+  }
+}
+
+}  // namespace
+
+CompiledScenario compile_scenario(const ScenarioSpec& spec) {
+  CompiledScenario out;
+  out.spec = spec;
+  auto model = std::make_shared<Model>();
+  model->name = spec.name;
+  model->time_step = spec.time_step;
+  const SolverSpec& s = spec.solver;
+  model->stepper = StepperSettings{s.integrator,   s.linear_solver, s.preconditioner,
+                                   s.max_iterations, s.tolerance,   s.warm_start,
+                                   s.static_tolerance, s.static_max_newton,
+                                   resolved_newton_iterations(s.newton_iterations, spec.time_step),
+                                   s.newton_tolerance};
+  model->substep_on_cg_cap = s.substep_on_cg_cap;
+
+  const std::vector<PreparedMesh> meshes = load_meshes(spec, out.notes);
+  model->fem = build_fem_model(body_inputs(spec, meshes), spec.gravity);
+  model->max_step_displacement = 0.5 * bounding_box(model->fem.rest.data(), model->fem.rest.size() / 3).diagonal();
+  out.visuals = compile_visuals(spec, meshes, *model, out.notes);
+  compile_damage(spec, *model);
+  model->body_tets.resize(meshes.size());
+  for (size_t bi = 0; bi < meshes.size(); ++bi) {
+    const int32_t off = model->fem.bodies[bi].node_begin;
+    for (const Tet& t : meshes[bi].mesh.tets)
+      model->body_tets[bi].push_back({t[0] + off, t[1] + off, t[2] + off, t[3] + off});
+  }
+  compile_probes(spec, meshes, *model);
+  compile_tools(spec, *model, out.tool_scripts);
+  if (spec.body_contact) model->has_contact = true;
+  if (model->has_contact) compile_collision_faces(*model);
+  if (spec.body_contact) compile_body_contact(*spec.body_contact, spec, *model);
+  out.model = std::move(model);
+  return out;
+}
+
+std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec) { return compile_scenario(spec).model; }
 
 Vec3 probe_position(const Model& m, const State& s, const ProbeModel& p) {
   Vec3 r{0, 0, 0};

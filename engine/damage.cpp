@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "tissue/material.hpp"
 #include "tissue/rotation.hpp"
 
 namespace stroma {
@@ -24,16 +25,7 @@ double element_damage_measure(const Model& m, const double* x, int32_t e, Damage
   double eps[9];
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) eps[3 * i + j] = 0.5 * (S[3 * i + j] + S[3 * j + i]) - (i == j ? 1.0 : 0.0);
-  if (measure == DamageMeasure::VonMises) {
-    const double tr = eps[0] + eps[4] + eps[8];
-    double s[9];
-    for (int k = 0; k < 9; ++k) s[k] = 2.0 * ep.mu * eps[k];
-    s[0] += ep.lambda * tr;
-    s[4] += ep.lambda * tr;
-    s[8] += ep.lambda * tr;
-    const double a = s[0] - s[4], b = s[4] - s[8], c = s[8] - s[0];
-    return std::sqrt(0.5 * (a * a + b * b + c * c) + 3.0 * (s[1] * s[1] + s[2] * s[2] + s[5] * s[5]));
-  }
+  if (measure == DamageMeasure::VonMises) return von_mises_stress(eps, ep.lambda, ep.mu);
   // Largest principal strain: eigenvalues of the symmetric ε by the fixed-sweep Jacobi kernel.
   double E[9][1], V[9][1];
   for (int k = 0; k < 9; ++k) {
@@ -76,8 +68,8 @@ int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* reco
           // with no intact element keep theirs (free debris, so no node becomes massless).
           for (int32_t n : m.fem.elements[e].node) {
             bool attached = false;
-            for (int32_t j = m.node_elem_ptr[n]; j < m.node_elem_ptr[n + 1] && !attached; ++j)
-              attached = s.damage_level[m.node_elem[j]] != kRuptured;
+            for (int32_t j = m.fem.node_element_ptr[n]; j < m.fem.node_element_ptr[n + 1] && !attached; ++j)
+              attached = s.damage_level[m.fem.node_element[j]] != kRuptured;
             if (attached) s.node_mass[n] = std::max(0.0, s.node_mass[n] - m.element_node_mass[e]);
           }
         }

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -13,20 +14,21 @@
 
 #include "engine/session_log.hpp"
 #include "engine/state_io.hpp"
+#include "engine/static_run.hpp"
 #include "engine/vtu_writer.hpp"
 
 namespace stroma {
 
 namespace fs = std::filesystem;
 
-long resolve_steps(const Model& m, const RunOptions& o) {
-  if (m.stepper.integrator == Integrator::Static) return 0;
+long resolve_steps(const CompiledScenario& sc, const RunOptions& o) {
+  const Model& m = *sc.model;
   if (!o.replay.empty()) return static_cast<long>(read_session_log(o.replay).back().tick);
   if (o.steps) return *o.steps;
   if (o.duration) return std::lround(*o.duration / m.time_step);
-  if (m.spec.run.steps) return *m.spec.run.steps;
-  if (m.spec.run.duration) return std::lround(*m.spec.run.duration / m.time_step);
-  return 1000;
+  if (sc.spec.run.steps) return *sc.spec.run.steps;
+  if (sc.spec.run.duration) return std::lround(*sc.spec.run.duration / m.time_step);
+  return m.stepper.integrator == Integrator::Static ? 0 : 1000;
 }
 
 namespace {
@@ -53,13 +55,14 @@ TimingSummary summarize(std::vector<double> v) {
 /// Streams metrics.csv rows; buffered, flushed in large chunks.
 class MetricsWriter {
  public:
-  MetricsWriter(const std::string& path, const Model& m) : f_(std::fopen(path.c_str(), "w")) {
+  MetricsWriter(const std::string& path, const Model& m) : m_(m), f_(std::fopen(path.c_str(), "w")) {
     if (!f_) throw std::runtime_error(fmt::format("cannot write '{}'", path));
     buf_ = "step,time,step_ms,cg_iterations,cg_residual,kinetic_energy,elastic_energy,"
            "external_potential,total_energy,status";
     for (int s = 0; s < kStageCount; ++s) buf_ += fmt::format(",{}_ms", stage_name(static_cast<Stage>(s)));
     for (const ProbeModel& p : m.probes) buf_ += fmt::format(",{0}_dx,{0}_dy,{0}_dz", p.name);
-    for (const ToolSpec& t : m.tools) buf_ += fmt::format(",{0}_fx,{0}_fy,{0}_fz,{0}_contacts", t.name);
+    for (const ToolSpec& t : m.tools)
+      buf_ += fmt::format(",{0}_fx,{0}_fy,{0}_fz,{0}_contacts,{0}_feedback_fx,{0}_feedback_fy,{0}_feedback_fz", t.name);
     if (m.has_damage) buf_ += ",elements_warned,elements_damaged,elements_ruptured";
     buf_ += '\n';
   }
@@ -67,8 +70,25 @@ class MetricsWriter {
     flush();
     std::fclose(f_);
   }
-  std::string& buf() { return buf_; }
-  void maybe_flush() {
+  /// One row: the state after a tick (or an equilibrium) and what the tick reported.
+  void row(const State& s, TimeStepper& stepper, double ms, int iterations, double residual, int status,
+           const TickReport& r) {
+    const double ke = stepper.kinetic_energy(s.tissue);
+    const double ee = stepper.elastic_energy(s.tissue);
+    const double pe = stepper.external_potential(s.tissue);
+    auto out = std::back_inserter(buf_);
+    fmt::format_to(out, "{},{:.9g},{:.6f},{},{:.3e},{:.9e},{:.9e},{:.9e},{:.9e},{}", s.step, s.time, ms, iterations,
+                   residual, ke, ee, pe, ke + ee + pe, status);
+    for (int st = 0; st < kStageCount; ++st) fmt::format_to(out, ",{:.6f}", static_cast<double>(r.stage_ns[st]) * 1e-6);
+    for (const ProbeModel& p : m_.probes) {
+      const Vec3 d = probe_displacement(m_, s, p);
+      fmt::format_to(out, ",{:.12e},{:.12e},{:.12e}", d[0], d[1], d[2]);
+    }
+    for (const ToolOutput& t : r.tools)
+      fmt::format_to(out, ",{:.9e},{:.9e},{:.9e},{},{:.9e},{:.9e},{:.9e}", t.force[0], t.force[1], t.force[2], t.contacts,
+                     t.feedback.force[0], t.feedback.force[1], t.feedback.force[2]);
+    if (m_.has_damage) fmt::format_to(out, ",{},{},{}", s.damage_count[1], s.damage_count[2], s.damage_count[3]);
+    buf_ += '\n';
     if (buf_.size() > (1 << 20)) flush();
   }
   void flush() {
@@ -78,205 +98,284 @@ class MetricsWriter {
   }
 
  private:
+  const Model& m_;
   std::FILE* f_;
   std::string buf_;
 };
 
-}  // namespace
+/// What a run accumulates while it goes.
+struct RunLog {
+  std::vector<double> step_ms;
+  std::array<double, kStageCount> stage_total{};
+  long cg_sum = 0;
+  double io_ms = 0;
+  std::vector<std::pair<double, std::string>> series;  ///< (time, file) of --vtu-every frames
+  void add_stages(const TickReport& r) {
+    for (int st = 0; st < kStageCount; ++st) stage_total[st] += static_cast<double>(r.stage_ns[st]) * 1e-6;
+  }
+};
 
-RunResult run_headless(const Model& m, const RunOptions& o) {
-  RunResult res;
-  State s = State::initial(m);
-  TickWorkspace w(m);
-  TimeStepper& stepper = w.stepper();
-  const bool write = !o.out_dir.empty();
-  const long steps = resolve_steps(m, o);
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+/// Everything a run writes, in one place.
+class RunOutputs {
+ public:
+  RunOutputs(const CompiledScenario& sc, const RunOptions& o, RunLog& log) : sc_(sc), o_(o), log_(log) {
+    if (o.out_dir.empty()) return;
+    const auto t0 = Clock::now();
+    fs::create_directories(o.out_dir);
+    if (o.metrics) metrics = std::make_unique<MetricsWriter>((fs::path(o.out_dir) / "metrics.csv").string(), *sc.model);
+    log_.io_ms += ms_since(t0);
+  }
+  std::unique_ptr<MetricsWriter> metrics;
+  bool writing() const { return !o_.out_dir.empty(); }
+  void frame(const State& s, long k) {
+    if (!writing() || o_.vtu_every <= 0 || k % o_.vtu_every != 0) return;
+    const auto t0 = Clock::now();
+    const std::string name = fmt::format("state_{:06d}.vtu", k);
+    write_vtu((fs::path(o_.out_dir) / name).string(), *sc_.model, s);
+    log_.series.emplace_back(s.time, name);
+    log_.io_ms += ms_since(t0);
+  }
+  /// Final files and summary.json. A failed run gets no final state (stale ones are removed).
+  void finish(RunResult& res);
+
+ private:
+  const CompiledScenario& sc_;
+  const RunOptions& o_;
+  RunLog& log_;
+};
+
+void RunOutputs::finish(RunResult& res) {
+  if (!writing()) return;
+  const Model& m = *sc_.model;
+  const fs::path dir(o_.out_dir);
+  const auto t0 = Clock::now();
+  metrics.reset();
+  const State& s = res.final_state;
+  for (const char* name : {"final.vtu", "final_state.csv"}) fs::remove(dir / name);
+  if (res.ok) {
+    write_vtu((dir / "final.vtu").string(), m, s);
+    write_state_csv((dir / "final_state.csv").string(), s);
+  }
+  if (!log_.series.empty()) write_pvd((dir / "series.pvd").string(), log_.series);
+  log_.io_ms += ms_since(t0);
+  res.io_ms_total = log_.io_ms;
+
+  nlohmann::ordered_json j;
+  j["scenario"] = sc_.spec.name;
+  j["scenario_file"] = sc_.spec.file;
+  j["status"] = res.ok ? "ok" : "failed";
+  if (!res.ok) j["failure"] = res.failure;
+  j["steps"] = res.steps;
+  j["time_step"] = m.time_step;
+  j["sim_time"] = res.sim_time;
+  j["wall_seconds"] = res.wall_seconds;
+  j["nodes"] = m.fem.num_nodes;
+  j["elements"] = m.fem.elements.size();
+  j["step_ms"] = {{"p50", res.step_ms.p50}, {"p99", res.step_ms.p99}, {"max", res.step_ms.max}, {"mean", res.step_ms.mean}};
+  j["cg_iterations"] = {{"mean", res.cg_iterations_mean}, {"max", res.cg_iterations_max}};
+  j["ticks_not_converged"] = res.ticks_not_converged;
+  j["ticks_non_finite"] = res.ticks_non_finite;
+  j["ticks_recovered"] = res.ticks_recovered;
+  j["max_substeps"] = res.max_substeps;
+  if (m.stepper.integrator == Integrator::Static)
+    j["static"] = {{"newton_iterations", res.newton_iterations},
+                   {"relative_residual", res.static_residual},
+                   {"converged", res.static_converged},
+                   {"load_increments", res.static_increments}};
+  nlohmann::ordered_json stages;
+  const double n = static_cast<double>(std::max<size_t>(log_.step_ms.size(), 1));
+  for (int st = 0; st < kStageCount; ++st)
+    stages[std::string(stage_name(static_cast<Stage>(st)))] = {{"total_ms", log_.stage_total[st]},
+                                                              {"per_step_ms", log_.stage_total[st] / n}};
+  stages["io"] = {{"total_ms", log_.io_ms}};
+  j["stages"] = stages;
+  nlohmann::ordered_json probes = nlohmann::ordered_json::object();
+  for (const ProbeModel& p : m.probes) {
+    const Vec3 pos = probe_position(m, s, p);
+    const Vec3 d = probe_displacement(m, s, p);
+    probes[p.name] = {{"position", {pos[0], pos[1], pos[2]}}, {"displacement", {d[0], d[1], d[2]}}};
+  }
+  j["probes"] = probes;
+  nlohmann::ordered_json tools = nlohmann::ordered_json::object();
+  for (size_t t = 0; t < m.tools.size() && t < res.final_tools.size(); ++t) {
+    const ToolOutput& o = res.final_tools[t];
+    const ToolFeedback& fb = o.feedback;
+    tools[m.tools[t].name] = {{"force", {o.force[0], o.force[1], o.force[2]}},
+                              {"torque", {o.torque[0], o.torque[1], o.torque[2]}},
+                              {"contacts", o.contacts},
+                              {"feedback_force", {fb.force[0], fb.force[1], fb.force[2]}},
+                              {"feedback_clamped", fb.clamped}};
+  }
+  j["tools"] = tools;
+  if (m.has_damage)
+    j["damage"] = {{"elements_warned", s.damage_count[1]},
+                   {"elements_damaged", s.damage_count[2]},
+                   {"elements_ruptured", s.damage_count[3]},
+                   {"first_onset_time", s.first_damage_time}};
+  std::ofstream f(dir / "summary.json");
+  f << j.dump(2) << '\n';
+  if (!f) throw std::runtime_error(fmt::format("cannot write '{}'", (dir / "summary.json").string()));
+}
+
+/// Each scripted tool sampled at time t (tools without a script keep their pose).
+std::vector<ToolPose> scripted_poses(const CompiledScenario& sc, const State& s, double t) {
+  std::vector<ToolPose> poses;
+  for (size_t k = 0; k < s.tools.size(); ++k)
+    poses.push_back(sc.tool_scripts[k].keys.empty() ? s.tools[k].pose : sc.tool_scripts[k].sample(t));
+  return poses;
+}
+
+/// Static run: the equilibrium at t = 0 from rest, then (quasi-static) one per tick time.
+void run_static(const CompiledScenario& sc, const RunOptions& o, long steps, State& s, TickWorkspace& w,
+                RunOutputs& out, RunLog& log, RunResult& res) {
+  const Model& m = *sc.model;
+  for (size_t t = 0; t < m.tools.size(); ++t)
+    if (!sc.tool_scripts[t].keys.empty()) {
+      s.tools[t].last_command_time = 0;
+      s.tools[t].active = true;
+    }
+  StaticParameters from{0.0, 0.0, scripted_poses(sc, s, 0.0)};
+  StaticParameters to{1.0, 1.0, from.tool_poses};
+  res.static_converged = true;
+  for (long k = 0; k <= steps; ++k) {
+    if (k > 0) {
+      from = to;
+      to.tool_poses = scripted_poses(sc, s, static_cast<double>(k) * m.time_step);
+    }
+    const auto t0 = Clock::now();
+    const StaticOutcome so = solve_equilibrium(m, s, w, from, to);
+    const double ms = ms_since(t0);
+    TickReport& r = w.report;
+    r.stage_ns.fill(0);
+    r.stage_ns[static_cast<int>(Stage::Collide)] = so.collide_ns;
+    r.stage_ns[static_cast<int>(Stage::Solve)] = so.solve_ns;
+    log.step_ms.push_back(ms);
+    log.add_stages(r);
+    log.cg_sum += so.linear_iterations;
+    res.cg_iterations_max = std::max(res.cg_iterations_max, so.linear_iterations);
+    res.newton_iterations += so.newton_iterations;
+    res.static_residual = so.relative_residual;
+    res.static_increments += so.increments;
+    if (k > 0) {
+      s.step = k;
+      s.time = static_cast<double>(k) * m.time_step;
+    }
+    if (out.metrics) {
+      const auto t1 = Clock::now();
+      out.metrics->row(s, w.stepper(), ms, so.linear_iterations, so.relative_residual, so.converged ? 0 : 1, r);
+      log.io_ms += ms_since(t1);
+    }
+    if (!so.converged) {
+      res.static_converged = false;
+      res.ok = false;
+      res.failure = fmt::format(
+          "static solve did not converge at t = {:g} s: reached {:.4g} of the load/tool path in {} increments "
+          "(smallest tried {:.3g}); relative residual {:.3g} after {} Newton iterations",
+          static_cast<double>(k) * m.time_step, so.reached, so.increments, kMinStaticIncrement, so.relative_residual,
+          so.newton_iterations);
+      spdlog::error("{}", res.failure);
+      break;
+    }
+    if (so.increments > 1)
+      spdlog::debug("equilibrium {} reached in {} load increments ({} attempts)", k, so.increments, so.attempts);
+    out.frame(s, k);
+  }
+  res.steps = s.step;
+}
+
+/// Dynamic run: ticks with the tools' scripted (or replayed) commands.
+void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, State& s, TickWorkspace& w,
+                 RunOutputs& out, RunLog& log, RunResult& res) {
+  const Model& m = *sc.model;
   // Tool inputs: a replayed session, else each scripted tool sampled at the tick's start time.
   std::vector<SessionEvent> replay;
   if (!o.replay.empty()) replay = read_session_log(o.replay);
   size_t next_event = 0;
   std::vector<ToolInput> inputs;
   inputs.reserve(m.tools.size() + 16);
-  std::unique_ptr<MetricsWriter> metrics;
-  std::vector<std::pair<double, std::string>> series;
-  double io_ms = 0;
-  auto io_begin = Clock::now();
-  if (write) {
-    fs::create_directories(o.out_dir);
-    if (o.metrics) metrics = std::make_unique<MetricsWriter>((fs::path(o.out_dir) / "metrics.csv").string(), m);
-  }
-  auto add_io = [&](Clock::time_point t0) {
-    io_ms += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  };
-  add_io(io_begin);
-  auto write_frame = [&](long k) {
-    const auto t0 = Clock::now();
-    const std::string name = fmt::format("state_{:06d}.vtu", k);
-    write_vtu((fs::path(o.out_dir) / name).string(), m, s);
-    series.emplace_back(s.time, name);
-    add_io(t0);
-  };
-
-  std::vector<double> step_ms;
-  step_ms.reserve(static_cast<size_t>(std::max(0L, steps)));
-  std::array<double, kStageCount> stage_total{};
-  long cg_sum = 0;
   const auto wall0 = Clock::now();
   auto last_progress = wall0;
-
-  if (m.stepper.integrator == Integrator::Static) {
-    const auto t0 = Clock::now();
-    // Tools hold their scripted pose at t = 0; contacts are recomputed every Newton iteration.
-    for (size_t t = 0; t < m.tools.size(); ++t)
-      if (!m.tool_scripts[t].keys.empty()) {
-        s.tools[t].pose = m.tool_scripts[t].sample(0.0);
-        s.tools[t].last_command_time = 0;
-        s.tools[t].active = true;
-      }
-    std::function<void(const TissueState&)> contacts;
-    if (m.has_contact) contacts = [&](const TissueState&) { collide(m, s, w); };
-    const StaticResult sr = stepper.solve_static(s.tissue, contacts);
-    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-    step_ms.push_back(ms);
-    stage_total[static_cast<int>(Stage::Solve)] = ms;
-    res.newton_iterations = sr.newton_iterations;
-    res.static_residual = sr.relative_residual;
-    res.static_converged = sr.converged;
-    cg_sum = sr.linear_iterations;
-    res.cg_iterations_max = sr.linear_iterations;
-    if (!sr.converged)
-      spdlog::warn("static solve did not converge: relative residual {:.3g} after {} Newton iterations",
-                   sr.relative_residual, sr.newton_iterations);
-  } else {
-    if (write && o.vtu_every > 0) write_frame(0);
-    for (long k = 0; k < steps; ++k) {
-      inputs.clear();
-      if (!o.replay.empty()) {
-        for (; next_event < replay.size() && replay[next_event].tick == k; ++next_event) {
-          const SessionEvent& e = replay[next_event];
-          if (e.kind == SessionEvent::Reset) {
-            const State init = State::initial(m);
-            s = init;
-            inputs.clear();  // commands before a reset in the same tick were overwritten
-          } else if (e.kind == SessionEvent::Tool) {
-            inputs.push_back(e.input);
-          }
+  out.frame(s, 0);
+  for (long k = 0; k < steps; ++k) {
+    inputs.clear();
+    if (!o.replay.empty()) {
+      for (; next_event < replay.size() && replay[next_event].tick == k; ++next_event) {
+        const SessionEvent& e = replay[next_event];
+        if (e.kind == SessionEvent::Reset) {
+          s = State::initial(m);
+          inputs.clear();  // commands before a reset in the same tick were overwritten
+        } else if (e.kind == SessionEvent::Tool) {
+          inputs.push_back(e.input);
         }
-      } else {
-        for (size_t t = 0; t < m.tools.size(); ++t)
-          if (!m.tool_scripts[t].keys.empty())
-            inputs.push_back(ToolInput{static_cast<int32_t>(t), static_cast<uint64_t>(k + 1), 0,
-                                       m.tool_scripts[t].sample(s.time)});
       }
-      const TickReport r = tick(m, s, w, inputs.data(), static_cast<int>(inputs.size()));
-      const double ms = static_cast<double>(r.total_ns) * 1e-6;
-      step_ms.push_back(ms);
-      for (int st = 0; st < kStageCount; ++st) stage_total[st] += static_cast<double>(r.stage_ns[st]) * 1e-6;
-      cg_sum += r.solve.iterations;
-      res.cg_iterations_max = std::max(res.cg_iterations_max, r.solve.iterations);
-      if (r.status == TickStatus::SolverNotConverged) ++res.ticks_not_converged;
-      if (r.status == TickStatus::Recovered) ++res.ticks_recovered;
-      res.max_substeps = std::max(res.max_substeps, r.substeps);
-      if (r.status == TickStatus::NonFinite) {
-        ++res.ticks_non_finite;
-        spdlog::error("tick {}: non-finite values in the solve; stopping the run", k);
-        break;
-      }
-      if (metrics) {
-        const auto t0 = Clock::now();
-        const double ke = stepper.kinetic_energy(s.tissue);
-        const double ee = stepper.elastic_energy(s.tissue);
-        const double pe = stepper.external_potential(s.tissue);
-        auto& b = metrics->buf();
-        fmt::format_to(std::back_inserter(b), "{},{:.9g},{:.6f},{},{:.3e},{:.9e},{:.9e},{:.9e},{:.9e},{}",
-                       s.step, s.time, ms, r.solve.iterations, r.solve.relative_residual, ke, ee, pe,
-                       ke + ee + pe, static_cast<int>(r.status));
-        for (int st = 0; st < kStageCount; ++st)
-          fmt::format_to(std::back_inserter(b), ",{:.6f}", static_cast<double>(r.stage_ns[st]) * 1e-6);
-        for (const ProbeModel& p : m.probes) {
-          const Vec3 d = probe_displacement(m, s, p);
-          fmt::format_to(std::back_inserter(b), ",{:.12e},{:.12e},{:.12e}", d[0], d[1], d[2]);
-        }
-        for (const ToolState& t : s.tools)
-          fmt::format_to(std::back_inserter(b), ",{:.9e},{:.9e},{:.9e},{}", t.force[0], t.force[1], t.force[2], t.contacts);
-        if (m.has_damage)
-          fmt::format_to(std::back_inserter(b), ",{},{},{}", s.damage_count[1], s.damage_count[2], s.damage_count[3]);
-        b += '\n';
-        metrics->maybe_flush();
-        add_io(t0);
-      }
-      if (write && o.vtu_every > 0 && (k + 1) % o.vtu_every == 0) write_frame(k + 1);
-      const auto now = Clock::now();
-      if (o.progress && now - last_progress > std::chrono::seconds(2)) {
-        last_progress = now;
-        const double el = std::chrono::duration<double>(now - wall0).count();
-        const double eta = el / static_cast<double>(k + 1) * static_cast<double>(steps - k - 1);
-        spdlog::info("step {}/{} ({:.0f}%), sim time {:.4g} s, {:.3f} ms/step, ETA {:.0f} s", k + 1,
-                     steps, 100.0 * (k + 1) / steps, s.time, el * 1e3 / (k + 1), eta);
-      }
+    } else {
+      for (size_t t = 0; t < m.tools.size(); ++t)
+        if (!sc.tool_scripts[t].keys.empty())
+          inputs.push_back(ToolInput{static_cast<int32_t>(t), static_cast<uint64_t>(k + 1), 0,
+                                     sc.tool_scripts[t].sample(s.time)});
+    }
+    const TickReport& r = tick(m, s, w, inputs.data(), static_cast<int>(inputs.size()));
+    const double ms = static_cast<double>(r.total_ns) * 1e-6;
+    log.step_ms.push_back(ms);
+    log.add_stages(r);
+    log.cg_sum += r.solve.iterations;
+    res.cg_iterations_max = std::max(res.cg_iterations_max, r.solve.iterations);
+    if (r.status == TickStatus::SolverNotConverged) ++res.ticks_not_converged;
+    if (r.status == TickStatus::Recovered) ++res.ticks_recovered;
+    res.max_substeps = std::max(res.max_substeps, r.substeps);
+    if (r.status == TickStatus::NonFinite) {
+      ++res.ticks_non_finite;
+      res.ok = false;
+      res.failure = fmt::format("tick {} (t = {:g} s) could not advance: non-finite or diverging in every sub-step "
+                                "division down to {}; the run stopped there",
+                                k, s.time, kMaxSubsteps);
+      spdlog::error("{}", res.failure);
+      break;
+    }
+    if (out.metrics) {
+      const auto t0 = Clock::now();
+      out.metrics->row(s, w.stepper(), ms, r.solve.iterations, r.solve.relative_residual, static_cast<int>(r.status), r);
+      log.io_ms += ms_since(t0);
+    }
+    out.frame(s, k + 1);
+    const auto now = Clock::now();
+    if (o.progress && now - last_progress > std::chrono::seconds(2)) {
+      last_progress = now;
+      const double el = std::chrono::duration<double>(now - wall0).count();
+      const double eta = el / static_cast<double>(k + 1) * static_cast<double>(steps - k - 1);
+      spdlog::info("step {}/{} ({:.0f}%), sim time {:.4g} s, {:.3f} ms/step, ETA {:.0f} s", k + 1, steps,
+                   100.0 * (k + 1) / steps, s.time, el * 1e3 / (k + 1), eta);
     }
   }
+  res.steps = s.step;
+}
+
+}  // namespace
+
+RunResult run_headless(const CompiledScenario& sc, const RunOptions& o) {
+  const Model& m = *sc.model;
+  RunResult res;
+  State s = State::initial(m);
+  TickWorkspace w(m);
+  const long steps = resolve_steps(sc, o);
+  RunLog log;
+  log.step_ms.reserve(static_cast<size_t>(std::max(0L, steps)) + 1);
+  RunOutputs out(sc, o, log);
+  const auto wall0 = Clock::now();
+  if (m.stepper.integrator == Integrator::Static) run_static(sc, o, steps, s, w, out, log, res);
+  else run_dynamic(sc, o, steps, s, w, out, log, res);
   res.wall_seconds = std::chrono::duration<double>(Clock::now() - wall0).count();
-  res.steps = static_cast<long>(m.stepper.integrator == Integrator::Static ? 0 : s.step);
   res.sim_time = s.time;
-  res.step_ms = summarize(step_ms);
-  res.cg_iterations_mean = step_ms.empty() ? 0.0 : static_cast<double>(cg_sum) / static_cast<double>(step_ms.size());
+  res.step_ms = summarize(log.step_ms);
+  res.cg_iterations_mean =
+      log.step_ms.empty() ? 0.0 : static_cast<double>(log.cg_sum) / static_cast<double>(log.step_ms.size());
   for (int st = 0; st < kStageCount; ++st)
-    res.stage_ms_total[std::string(stage_name(static_cast<Stage>(st)))] = stage_total[st];
-
-  if (write) {
-    const auto t0 = Clock::now();
-    metrics.reset();
-    write_vtu((fs::path(o.out_dir) / "final.vtu").string(), m, s);
-    write_state_csv((fs::path(o.out_dir) / "final_state.csv").string(), s);
-    if (!series.empty()) write_pvd((fs::path(o.out_dir) / "series.pvd").string(), series);
-    add_io(t0);
-    res.io_ms_total = io_ms;
-
-    nlohmann::ordered_json j;
-    j["scenario"] = m.spec.name;
-    j["scenario_file"] = m.spec.file;
-    j["steps"] = res.steps;
-    j["time_step"] = m.time_step;
-    j["sim_time"] = res.sim_time;
-    j["wall_seconds"] = res.wall_seconds;
-    j["nodes"] = m.fem.num_nodes;
-    j["elements"] = m.fem.elements.size();
-    j["step_ms"] = {{"p50", res.step_ms.p50}, {"p99", res.step_ms.p99}, {"max", res.step_ms.max}, {"mean", res.step_ms.mean}};
-    j["cg_iterations"] = {{"mean", res.cg_iterations_mean}, {"max", res.cg_iterations_max}};
-    j["ticks_not_converged"] = res.ticks_not_converged;
-    j["ticks_non_finite"] = res.ticks_non_finite;
-    j["ticks_recovered"] = res.ticks_recovered;
-    j["max_substeps"] = res.max_substeps;
-    if (m.stepper.integrator == Integrator::Static)
-      j["static"] = {{"newton_iterations", res.newton_iterations},
-                     {"relative_residual", res.static_residual},
-                     {"converged", res.static_converged}};
-    nlohmann::ordered_json stages;
-    for (int st = 0; st < kStageCount; ++st) {
-      const std::string name(stage_name(static_cast<Stage>(st)));
-      stages[name] = {{"total_ms", stage_total[st]},
-                      {"per_step_ms", step_ms.empty() ? 0.0 : stage_total[st] / static_cast<double>(step_ms.size())}};
-    }
-    stages["io"] = {{"total_ms", io_ms}};
-    j["stages"] = stages;
-    nlohmann::ordered_json probes = nlohmann::ordered_json::object();
-    for (const ProbeModel& p : m.probes) {
-      const Vec3 pos = probe_position(m, s, p);
-      const Vec3 d = probe_displacement(m, s, p);
-      probes[p.name] = {{"position", {pos[0], pos[1], pos[2]}}, {"displacement", {d[0], d[1], d[2]}}};
-    }
-    j["probes"] = probes;
-    if (m.has_damage)
-      j["damage"] = {{"elements_warned", s.damage_count[1]},
-                     {"elements_damaged", s.damage_count[2]},
-                     {"elements_ruptured", s.damage_count[3]},
-                     {"first_onset_time", s.first_damage_time}};
-    std::ofstream f(fs::path(o.out_dir) / "summary.json");
-    f << j.dump(2) << '\n';
-    if (!f) throw std::runtime_error(fmt::format("cannot write '{}'", (fs::path(o.out_dir) / "summary.json").string()));
-  }
+    res.stage_ms_total[std::string(stage_name(static_cast<Stage>(st)))] = log.stage_total[st];
+  res.final_tools = w.report.tools;
   res.final_state = std::move(s);
+  out.finish(res);
   return res;
 }
 

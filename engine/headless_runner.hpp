@@ -1,7 +1,11 @@
 #pragma once
 /// \file headless_runner.hpp
 /// `stroma run`: ticks a model as fast as it can and writes summary.json, metrics.csv,
-/// final.vtu (+ a .pvd series) and final_state.csv into an output directory.
+/// final.vtu (+ a .pvd series) and final_state.csv into an output directory. Static scenarios
+/// solve equilibria with load stepping (engine/static_run.hpp) through the same collide stage
+/// and time stepper. A failed run (a tick that could not advance, a static solve that did not
+/// converge) writes summary.json with "status": "failed" and its reason, its metrics, and no
+/// final state: final.vtu and final_state.csv are not written (and stale ones removed).
 
 #include <functional>
 #include <map>
@@ -9,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
@@ -17,7 +22,7 @@ namespace stroma {
 
 /// Options of a headless run (command-line values override the scenario's `run:`).
 struct RunOptions {
-  std::optional<long> steps;        ///< ticks to run
+  std::optional<long> steps;        ///< ticks to run (static: further equilibria after t = 0)
   std::optional<double> duration;   ///< simulated seconds to run
   std::string out_dir;              ///< empty: write nothing
   int vtu_every = 0;                ///< > 0: also write a .vtu every K ticks and a .pvd
@@ -34,7 +39,10 @@ struct TimingSummary {
 /// What a headless run produced (also written to summary.json).
 struct RunResult {
   State final_state;
-  long steps = 0;
+  std::vector<ToolOutput> final_tools;  ///< each tool's output of the last tick (or equilibrium)
+  bool ok = true;                       ///< false: the run failed (see failure)
+  std::string failure;                  ///< why, when !ok
+  long steps = 0;                       ///< ticks (static: equilibria after the first)
   double sim_time = 0;
   double wall_seconds = 0;
   TimingSummary step_ms;
@@ -46,16 +54,18 @@ struct RunResult {
   int max_substeps = 1;       ///< most sub-steps any tick needed
   std::map<std::string, double> stage_ms_total;  ///< per stage, summed over the run
   double io_ms_total = 0;                        ///< metrics, VTU and summary writing
-  /// Static runs: Newton iterations and final relative residual.
+  /// Static runs: Newton iterations (all equilibria), final relative residual, load increments.
   int newton_iterations = 0;
   double static_residual = 0;
   bool static_converged = true;
+  int static_increments = 0;
 };
 
-/// Number of ticks a run makes: options first, then the scenario's `run:` (0 for static).
-long resolve_steps(const Model& m, const RunOptions& o);
+/// Number of ticks a run makes: options first, then the scenario's `run:`. Dynamic default
+/// 1000; static default 0 (one equilibrium at t = 0).
+long resolve_steps(const CompiledScenario& sc, const RunOptions& o);
 
-/// Runs the model from its initial state. Throws std::runtime_error on I/O failure.
-RunResult run_headless(const Model& m, const RunOptions& o);
+/// Runs the scenario from its initial state. Throws std::runtime_error on I/O failure.
+RunResult run_headless(const CompiledScenario& sc, const RunOptions& o);
 
 }  // namespace stroma

@@ -1,19 +1,21 @@
 #pragma once
 /// \file model.hpp
-/// The compiled, immutable scenario model (as MuJoCo's mjModel): everything that does not
-/// change while the simulation runs. Built once by compile_model(); shared read-only.
+/// The compiled, immutable scenario model (as MuJoCo's mjModel): the constants the tick reads,
+/// typed and resolved — nothing else. Built once by compile_scenario() (compiled_scenario.hpp),
+/// shared read-only by every thread. The scenario text, log notes, headless tool scripts and
+/// visual surfaces live beside it in CompiledScenario: the tick never reads them.
 
+#include <array>
 #include <memory>
-#include <string>
 #include <optional>
+#include <string>
 #include <vector>
 
-#include "engine/scenario_spec.hpp"
 #include "collision/body_contact.hpp"
-#include "engine/trajectory.hpp"
+#include "engine/scenario_spec.hpp"
+#include "haptics/tool.hpp"
 #include "tissue/barycentric.hpp"
 #include "tissue/fem_model.hpp"
-#include "tissue/visual_mapping.hpp"
 #include "tissue/time_stepper.hpp"
 
 namespace stroma {
@@ -25,28 +27,34 @@ struct ProbeModel {
   BarycentricPoint where;  ///< node indices are global
 };
 
-/// A compiled scenario.
-/// A body's visual surface (scenario `visual:`): drawn instead of the tetrahedra's boundary,
-/// following them through a fixed barycentric mapping (tissue/visual_mapping.hpp).
-struct VisualModel {
-  std::string source;                  ///< the mesh file
-  std::vector<Vec3> rest;              ///< vertex rest positions (scaled like the body)
-  std::vector<uint32_t> triangles;     ///< 3 per triangle, into `rest`
-  VisualMapping mapping;               ///< vertex = Σ w · x(node), global node indices
-};
-
+/// The compiled scenario model.
+///
+/// Invariants (established by compile_scenario, relied on by the tick):
+///  - `fem` is a valid FemModel (see its invariants); every index below is into its arrays.
+///  - `tools` are resolved: a tool with a shape has contact_stiffness > 0, a grasping tool has
+///    grasp_stiffness > 0; workspace_min ≤ workspace_max. Their order is the scenario's and the
+///    index of a ToolInput.
+///  - `has_contact` ⇔ some tool has a shape or `body_contact` is set; then the collision arrays
+///    (triangles, slots, edges, face_elem) are parallel and non-empty only for contact scenes.
+///  - `has_damage` ⇔ some body_damage[b].enabled; element_node_mass is sized to the elements
+///    then (empty otherwise), element_faces to the elements when has_contact.
+///  - `max_step_displacement` > 0: half the rest bounding-box diagonal of the whole scene.
 struct Model {
-  ScenarioSpec spec;               ///< the validated scenario it was compiled from
+  std::string name;                ///< the scenario's name (logs, outputs, published scene)
   FemModel fem;                    ///< all bodies in one system
-  StepperSettings stepper;         ///< integrator and solver settings
+  StepperSettings stepper;         ///< integrator and solver settings (Newton count resolved)
   double time_step = 0.001;        ///< s
+  /// solver.on_cg_cap: a tick whose CG hits its cap is redone in sub-steps (true, the default)
+  /// or kept (false).
+  bool substep_on_cg_cap = true;
+  /// Largest node displacement one step (or sub-step) may make before it counts as diverged
+  /// (half the scene's rest bounding-box diagonal).
+  double max_step_displacement = 0;
   std::vector<ProbeModel> probes;
-  std::vector<ToolSpec> tools;            ///< the scenario's tools, in order
-  std::vector<Trajectory> tool_scripts;   ///< per tool; empty keys when it has no script
+  std::vector<ToolSpec> tools;            ///< resolved (see the invariants), in scenario order
   std::vector<DamageSpec> body_damage;    ///< per body (enabled = false: no damage model)
   bool has_damage = false;                ///< some body has a damage model: damage stage runs
   std::vector<double> element_node_mass;  ///< ρV/4 of each element (damage: removed at rupture)
-  std::vector<int32_t> node_elem_ptr, node_elem;  ///< CSR: elements of each node (damage only)
   /// Some tool has a shape, or the scenario has body contact: the collide stage and BVH exist.
   bool has_contact = false;
   std::optional<BodyContactModel> body_contact;  ///< scenario `body_contact:` (none: not computed)
@@ -58,15 +66,12 @@ struct Model {
   /// face, active when exactly one side is intact (a tear exposes the inner faces).
   std::vector<std::array<int32_t, 2>> collision_face_elem;
   std::vector<std::array<int32_t, 4>> element_faces;  ///< collision face of each tet face (−1: none)
-  // (contact sampling density: haptics/contact.hpp)
-  /// Per body: its visual surface, or none (then renderers get the tetrahedra's boundary).
-  std::vector<std::optional<VisualModel>> visuals;
   std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
-  std::vector<std::string> notes;  ///< load-time observations worth logging (reoriented, unused)
 };
 
-/// Loads every mesh, validates materials and selections against them, and compiles.
-/// Throws InputError with the scenario file, line and field on any problem.
+/// Loads every mesh, validates materials and selections against them, and compiles the model
+/// alone (tests and benchmarks; the commands use compile_scenario). Throws InputError with the
+/// scenario file, line and field on any problem.
 std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec);
 
 }  // namespace stroma

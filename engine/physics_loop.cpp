@@ -25,15 +25,6 @@ inline void sleep_until(int64_t t) {
   }
 }
 
-double kinetic(const Model& m, const State& s) {
-  double e = 0;
-  for (int32_t i = 0; i < m.fem.num_nodes; ++i) {
-    const double* v = &s.tissue.v[3 * i];
-    e += 0.5 * m.fem.mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-  }
-  return e;
-}
-
 }  // namespace
 
 PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions options)
@@ -69,6 +60,114 @@ void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& s
   }
 }
 
+void PhysicsLoop::publish_feedback(const TickReport& r) {
+  FeedbackBatch& fb = feedback_out.write_slot();
+  fb.count = 0;
+  for (size_t t = 0; t < state_.tools.size() && fb.count < kMaxTools; ++t) {
+    const ToolState& ts = state_.tools[t];
+    const ToolOutput& out = r.tools[t];
+    ToolFeedbackFrame& f = fb.frames[fb.count++];
+    f = ToolFeedbackFrame{};
+    f.tool = static_cast<int32_t>(t);
+    f.seq = ts.seq;
+    f.client_time_ns = ts.client_time_ns;
+    f.server_time_ns = now_ns();
+    f.sim_time = state_.time;
+    f.active = ts.active;
+    f.force = out.feedback.force;  // computed once, by the tick's hand_off (haptics/feedback.hpp)
+    f.torque = out.feedback.torque;
+    f.stiffness = out.feedback.stiffness;
+    f.in_contact = out.contacts > 0;
+  }
+  feedback_out.publish();
+  feedback_published.fetch_add(1, std::memory_order_release);
+  feedback_published.notify_one();
+}
+
+void PhysicsLoop::publish_state_frame(const TickReport& r, uint64_t frame) {
+  StateFrame& f = state_out.write_slot();
+  f.frame = frame;
+  f.sim_time = state_.time;
+  std::copy(state_.tissue.x.begin(), state_.tissue.x.end(), f.x.begin());
+  std::copy(state_.damage.begin(), state_.damage.end(), f.damage.begin());
+  f.tool_count = static_cast<int>(std::min<size_t>(state_.tools.size(), kMaxTools));
+  for (int t = 0; t < f.tool_count; ++t) {
+    const ToolState& ts = state_.tools[t];
+    f.tools[t] = ToolSnapshot{ts.pose, tool_center(model_->tools[t], ts), r.tools[t].feedback.force, ts.active,
+                              ts.last_command_time >= 0, r.tools[t].contacts, ts.grasped};
+  }
+  state_out.publish();
+  outputs_published.fetch_add(1, std::memory_order_release);
+  outputs_published.notify_one();
+}
+
+void PhysicsLoop::publish_damage_events(const TickReport& r) {
+  for (const DamageEventRecord& ev : r.damage_records)
+    if (!damage_out.push(ev)) damage_dropped.fetch_add(1, std::memory_order_relaxed);
+  outputs_published.fetch_add(1, std::memory_order_release);
+  outputs_published.notify_one();
+}
+
+void PhysicsLoop::account_tick(const TickReport& r, RunState& rs, StatusWindow& win) {
+  ++stats_.ticks;
+  stats_.cg_iterations_total += static_cast<uint64_t>(r.solve.iterations);
+  stats_.cg_iterations_max = std::max(stats_.cg_iterations_max, r.solve.iterations);
+  for (int s = 0; s < kStageCount; ++s) {
+    stats_.stage_ns_total[s] += r.stage_ns[s];
+    win.stage_ns[s] += r.stage_ns[s];
+  }
+  if (r.status == TickStatus::SolverNotConverged) ++stats_.not_converged;
+  if (r.status == TickStatus::Recovered) ++stats_.recovered;
+  if (r.status == TickStatus::NonFinite) {
+    ++stats_.non_finite;
+    rs = RunState::Fault;  // state kept finite (not advanced); clients see FAULT
+  }
+  win.elastic_energy = r.elastic_energy;
+  win.cg_iterations += static_cast<uint64_t>(r.solve.iterations);
+  ++win.ticks;
+}
+
+void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow& win, double wall, double running_wall,
+                                 uint64_t controls_seen) {
+  status->state = rs;
+  status->sim_time = state_.time;
+  status->wall_time = wall;
+  status->lag = running_wall - state_.time;
+  status->ticks = stats_.ticks;
+  status->missed_deadlines = stats_.missed_deadlines;
+  status->controls = controls_seen;
+  status->cg_iterations_mean = win.ticks ? static_cast<double>(win.cg_iterations) / static_cast<double>(win.ticks) : 0.0;
+  status->kinetic_energy = work_.stepper().kinetic_energy(state_.tissue);
+  for (int st = 0; st < kStageCount; ++st)
+    status->stage_ms[st] = win.ticks ? static_cast<double>(win.stage_ns[st]) * 1e-6 / static_cast<double>(win.ticks) : 0.0;
+  status->missed_window = stats_.missed_deadlines - win.missed_at_start;
+  status->elastic_energy = win.elastic_energy;
+  status->recent = win.recent;
+  status_out.publish();
+  outputs_published.fetch_add(1, std::memory_order_release);
+  outputs_published.notify_one();
+  status = &status_out.write_slot();
+  const double elastic = win.elastic_energy;
+  win = StatusWindow{};
+  win.elastic_energy = elastic;
+  win.missed_at_start = stats_.missed_deadlines;
+}
+
+int PhysicsLoop::take_inputs(std::array<ToolInput, kMaxTools>& inputs) {
+  int n_in = 0;
+  for (size_t t = 0; t < tool_in.size() && n_in < kMaxTools; ++t)
+    if (tool_in[t]->update()) {
+      inputs[n_in] = tool_in[t]->read_slot();
+      SessionEvent se;
+      se.tick = static_cast<int64_t>(stats_.ticks);
+      se.kind = SessionEvent::Tool;
+      se.input = inputs[n_in];
+      log(se);
+      ++n_in;
+    }
+  return n_in;
+}
+
 void PhysicsLoop::run(const std::atomic<bool>& stop) {
   const Model& m = *model_;
   const int64_t period = static_cast<int64_t>(m.time_step * 1e9 + 0.5);
@@ -77,11 +176,9 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
   bool shutdown = false;
   uint64_t frame = 0, controls_seen = 0;
   double running_wall = 0;  // wall time spent in the Running state (for the lag)
-  double elastic = 0;
-  uint64_t cg_window = 0, ticks_window = 0, missed_at_window = 0;
-  std::array<int64_t, kStageCount> stage_window{};
-  int recent = 0;
+  StatusWindow win;
   StatusFrame* status = &status_out.write_slot();
+  std::array<ToolInput, kMaxTools> inputs;
 
   const int64_t t0 = now_ns();
   int64_t deadline = t0 + period;
@@ -103,76 +200,19 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
     const bool do_tick = rs == RunState::Running || steps_pending > 0;
     if (do_tick) {
       if (rs != RunState::Running) --steps_pending;
-      // read inputs: the newest accepted command of each tool (validated by the DDS thread).
-      std::array<ToolInput, kMaxTools> inputs;
-      int n_in = 0;
-      for (size_t t = 0; t < tool_in.size() && n_in < kMaxTools; ++t)
-        if (tool_in[t]->update()) {
-          inputs[n_in] = tool_in[t]->read_slot();
-          SessionEvent se;
-          se.tick = static_cast<int64_t>(stats_.ticks);
-          se.kind = SessionEvent::Tool;
-          se.input = inputs[n_in];
-          log(se);
-          ++n_in;
-        }
-      const TickReport r = tick(m, state_, work_, inputs.data(), n_in);
-      ++stats_.ticks;
-      stats_.cg_iterations_total += static_cast<uint64_t>(r.solve.iterations);
-      stats_.cg_iterations_max = std::max(stats_.cg_iterations_max, r.solve.iterations);
-      for (int s = 0; s < kStageCount; ++s) {
-        stats_.stage_ns_total[s] += r.stage_ns[s];
-        stage_window[s] += r.stage_ns[s];
-      }
-      if (r.status == TickStatus::SolverNotConverged) ++stats_.not_converged;
-      if (r.status == TickStatus::Recovered) ++stats_.recovered;
-      if (r.status == TickStatus::NonFinite) {
-        ++stats_.non_finite;
-        rs = RunState::Fault;  // state kept finite (not advanced); clients see FAULT
-      }
-      elastic = r.elastic_energy;
-      if (r.damage_events > 0) {
-        int32_t touching = -1;
-        for (size_t t = 0; t < state_.tools.size() && touching < 0; ++t)
-          if (state_.tools[t].contacts > 0) touching = static_cast<int32_t>(t);
-        for (DamageEventRecord ev : work_.damage_events) {
-          ev.tool = touching;
-          if (!damage_out.push(ev)) damage_dropped.fetch_add(1, std::memory_order_relaxed);
-        }
-        outputs_published.fetch_add(1, std::memory_order_release);
-        outputs_published.notify_one();
-      }
-      cg_window += static_cast<uint64_t>(r.solve.iterations);
-      ++ticks_window;
-    }
-    if (do_tick && !state_.tools.empty()) {
-      FeedbackBatch& fb = feedback_out.write_slot();
-      fb.count = 0;
-      for (size_t t = 0; t < state_.tools.size() && fb.count < kMaxTools; ++t) {
-        const ToolState& ts = state_.tools[t];
-        ToolFeedbackFrame& f = fb.frames[fb.count++];
-        f = ToolFeedbackFrame{};
-        f.tool = static_cast<int32_t>(t);
-        f.seq = ts.seq;
-        f.client_time_ns = ts.client_time_ns;
-        f.server_time_ns = now_ns();
-        f.sim_time = state_.time;
-        f.active = ts.active;
-        // Device force: the tissue's force on the tool, clamped to what the device may render.
-        const ToolSpec& spec = model_->tools[t];
-        const Vec3& df = ts.device_force;
-        const double fn = std::sqrt(df[0] * df[0] + df[1] * df[1] + df[2] * df[2]);
-        const double scale = fn > spec.max_force ? spec.max_force / fn : 1.0;
-        for (int k = 0; k < 3; ++k) {
-          f.force[k] = scale * df[k];
-          f.torque[k] = scale * ts.torque[k];
-        }
-        f.stiffness = ts.device_stiffness;
-        f.in_contact = ts.contacts > 0;
-      }
-      feedback_out.publish();
-      feedback_published.fetch_add(1, std::memory_order_release);
-      feedback_published.notify_one();
+      // The newest accepted command of each tool (validated by the DDS thread).
+      const int n_in = take_inputs(inputs);
+      const TickReport& r = tick(m, state_, work_, inputs.data(), n_in);
+      account_tick(r, rs, win);
+      // Hand-off to the server's threads, timed under the hand_off stage.
+      const int64_t h0 = now_ns();
+      if (r.damage_events > 0) publish_damage_events(r);
+      if (!state_.tools.empty()) publish_feedback(r);
+      if (state_wanted.load(std::memory_order_relaxed) && state_.step % opt_.publish_every == 0)
+        publish_state_frame(r, ++frame);
+      const int64_t handoff = now_ns() - h0;
+      stats_.stage_ns_total[static_cast<int>(Stage::HandOff)] += handoff;
+      win.stage_ns[static_cast<int>(Stage::HandOff)] += handoff;
     }
     const int64_t done = now_ns();
     const int64_t busy = done - wake;
@@ -180,53 +220,13 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
     if (rs == RunState::Running) running_wall += static_cast<double>(done - last_done) * 1e-9;
     last_done = done;
 
-    // Hand-offs: copies into pre-sized slots, then one atomic exchange each.
-    if (do_tick && state_wanted.load(std::memory_order_relaxed) &&
-        state_.step % opt_.publish_every == 0) {
-      StateFrame& f = state_out.write_slot();
-      f.frame = ++frame;
-      f.sim_time = state_.time;
-      std::copy(state_.tissue.x.begin(), state_.tissue.x.end(), f.x.begin());
-      std::copy(state_.damage.begin(), state_.damage.end(), f.damage.begin());
-      f.tool_count = static_cast<int>(std::min<size_t>(state_.tools.size(), kMaxTools));
-      for (int t = 0; t < f.tool_count; ++t) {
-        const ToolState& ts = state_.tools[t];
-        f.tools[t] = ToolSnapshot{ts.pose, tool_center(model_->tools[t], ts), ts.device_force, ts.active,
-                                  ts.last_command_time >= 0, ts.contacts, ts.grasped};
-      }
-      state_out.publish();
-      outputs_published.fetch_add(1, std::memory_order_release);
-      outputs_published.notify_one();
+    if (win.recent < kRecentTicks) {
+      status->tick_us[win.recent] = static_cast<float>(busy * 1e-3);
+      status->wake_us[win.recent] = static_cast<float>((wake - deadline) * 1e-3);
+      ++win.recent;
     }
-    if (recent < kRecentTicks) {
-      status->tick_us[recent] = static_cast<float>(busy * 1e-3);
-      status->wake_us[recent] = static_cast<float>((wake - deadline) * 1e-3);
-      ++recent;
-    }
-    if (stats_.loops % opt_.status_every == 0) {
-      status->state = rs;
-      status->sim_time = state_.time;
-      status->wall_time = static_cast<double>(done - t0) * 1e-9;
-      status->lag = running_wall - state_.time;
-      status->ticks = stats_.ticks;
-      status->missed_deadlines = stats_.missed_deadlines;
-      status->controls = controls_seen;
-      status->cg_iterations_mean = ticks_window ? static_cast<double>(cg_window) / static_cast<double>(ticks_window) : 0.0;
-      status->kinetic_energy = kinetic(m, state_);
-      for (int st = 0; st < kStageCount; ++st)
-        status->stage_ms[st] = ticks_window ? static_cast<double>(stage_window[st]) * 1e-6 / static_cast<double>(ticks_window) : 0.0;
-      status->missed_window = stats_.missed_deadlines - missed_at_window;
-      missed_at_window = stats_.missed_deadlines;
-      stage_window.fill(0);
-      status->elastic_energy = elastic;
-      status->recent = recent;
-      status_out.publish();
-      outputs_published.fetch_add(1, std::memory_order_release);
-      outputs_published.notify_one();
-      status = &status_out.write_slot();
-      recent = 0;
-      cg_window = ticks_window = 0;
-    }
+    if (stats_.loops % opt_.status_every == 0)
+      publish_status(status, rs, win, static_cast<double>(done - t0) * 1e-9, running_wall, controls_seen);
 
     // Next deadline: on time → one period later; late → start at once and re-anchor.
     deadline += period;

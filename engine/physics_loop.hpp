@@ -38,7 +38,7 @@ inline constexpr int kMaxTools = 8;
 struct ToolSnapshot {
   ToolPose pose;
   Vec3 center{0, 0, 0};    ///< tool_center(): where contact has the tool (proxy when coupled)
-  Vec3 device_force{0, 0, 0};
+  Vec3 device_force{0, 0, 0};  ///< what its device renders (ToolFeedback::force)
   bool active = false;     ///< a client is driving it now
   bool commanded = false;  ///< it has had a command (it is somewhere in the scene)
   int contacts = 0, grasped = 0;
@@ -130,7 +130,23 @@ class PhysicsLoop {
   const Model& model() const { return *model_; }
 
  private:
+  /// What the status frame averages over its period (reset at each status frame).
+  struct StatusWindow {
+    uint64_t cg_iterations = 0, ticks = 0, missed_at_start = 0;
+    std::array<int64_t, kStageCount> stage_ns{};
+    double elastic_energy = 0;
+    int recent = 0;  ///< entries of the recent tick/wake-up arrays filled
+  };
   void handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown);
+  /// The newest command of each tool (logged for replay); returns how many.
+  int take_inputs(std::array<ToolInput, kMaxTools>& inputs);
+  /// Statistics of one tick; a non-finite tick faults the run.
+  void account_tick(const TickReport& r, RunState& rs, StatusWindow& win);
+  void publish_feedback(const TickReport& r);
+  void publish_state_frame(const TickReport& r, uint64_t frame);
+  void publish_damage_events(const TickReport& r);
+  void publish_status(StatusFrame*& status, RunState rs, StatusWindow& win, double wall, double running_wall,
+                      uint64_t controls_seen);
   void log(const SessionEvent& e) {
     if (opt_.record && !record.push(e)) ++stats_.record_dropped;
   }

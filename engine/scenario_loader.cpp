@@ -489,6 +489,8 @@ SolverSpec parse_solver(const Field& f) {
                              "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap",
                              "newton_iterations", "newton_tolerance"});
   SolverSpec s;
+  s.where = m.location();
+  if (auto i = m.opt("integrator")) s.integrator_where = i->location();
   m.read("integrator", s.integrator, kIntegrators);
   m.read("linear_solver", s.linear_solver, kLinearSolvers);
   m.read("preconditioner", s.preconditioner, kPreconditioners);
@@ -752,7 +754,7 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   t.where = m.location();
   m.require("name", t.spec.name);
   std::string script;
-  if (m.read("script", script)) t.spec.script = resolve_path(script, ctx.base_dir);
+  if (m.read("script", script)) t.script = resolve_path(script, ctx.base_dir);
   if (auto w = m.opt("workspace")) {
     const BoxSpec b = parse_box(*w);
     t.spec.workspace_min = b.min;

@@ -46,6 +46,8 @@ struct SolverSpec {
   /// (see resolved_newton_iterations; docs/STABILITY.md has the data behind the choice).
   int newton_iterations = 0;
   double newton_tolerance = 1.0e-3;
+  SourceLocation where;             ///< the `solver:` section (file only when absent)
+  SourceLocation integrator_where;  ///< the `integrator:` key (file only when absent)
 };
 
 /// Newton iterations `newton_iterations: auto` gives steps longer than 1 ms. In the stability
@@ -148,6 +150,7 @@ struct ProbeSpec {
 /// `tools:` entry: a tool with its limits (ToolSpec) and where it is in the file.
 struct ToolEntry {
   ToolSpec spec;
+  std::string script;  ///< trajectory file (YAML or CSV) driving it in headless runs; may be empty
   SourceLocation where;
 };
 

@@ -11,7 +11,11 @@
 
 namespace stroma {
 
-/// Simulation state at one instant.
+/// Simulation state at one instant: everything the next tick depends on, nothing it merely
+/// reports (outputs live in TickReport). Invariants: tissue arrays have 3·num_nodes entries;
+/// tools has one entry per Model::tools; damage, damage_level and node_mass are sized to the
+/// elements / nodes exactly when Model::has_damage; face_active to the collision faces when a
+/// body with a damage model can be touched; time = step · time_step.
 struct State {
   TissueState tissue;  ///< positions, velocities, solver warm start
   std::vector<ToolState> tools;  ///< one per scenario tool
@@ -25,7 +29,6 @@ struct State {
   /// 2 active reversed (its first element ruptured, the second is intact). Empty unless a body
   /// with a damage model can be touched by a tool.
   std::vector<uint8_t> face_active;
-  BodyContactState body_contact;  ///< this tick's body–body contacts (zero without body_contact:)
   double time = 0;     ///< simulated time (s)
   int64_t step = 0;    ///< ticks done
 

@@ -1,30 +1,34 @@
 #pragma once
 /// \file tick.hpp
-/// One simulation tick as a short function of named, timed stages:
-///   read inputs → collide → assemble → solve → integrate → damage → hand off.
+/// One simulation tick as a flat list of named, timed stages (engine/tick.cpp):
+///   read_inputs → collide → step_with_recovery (assemble → solve → integrate, retried)
+///   → damage → hand_off.
 /// Stages a scene does not need are skipped (and report zero time). The same tick runs
 /// headless and in the real-time server. It never allocates, locks, logs or throws: problems
-/// come back as a status code.
+/// come back as a status code, outputs in the workspace's TickReport.
 
-#include <algorithm>
 #include <array>
-#include <cmath>
 #include <cstdint>
-#include <memory>
 #include <string_view>
+#include <vector>
 
-#include "engine/model.hpp"
+#include "collision/body_contact.hpp"
 #include "collision/triangle_bvh.hpp"
 #include "engine/damage.hpp"
+#include "engine/model.hpp"
 #include "engine/state.hpp"
+#include "haptics/tool.hpp"
 #include "tissue/time_stepper.hpp"
 
 namespace stroma {
 
-/// Named stages of a tick, in order.
+/// Named stages of a tick, in order. `Assemble` counts every element pass of the step (Newton
+/// iterations' included), `Solve` the linear solves; `HandOff` is the tick's outputs for
+/// clients (end-of-step tool forces and device feedback) and, in `stroma serve`, the copies
+/// into the lock-free buffers that follow the tick.
 enum class Stage : int { ReadInputs, Collide, Assemble, Solve, Integrate, Damage, HandOff, Count };
 inline constexpr int kStageCount = static_cast<int>(Stage::Count);
-/// snake_case stage name, as used in summary.json and metrics.csv.
+/// snake_case stage name, as used in summary.json, metrics.csv and SimStatus.
 std::string_view stage_name(Stage s);
 
 /// How a tick ended.
@@ -49,7 +53,9 @@ inline constexpr int kKeepCappedSubsteps = 16;
 /// Most times a tick is re-solved after releasing speculative body contacts that ended pulling.
 inline constexpr int kMaxContactReleases = 2;
 
-/// What one tick reports.
+/// Everything one tick produces besides the new state, in one place. It lives in the
+/// TickWorkspace (its arrays sized at load) and is overwritten by the next tick: copy what you
+/// keep (a copy allocates — never copy it in a real-time loop).
 struct TickReport {
   TickStatus status = TickStatus::Ok;
   SolveStats solve;                         ///< linear solver iterations and residual
@@ -57,64 +63,53 @@ struct TickReport {
   double elastic_energy = 0;                ///< at the state the tick started from
   std::array<int64_t, kStageCount> stage_ns{};  ///< wall time per stage
   std::array<bool, kStageCount> stage_ran{};    ///< false: skipped (nothing to do)
-  int damage_events = 0;                        ///< elements reaching a new damage level
   int substeps = 1;  ///< sub-steps the tick finally used (> 1: it was retried, see Recovered)
+  int contact_releases = 0;  ///< re-solves after releasing pulling speculative body contacts
   int64_t total_ns = 0;
+  std::vector<ToolOutput> tools;    ///< per scenario tool: contact, end-of-step force, feedback
+  BodyContactOutput body_contact;   ///< body–body contacts (zero without `body_contact:`)
+  int damage_events = 0;            ///< elements reaching a new damage level this tick
+  /// Their records (up to the capacity fixed at load; `tool`: a tool touching tissue then).
+  std::vector<DamageEventRecord> damage_records;
 };
 
-/// Per-thread scratch of the tick (the TimeStepper's work arrays). Not part of the state.
+/// Per-thread scratch of the tick and its report. Not part of the state. Invariant: every
+/// vector is sized (or reserved) here, once; the tick only clears and refills them.
 class TickWorkspace {
  public:
-  explicit TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
-    stepper_.prepare(m.time_step);
-    backup_x.resize(m.fem.rest.size());
-    backup_v.resize(m.fem.rest.size());
-    // A step (or sub-step) that moves a node by more than half the scene's size has diverged.
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (size_t i = 0; i < m.fem.rest.size(); ++i) {
-      lo[i % 3] = std::min(lo[i % 3], m.fem.rest[i]);
-      hi[i % 3] = std::max(hi[i % 3], m.fem.rest[i]);
-    }
-    const double d2 = (hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                      (hi[2] - lo[2]) * (hi[2] - lo[2]);
-    max_step_displacement = 0.5 * std::sqrt(d2);
-    if (m.has_damage) damage_events.reserve(1024);
-    if (m.has_contact) {  // pay only for use: no tool shape, no BVH
-      bvh.build(m.collision_triangles, m.fem.rest.data());
-      springs.reserve(kMaxContacts);
-    }
-    if (m.body_contact) {
-      body_boxes.resize(6 * m.fem.bodies.size());
-      body_pairs.reserve(kMaxContacts / 2);
-    }
-  }
+  explicit TickWorkspace(const Model& m);
   TimeStepper& stepper() { return stepper_; }
   const TimeStepper& stepper() const { return stepper_; }
 
-  /// Contact points per tick at most (further ones are dropped and counted in ToolState).
+  /// Contact points per tick at most (further ones are dropped and counted in ToolOutput).
   static constexpr size_t kMaxContacts = 16384;
+  /// Damage records kept per tick at most (the count in TickReport::damage_events is exact).
+  static constexpr size_t kMaxDamageRecords = 1024;
   TriangleBvh bvh;                      ///< surface triangles, refitted every tick
   std::vector<ContactSpring> springs;   ///< this tick's contacts (capacity fixed at load)
   std::vector<double> body_boxes;       ///< body contact's per-body boxes (sized at load)
   std::vector<BodyContactPair> body_pairs;  ///< this tick's body contacts (capacity fixed at load)
-  /// Elements that reached a new damage level this tick (capacity fixed at load).
-  std::vector<DamageEventRecord> damage_events;
   /// Positions and velocities at the start of the tick, for rollback (sized once).
   std::vector<double> backup_x, backup_v;
-  /// Largest node displacement one step (or sub-step) may make before it counts as diverged.
-  double max_step_displacement = 0;
+  TickReport report;  ///< the last tick's outputs
 
  private:
   TimeStepper stepper_;
 };
 
-/// Collide stage on its own: contacts of every shaped tool at s.x into w (and the tools'
-/// contact outputs into s.tools). tick() calls it; the static solver calls it per iteration.
+/// Collide stage on its own: contacts of every shaped tool and between bodies at s.x, into
+/// w.springs and w.report (tools' contact outputs, body contact). The static solver calls it
+/// per Newton iteration.
 void collide(const Model& m, State& s, TickWorkspace& w);
 
+/// The step's inputs for the time stepper: this tick's springs, the element damage and the
+/// current lumped masses (StepInputs' pointers stay valid while s and w do).
+StepInputs step_inputs(const Model& m, const State& s, const TickWorkspace& w);
+
 /// Advances `s` by one time step of the model. `inputs` are tool commands that take effect at
-/// the start of this tick (read_inputs stage; skipped when the scene has no tools).
-TickReport tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs = nullptr,
-                int input_count = 0);
+/// the start of this tick (read_inputs stage; skipped when the scene has no tools). Returns
+/// w.report.
+const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs = nullptr,
+                       int input_count = 0);
 
 }  // namespace stroma

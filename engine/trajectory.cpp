@@ -58,12 +58,15 @@ ToolPose Trajectory::sample(double t) const {
                                    [](double v, const Keyframe& k) { return v < k.t; });
   const Keyframe& b = *it;
   const Keyframe& a = *(it - 1);
-  const double u = (t - a.t) / (b.t - a.t);
+  return interpolate_pose(a.pose, b.pose, (t - a.t) / (b.t - a.t));
+}
+
+ToolPose interpolate_pose(const ToolPose& a, const ToolPose& b, double u) {
   ToolPose p;
-  for (int k = 0; k < 3; ++k) p.position[k] = a.pose.position[k] + u * (b.pose.position[k] - a.pose.position[k]);
-  p.orientation = slerp(a.pose.orientation, b.pose.orientation, u);
-  p.jaw = a.pose.jaw + u * (b.pose.jaw - a.pose.jaw);
-  p.buttons = a.pose.buttons;
+  for (int k = 0; k < 3; ++k) p.position[k] = a.position[k] + u * (b.position[k] - a.position[k]);
+  p.orientation = slerp(a.orientation, b.orientation, u);
+  p.jaw = a.jaw + u * (b.jaw - a.jaw);
+  p.buttons = a.buttons;
   return p;
 }
 

@@ -30,6 +30,10 @@ class Trajectory {
   double end_time() const { return keys.empty() ? 0.0 : keys.back().t; }
 };
 
+/// The pose a fraction u ∈ [0, 1] of the way from a to b: position and jaw linear, orientation
+/// by slerp (shortest arc), buttons those of a.
+ToolPose interpolate_pose(const ToolPose& a, const ToolPose& b, double u);
+
 /// Reads a .yaml/.yml or .csv trajectory. Throws InputError (file, line, field) on bad input:
 /// missing column, non-numeric value, non-increasing time, non-unit quaternion.
 Trajectory load_trajectory(const std::string& path);

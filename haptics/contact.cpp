@@ -51,8 +51,8 @@ ContactSpring point_spring(const ContactSurface& surf, int32_t t, double u, doub
 /// sphere or probe, the middle of the jaws for a grasper (reach then spans the jaws' length);
 /// on opening, release.
 /// While points are held, each gets a spring to its attachment point. Returns true while holding.
-bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, const double* c, const double* x,
-           const TriangleBvh& bvh, std::vector<ContactSpring>& springs) {
+bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, ToolOutput& out, const double* c,
+           const double* x, const TriangleBvh& bvh, std::vector<ContactSpring>& springs) {
   double Rm[9];
   quaternion_to_matrix(ts.pose.orientation, Rm);
   const bool closed_now = ts.pose.jaw < spec.grasp_close;
@@ -108,7 +108,7 @@ bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, cons
   const double kg = spec.grasp_stiffness;
   for (int i = 0; i < ts.grasped; ++i) {
     if (springs.size() == springs.capacity()) {
-      ++ts.contacts_dropped;
+      ++out.contacts_dropped;
       continue;
     }
     const Vec3& o = ts.grasp_offset[i];
@@ -116,193 +116,196 @@ bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, cons
     for (int k = 0; k < 3; ++k) target[k] = c[k] + Rm[3 * k] * o[0] + Rm[3 * k + 1] * o[1] + Rm[3 * k + 2] * o[2];
     const ContactSpring sp = point_spring(surf, ts.grasp_triangle[i], ts.grasp_uv[i][0], ts.grasp_uv[i][1], x, target, kg);
     for (int k = 0; k < 3; ++k) {
-      ts.force[k] -= sp.force[k];
-      ts.stiffness[4 * k] -= kg;
-      ts.contact_energy += 0.5 * sp.force[k] * sp.force[k] / kg;
+      out.force[k] -= sp.force[k];
+      out.stiffness[4 * k] -= kg;
+      out.contact_energy += 0.5 * sp.force[k] * sp.force[k] / kg;
     }
     springs.push_back(sp);
-    ++ts.contacts;
+    ++out.contacts;
   }
+  out.grasping = true;
   return true;
+}
+
+/// Virtual coupling: moves the proxy by one implicit step of its quasi-static balance
+/// k_v (device − proxy) + F_contact(proxy) = 0, from the last solved step's contact force and
+/// stiffness (ts.force, ts.stiffness).
+void coupling_step(const ToolSpec& spec, ToolState& ts) {
+  const double kv = spec.coupling_stiffness;
+  if (kv <= 0 || ts.last_command_time < 0) return;
+  if (!ts.has_proxy) {
+    ts.proxy = ts.pose.position;
+    ts.has_proxy = true;
+    return;
+  }
+  double A[9], Ai[9], b[3], dp[3];
+  for (int i = 0; i < 9; ++i) A[i] = -ts.stiffness[i] + (i % 4 == 0 ? kv : 0.0);
+  for (int i = 0; i < 3; ++i) b[i] = kv * (ts.pose.position[i] - ts.proxy[i]) + ts.force[i];
+  m3::inverse(A, Ai);
+  m3::mulv(Ai, b, dp);
+  for (int i = 0; i < 3; ++i) ts.proxy[i] += dp[i];
+}
+
+/// The tool as capsules in world coordinates with one bounding sphere (qc, qr) for the BVH
+/// query and the smallest capsule radius (sampling density).
+struct ToolGeometry {
+  Capsule caps[kMaxCapsules];
+  int count = 0;
+  double qc[3] = {0, 0, 0}, qr = 0, rmin = 1e300;
+};
+
+ToolGeometry tool_geometry(const ToolSpec& spec, const ToolPose& pose, const double* c) {
+  ToolGeometry g;
+  g.count = tool_capsules(spec, pose, c, g.caps);
+  for (int i = 0; i < g.count; ++i)
+    for (int k = 0; k < 3; ++k) g.qc[k] += 0.5 * (g.caps[i].a[k] + g.caps[i].b[k]) / g.count;
+  for (int i = 0; i < g.count; ++i) {
+    for (const double* e : {g.caps[i].a, g.caps[i].b}) {
+      const double dd = std::sqrt((e[0] - g.qc[0]) * (e[0] - g.qc[0]) + (e[1] - g.qc[1]) * (e[1] - g.qc[1]) +
+                                  (e[2] - g.qc[2]) * (e[2] - g.qc[2]));
+      g.qr = std::max(g.qr, dd + g.caps[i].r);
+    }
+    g.rmin = std::min(g.rmin, g.caps[i].r);
+  }
+  return g;
+}
+
+/// The deepest capsule at point q: returns true if q is inside one, with d = q − the closest
+/// axis point, dist2 = |d|² and Rs that capsule's radius.
+bool deepest_capsule(const ToolGeometry& g, const double* q, double* d, double& dist2, double& Rs) {
+  double best = 1e300;
+  dist2 = 0;
+  Rs = 0;
+  for (int i = 0; i < g.count; ++i) {
+    const Capsule& cap = g.caps[i];
+    double ab[3], qa[3], ds[3];
+    for (int a = 0; a < 3; ++a) {
+      ab[a] = cap.b[a] - cap.a[a];
+      qa[a] = q[a] - cap.a[a];
+    }
+    const double l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+    const double tpar = l2 > 0 ? std::clamp((qa[0] * ab[0] + qa[1] * ab[1] + qa[2] * ab[2]) / l2, 0.0, 1.0) : 0.0;
+    for (int a = 0; a < 3; ++a) ds[a] = qa[a] - tpar * ab[a];
+    const double s2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2];
+    const double sd = std::sqrt(s2) - cap.r;
+    if (sd < best) {
+      best = sd;
+      dist2 = s2;
+      Rs = cap.r;
+      for (int a = 0; a < 3; ++a) d[a] = ds[a];
+    }
+  }
+  return dist2 < Rs * Rs;
+}
+
+/// Friction of one contact: regularised Coulomb on the sliding velocity relative to the tool,
+/// f_t = −c_t (I − n nᵀ)(v − v_tool), c_t = μ f_n / max(|v_t|, v_stick). Its damping matrix
+/// enters the implicit system (C); the tool's own velocity stays explicit.
+void add_friction(ContactSpring& sp, const double* dir, double fmag, double mu, double v_stick, const double* vel,
+                  const double* vt, ToolOutput& out) {
+  double vr[3];
+  for (int a = 0; a < 3; ++a)
+    vr[a] = sp.w[0] * vel[3 * sp.node[0] + a] + sp.w[1] * vel[3 * sp.node[1] + a] + sp.w[2] * vel[3 * sp.node[2] + a] - vt[a];
+  const double vn = vr[0] * dir[0] + vr[1] * dir[1] + vr[2] * dir[2];
+  double vtan[3];
+  for (int a = 0; a < 3; ++a) vtan[a] = vr[a] - vn * dir[a];
+  const double speed = std::sqrt(vtan[0] * vtan[0] + vtan[1] * vtan[1] + vtan[2] * vtan[2]);
+  const double ct = mu * fmag / std::max(speed, v_stick);
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) {
+      const double P = (a == b ? 1.0 : 0.0) - dir[a] * dir[b];
+      sp.C[3 * a + b] += ct * P;
+      sp.force[a] += ct * P * vt[b];  // the −C·v_tool part of −C·(v − v_tool)
+    }
+    out.force[a] += ct * vtan[a];  // the tool is dragged along by the tissue's motion
+  }
 }
 
 }  // namespace
 
-void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& surf, const TriangleBvh& bvh,
-                  const double* x, const double* vel, double dt, std::vector<ContactSpring>& springs) {
-    // Virtual coupling: move the proxy by one implicit step of its quasi-static balance
-    // k_v (device − proxy) + F_contact(proxy) = 0, using last tick's contact force and stiffness.
-    const double kv = spec.coupling_stiffness;
-    if (kv > 0 && ts.last_command_time >= 0) {
-      if (!ts.has_proxy) {
-        ts.proxy = ts.pose.position;
-        ts.has_proxy = true;
+void tool_contact(const ToolSpec& spec, ToolState& ts, ToolOutput& out, const ContactSurface& surf,
+                  const TriangleBvh& bvh, const double* x, const double* vel, double dt,
+                  std::vector<ContactSpring>& springs) {
+  coupling_step(spec, ts);
+  out = ToolOutput{};
+  out.spring_begin = out.spring_end = static_cast<int32_t>(springs.size());
+  if (spec.shape == ToolShape::None || ts.last_command_time < 0) return;
+  const double* c = tool_center(spec, ts).data();
+  if (spec.can_grasp && grasp(surf, spec, ts, out, c, x, bvh, springs)) {  // holding tissue: no tip contact
+    out.spring_end = static_cast<int32_t>(springs.size());
+    return;
+  }
+  // Tool velocity (for friction), from its contact centre one tick ago.
+  double vt[3] = {0, 0, 0};
+  if (ts.has_center && dt > 0)
+    for (int k = 0; k < 3; ++k) vt[k] = (c[k] - ts.last_center[k]) / dt;
+  for (int k = 0; k < 3; ++k) ts.last_center[k] = c[k];
+  ts.has_center = true;
+  const double mu = vel ? spec.friction : 0.0;
+  const double v_stick = 0.01 * spec.radius;
+  const ToolGeometry g = tool_geometry(spec, ts.pose, c);
+  bvh.query_sphere(g.qc, g.qr, x, [&](int32_t t) {
+    if (surf.active && !surf.active[t]) return;
+    const auto& tri = surf.triangles[t];
+    const double* p0 = x + 3 * tri[0];
+    const double* p1 = x + 3 * tri[1];
+    const double* p2 = x + 3 * tri[2];
+    const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+    const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+    double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    const double twice_area = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+    if (twice_area <= 0) return;
+    const double nsign = (surf.active && surf.active[t] == 2) ? -1.0 : 1.0;  // exposed from behind
+    for (double& v : nrm) v *= nsign / twice_area;
+    const int ns = samples_per_edge(surf, t, g.rmin);
+    const double sample_area = 0.5 * twice_area / (ns * ns);
+    const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;
+    for_each_sample(ns, [&](double u, double v) {
+      const double w0 = 1.0 - u - v;
+      double q[3], d[3], dist2, Rs;
+      for (int a = 0; a < 3; ++a) q[a] = w0 * p0[a] + u * p1[a] + v * p2[a];
+      if (!deepest_capsule(g, q, d, dist2, Rs)) return;
+      if (springs.size() == springs.capacity()) {
+        ++out.contacts_dropped;
+        return;
+      }
+      // Push along the distance gradient, or along the inward surface normal when the tool's
+      // axis is already below the surface point (deep penetration).
+      const double dist = std::sqrt(dist2);
+      double dir[3];
+      if (d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2] <= 0 && dist > 1e-12 * Rs) {
+        for (int a = 0; a < 3; ++a) dir[a] = d[a] / dist;
       } else {
-        double A[9], Ai[9], b[3], dp[3];
-        for (int i = 0; i < 9; ++i) A[i] = -ts.stiffness[i] + (i % 4 == 0 ? kv : 0.0);
-        for (int i = 0; i < 3; ++i) b[i] = kv * (ts.pose.position[i] - ts.proxy[i]) + ts.force[i];
-        m3::inverse(A, Ai);
-        m3::mulv(Ai, b, dp);
-        for (int i = 0; i < 3; ++i) ts.proxy[i] += dp[i];
+        for (int a = 0; a < 3; ++a) dir[a] = -nrm[a];
       }
-    }
-    ts.force = {0, 0, 0};
-    ts.stiffness.fill(0.0);
-    ts.contacts = 0;
-    ts.contacts_dropped = 0;
-    ts.contact_energy = 0;
-    ts.torque = {0, 0, 0};
-    if (spec.shape == ToolShape::None || ts.last_command_time < 0) return;
-    const double* c = tool_center(spec, ts).data();
-    if (spec.can_grasp && grasp(surf, spec, ts, c, x, bvh, springs)) return;  // holding tissue: no tip contact
-    // Tool velocity (for friction), from its contact centre one tick ago.
-    double vt[3] = {0, 0, 0};
-    if (ts.has_center && dt > 0)
-      for (int k = 0; k < 3; ++k) vt[k] = (c[k] - ts.last_center[k]) / dt;
-    for (int k = 0; k < 3; ++k) ts.last_center[k] = c[k];
-    ts.has_center = true;
-    const double mu = vel ? spec.friction : 0.0;
-    const double v_stick = 0.01 * spec.radius;
-    // The tool as capsules (segments with radii) in world coordinates.
-    Capsule caps[kMaxCapsules];
-    const int ncap = tool_capsules(spec, ts.pose, c, caps);
-    double qc[3] = {0, 0, 0}, qr = 0, rmin = 1e300;
-    for (int i = 0; i < ncap; ++i)
-      for (int k = 0; k < 3; ++k) qc[k] += 0.5 * (caps[i].a[k] + caps[i].b[k]) / ncap;
-    for (int i = 0; i < ncap; ++i) {  // one bounding sphere of the whole tool for the query
-      for (const double* e : {caps[i].a, caps[i].b}) {
-        const double dd = std::sqrt((e[0] - qc[0]) * (e[0] - qc[0]) + (e[1] - qc[1]) * (e[1] - qc[1]) +
-                                    (e[2] - qc[2]) * (e[2] - qc[2]));
-        qr = std::max(qr, dd + caps[i].r);
+      ContactSpring sp;
+      for (int a = 0; a < 3; ++a) sp.node[a] = tri[a];
+      sp.w[0] = w0;
+      sp.w[1] = u;
+      sp.w[2] = v;
+      for (int a = 0; a < 9; ++a) sp.slot[a] = surf.slots[t][a];
+      const double fmag = kc * (Rs - dist);
+      out.contact_energy += 0.5 * kc * (Rs - dist) * (Rs - dist);
+      for (int a = 0; a < 3; ++a) {
+        sp.force[a] = fmag * dir[a];
+        out.force[a] -= sp.force[a];
+        for (int b = 0; b < 3; ++b) {
+          sp.K[3 * a + b] = kc * dir[a] * dir[b];
+          sp.C[3 * a + b] = cc * dir[a] * dir[b];
+          out.stiffness[3 * a + b] -= sp.K[3 * a + b];
+        }
       }
-      rmin = std::min(rmin, caps[i].r);
-    }
-    bvh.query_sphere(qc, qr, x, [&](int32_t t) {
-      if (surf.active && !surf.active[t]) return;
-      const auto& tri = surf.triangles[t];
-      const double* p0 = x + 3 * tri[0];
-      const double* p1 = x + 3 * tri[1];
-      const double* p2 = x + 3 * tri[2];
-      const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-      const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-      double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-      const double twice_area = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
-      if (twice_area <= 0) return;
-      const double nsign = (surf.active && surf.active[t] == 2) ? -1.0 : 1.0;  // exposed from behind
-      for (double& v : nrm) v *= nsign / twice_area;
-      const int ns = samples_per_edge(surf, t, rmin);
-      const double sample_area = 0.5 * twice_area / (ns * ns);
-      const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;
-      for_each_sample(ns, [&](double u, double v) {
-            const double w0 = 1.0 - u - v;
-            double q[3], d[3];
-            for (int a = 0; a < 3; ++a) {
-              q[a] = w0 * p0[a] + u * p1[a] + v * p2[a];
-              d[a] = q[a] - c[a];
-            }
-            // Deepest capsule: d = sample − closest axis point, Rs = that capsule's radius.
-            double dist2 = 0, Rs = 0, best = 1e300;
-            for (int i = 0; i < ncap; ++i) {
-              double ab[3], qa[3], ds[3];
-              for (int a = 0; a < 3; ++a) {
-                ab[a] = caps[i].b[a] - caps[i].a[a];
-                qa[a] = q[a] - caps[i].a[a];
-              }
-              const double l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
-              const double tpar = l2 > 0 ? std::clamp((qa[0] * ab[0] + qa[1] * ab[1] + qa[2] * ab[2]) / l2, 0.0, 1.0) : 0.0;
-              for (int a = 0; a < 3; ++a) ds[a] = qa[a] - tpar * ab[a];
-              const double s2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2];
-              const double sd = std::sqrt(s2) - caps[i].r;
-              if (sd < best) {
-                best = sd;
-                dist2 = s2;
-                Rs = caps[i].r;
-                for (int a = 0; a < 3; ++a) d[a] = ds[a];
-              }
-            }
-            if (dist2 >= Rs * Rs) return;
-            if (springs.size() == springs.capacity()) {
-              ++ts.contacts_dropped;
-              return;
-            }
-            const double dist = std::sqrt(dist2);
-            double dir[3];
-            if (d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2] <= 0 && dist > 1e-12 * Rs) {
-              for (int a = 0; a < 3; ++a) dir[a] = d[a] / dist;
-            } else {
-              for (int a = 0; a < 3; ++a) dir[a] = -nrm[a];
-            }
-            ContactSpring sp;
-            for (int a = 0; a < 3; ++a) sp.node[a] = tri[a];
-            sp.w[0] = w0;
-            sp.w[1] = u;
-            sp.w[2] = v;
-            for (int a = 0; a < 9; ++a) sp.slot[a] = surf.slots[t][a];
-            const double fmag = kc * (Rs - dist);
-            ts.contact_energy += 0.5 * kc * (Rs - dist) * (Rs - dist);
-            for (int a = 0; a < 3; ++a) {
-              sp.force[a] = fmag * dir[a];
-              ts.force[a] -= sp.force[a];
-              for (int b = 0; b < 3; ++b) {
-                sp.K[3 * a + b] = kc * dir[a] * dir[b];
-                sp.C[3 * a + b] = cc * dir[a] * dir[b];
-                ts.stiffness[3 * a + b] -= sp.K[3 * a + b];
-              }
-            }
-            if (mu > 0) {
-              // Regularised Coulomb friction on the sliding velocity relative to the tool:
-              // f_t = −c_t (I − n nᵀ)(v − v_tool), c_t = μ f_n / max(|v_t|, v_stick); its damping
-              // matrix enters the implicit system (C), the tool's own velocity stays explicit.
-              double vr[3];
-              for (int a = 0; a < 3; ++a)
-                vr[a] = sp.w[0] * vel[3 * sp.node[0] + a] + sp.w[1] * vel[3 * sp.node[1] + a] +
-                        sp.w[2] * vel[3 * sp.node[2] + a] - vt[a];
-              const double vn = vr[0] * dir[0] + vr[1] * dir[1] + vr[2] * dir[2];
-              double vtan[3];
-              for (int a = 0; a < 3; ++a) vtan[a] = vr[a] - vn * dir[a];
-              const double speed = std::sqrt(vtan[0] * vtan[0] + vtan[1] * vtan[1] + vtan[2] * vtan[2]);
-              const double ct = mu * fmag / std::max(speed, v_stick);
-              for (int a = 0; a < 3; ++a) {
-                for (int b = 0; b < 3; ++b) {
-                  const double P = (a == b ? 1.0 : 0.0) - dir[a] * dir[b];
-                  sp.C[3 * a + b] += ct * P;
-                  sp.force[a] += ct * P * vt[b];  // the −C·v_tool part of −C·(v − v_tool)
-                }
-                ts.force[a] += ct * vtan[a];  // the tool is dragged along by the tissue's motion
-              }
-            }
-            // Torque of the tissue's force on the tool about the tip centre: (q − c) × (−f).
-            const double r[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
-            ts.torque[0] -= r[1] * sp.force[2] - r[2] * sp.force[1];
-            ts.torque[1] -= r[2] * sp.force[0] - r[0] * sp.force[2];
-            ts.torque[2] -= r[0] * sp.force[1] - r[1] * sp.force[0];
-            springs.push_back(sp);
-            ++ts.contacts;
-      });
+      if (mu > 0) add_friction(sp, dir, fmag, mu, v_stick, vel, vt, out);
+      // Torque of the tissue's force on the tool about the tip centre: (q − c) × (−f).
+      const double r[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
+      out.torque[0] -= r[1] * sp.force[2] - r[2] * sp.force[1];
+      out.torque[1] -= r[2] * sp.force[0] - r[0] * sp.force[2];
+      out.torque[2] -= r[0] * sp.force[1] - r[1] * sp.force[0];
+      springs.push_back(sp);
+      ++out.contacts;
     });
-  }
-
-void device_feedback(const ToolSpec& spec, ToolState& ts, double dt) {
-  const double kv = spec.coupling_stiffness;
-    if (kv > 0 && ts.has_proxy) {
-      double Kc[9], A[9], Ai[9], KA[9];
-      for (int i = 0; i < 9; ++i) {
-        Kc[i] = -ts.stiffness[i];
-        A[i] = Kc[i] + (i % 4 == 0 ? kv : 0.0);
-      }
-      m3::inverse(A, Ai);
-      m3::mul(Kc, Ai, KA);
-      // Spring–damper between proxy and device; the damper acts on the stretch rate (per tick).
-      for (int i = 0; i < 3; ++i) {
-        const double stretch = ts.proxy[i] - ts.pose.position[i];
-        ts.device_force[i] = kv * stretch + spec.coupling_damping * (stretch - ts.coupling_stretch[i]) / dt;
-        ts.coupling_stretch[i] = stretch;
-      }
-      for (int i = 0; i < 9; ++i) ts.device_stiffness[i] = -kv * KA[i];
-    } else {
-      ts.device_force = ts.force;
-      ts.device_stiffness = ts.stiffness;
-    }
-  }
+  });
+  out.spring_end = static_cast<int32_t>(springs.size());
+}
 
 }  // namespace stroma

@@ -10,7 +10,9 @@
 ///    the shape's axis is already below that point (deep penetration). Stiffness and damping go
 ///    into the implicit system as ContactSprings;
 ///  - grasping: closing the jaws attaches the closest surface points by springs in the tool frame;
-///  - feedback: force, torque and dF/dx of the tissue on the tool, and what the device renders.
+///  - outputs: where the contacts were found, the force, torque and dF/dx of the tissue on the
+///    tool and the range of its springs; the tick re-evaluates the force at the end of the step
+///    and computes what the device renders (haptics/feedback.hpp).
 /// No allocation: springs are appended to a vector whose capacity is fixed at load.
 
 #include <array>
@@ -28,16 +30,13 @@ namespace stroma {
 /// sample spacing stays a fraction of the tool's size whatever the mesh (smooth while sliding).
 inline constexpr double kContactSamplesPerRadius = 4.0;
 
-/// Coupling, grasp and contact of one tool at positions x (BVH already refitted): fills the
-/// tool's contact outputs and appends its springs (dropping, and counting, beyond capacity).
-/// `v` (node velocities) and `dt` are for friction (relative sliding velocity); v may be null
-/// when the tool has no friction.
-void tool_contact(const ToolSpec& spec, ToolState& ts, const ContactSurface& surf,
+/// Coupling, grasp and contact of one tool at positions x (BVH already refitted): moves the
+/// proxy (coupling), fills `out` (contacts, energy, and force, torque and stiffness as found at
+/// x) and appends the tool's springs — recording their range in out — dropping, and counting,
+/// beyond capacity. `v` (node velocities) and `dt` are for friction (relative sliding
+/// velocity); v may be null when the tool has no friction.
+void tool_contact(const ToolSpec& spec, ToolState& ts, ToolOutput& out, const ContactSurface& surf,
                   const TriangleBvh& bvh, const double* x, const double* v, double dt,
                   std::vector<ContactSpring>& springs);
-
-/// What the device renders: the coupling spring–damper (series stiffness of coupling and
-/// contact) if the tool is coupled, else the contact force itself. dt: the tick (s).
-void device_feedback(const ToolSpec& spec, ToolState& ts, double dt);
 
 }  // namespace stroma

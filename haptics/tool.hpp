@@ -2,8 +2,9 @@
 /// \file tool.hpp
 /// Virtual surgical tools as the engine sees them: what a scenario declares (ToolSpec), the
 /// pose a device or script commands (ToolPose), the checks every command passes before it may
-/// reach physics (validate_tool_command), and the tool's part of the simulation state.
-/// Contact and force feedback come with issue 4; until then a tool moves but touches nothing.
+/// reach physics (validate_tool_command), the tool's part of the simulation state (ToolState)
+/// and what it felt in one tick (ToolOutput, with the device's ToolFeedback).
+/// Contact and grasping: haptics/contact.hpp; feedback: haptics/feedback.hpp.
 
 #include <array>
 #include <cstdint>
@@ -41,7 +42,6 @@ enum class ToolShape {
 /// `tools:` entry of a scenario.
 struct ToolSpec {
   std::string name;
-  std::string script;            ///< trajectory file (YAML or CSV) for headless runs; may be empty
   Vec3 workspace_min{-1e3, -1e3, -1e3};
   Vec3 workspace_max{1e3, 1e3, 1e3};
   double max_speed = 5.0;        ///< m/s: faster jumps are rejected or clamped
@@ -92,28 +92,24 @@ ToolCheck validate_tool_command(const ToolSpec& spec, const ToolPose& last, doub
                                 const ToolPose& command);
 
 /// A tool's part of the simulation state (copied with the state: replay reproduces it).
+/// Invariants: grasped ≤ kMaxGrasped and grasped > 0 only while jaw_closed; `force` and
+/// `stiffness` are those of the last solved step (zero before the first contact).
 struct ToolState {
   ToolPose pose;
   uint64_t seq = 0;              ///< seq of the last applied command
   int64_t client_time_ns = 0;    ///< its client timestamp (echoed in feedback)
   double last_command_time = -1; ///< sim time of the last applied command (−1: never)
   bool active = false;           ///< a client is driving it (false after `timeout`)
-  // Contact outputs of the last collide stage (zero when the tool touches nothing):
-  Vec3 force{0, 0, 0};                ///< force of the tissue on the tool (N), unclamped
-  std::array<double, 9> stiffness{};  ///< dF/dx of that force w.r.t. the tool position (N/m)
-  Vec3 torque{0, 0, 0};               ///< torque of that force about the tip centre (N·m)
+  // The tissue's force on the tool at the end of the last tick and its stiffness dF/dx: the
+  // virtual coupling's next quasi-static step starts from them (so they are state, not output).
+  Vec3 force{0, 0, 0};
+  std::array<double, 9> stiffness{};
   // Virtual coupling:
   bool has_center = false;
   Vec3 last_center{0, 0, 0};          ///< contact centre of the previous tick (tool velocity)
   bool has_proxy = false;
   Vec3 proxy{0, 0, 0};                ///< where the simulated tool is (contact happens here)
   Vec3 coupling_stretch{0, 0, 0};     ///< proxy − device of the previous tick (damping rate)
-  // What the device renders (the coupling spring if coupled, else the contact force):
-  Vec3 device_force{0, 0, 0};
-  std::array<double, 9> device_stiffness{};  ///< dF/d(device position)
-  int contacts = 0;                   ///< contact points (surface samples inside the tool)
-  int contacts_dropped = 0;           ///< beyond the per-tick capacity (should stay 0)
-  double contact_energy = 0;          ///< penalty potential Σ ½ k (penetration)² (J)
   // Grasp: attached surface points (collision triangle + barycentric u, v) and their offsets in
   // the tool frame at the moment of grasping.
   bool jaw_closed = false;  ///< for the open → closed transition that grasps
@@ -121,6 +117,29 @@ struct ToolState {
   std::array<int32_t, kMaxGrasped> grasp_triangle{};
   std::array<std::array<double, 2>, kMaxGrasped> grasp_uv{};
   std::array<Vec3, kMaxGrasped> grasp_offset{};
+};
+
+/// What the device renders for one tick: the wrench and its stiffness after the coupling and
+/// the clamp to max_force (haptics/feedback.hpp computes it, headless and served alike).
+struct ToolFeedback {
+  Vec3 force{0, 0, 0};                ///< N, |force| ≤ max_force
+  Vec3 torque{0, 0, 0};               ///< N·m, about the device's tool centre
+  std::array<double, 9> stiffness{};  ///< dF/d(device position), N/m, for extrapolation
+  bool clamped = false;               ///< the force was scaled down to max_force
+};
+
+/// What one tool felt in one tick (TickReport::tools; not state). Forces are those of the
+/// solved step: the contact springs the step was solved with, evaluated at its end state.
+struct ToolOutput {
+  Vec3 force{0, 0, 0};                ///< tissue on tool (N), unclamped
+  std::array<double, 9> stiffness{};  ///< dF/dx of that force w.r.t. the tool position (N/m)
+  Vec3 torque{0, 0, 0};               ///< of that force about the tool centre (N·m)
+  ToolFeedback feedback;              ///< what the device renders
+  int contacts = 0;                   ///< contact points (surface samples inside, or grasped)
+  int contacts_dropped = 0;           ///< beyond the per-tick capacity (should stay 0)
+  double contact_energy = 0;          ///< penalty potential Σ ½ k δ² where contacts were found (J)
+  bool grasping = false;              ///< holding tissue (its springs are grasp springs)
+  int32_t spring_begin = 0, spring_end = 0;  ///< its springs in the tick's spring list
 };
 
 /// Rotation matrix (row-major) of a unit quaternion (w, x, y, z).
@@ -134,7 +153,8 @@ struct ToolInput {
   ToolPose pose;
 };
 
-/// Force feedback of one tool for one tick (zero until contact exists, issue 4).
+/// Force feedback of one tool for one tick as the server sends it (ToolFeedback plus the
+/// command it answers and timestamps).
 struct ToolFeedbackFrame {
   int32_t tool = 0;
   uint64_t seq = 0;

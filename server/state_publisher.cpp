@@ -20,14 +20,15 @@ void set_sequence(T& seq, const auto* data, size_t n) {
 
 }  // namespace
 
-SurfaceExtractor::SurfaceExtractor(const Model& m) : m_(m) {
+SurfaceExtractor::SurfaceExtractor(const CompiledScenario& sc) : m_(*sc.model) {
+  const Model& m = *sc.model;
   const FemModel& fem = m.fem;
   for (size_t b = 0; b < fem.bodies.size(); ++b) {
     const BodyRange& body = fem.bodies[b];
     PublishedSurface s;
     s.name = body.name;
-    if (b < m.visuals.size() && m.visuals[b]) {
-      const VisualModel& v = *m.visuals[b];
+    if (b < sc.visuals.size() && sc.visuals[b]) {
+      const VisualModel& v = *sc.visuals[b];
       s.visual = true;
       s.mapping = &v.mapping;
       for (const Vec3& p : v.rest) s.rest.insert(s.rest.end(), {float(p[0]), float(p[1]), float(p[2])});
@@ -51,14 +52,6 @@ SurfaceExtractor::SurfaceExtractor(const Model& m) : m_(m) {
     if (m.has_damage) s.damage.resize(nv);
     surfaces_.push_back(std::move(s));
   }
-  node_elem_ptr_.assign(fem.num_nodes + 1, 0);
-  for (const ElementParams& e : fem.elements)
-    for (int32_t n : e.node) ++node_elem_ptr_[n + 1];
-  for (int32_t i = 0; i < fem.num_nodes; ++i) node_elem_ptr_[i + 1] += node_elem_ptr_[i];
-  node_elem_.resize(node_elem_ptr_.back());
-  std::vector<int32_t> fill(node_elem_ptr_.begin(), node_elem_ptr_.end() - 1);
-  for (size_t e = 0; e < fem.elements.size(); ++e)
-    for (int32_t n : fem.elements[e].node) node_elem_[fill[n]++] = static_cast<int32_t>(e);
   element_vm_.resize(fem.elements.size());
   node_vm_.resize(fem.num_nodes);
   node_damage_.resize(fem.num_nodes);
@@ -72,11 +65,11 @@ void SurfaceExtractor::update(const StateFrame& f) {
   for (int32_t n = 0; n < fem.num_nodes; ++n) {
     double acc = 0;
     float dmax = 0;
-    for (int32_t j = node_elem_ptr_[n]; j < node_elem_ptr_[n + 1]; ++j) {
-      acc += element_vm_[node_elem_[j]];
-      if (!f.damage.empty()) dmax = std::max(dmax, f.damage[node_elem_[j]]);
+    for (int32_t j = fem.node_element_ptr[n]; j < fem.node_element_ptr[n + 1]; ++j) {
+      acc += element_vm_[fem.node_element[j]];
+      if (!f.damage.empty()) dmax = std::max(dmax, f.damage[fem.node_element[j]]);
     }
-    const int32_t cnt = node_elem_ptr_[n + 1] - node_elem_ptr_[n];
+    const int32_t cnt = fem.node_element_ptr[n + 1] - fem.node_element_ptr[n];
     node_vm_[n] = static_cast<float>(cnt ? acc / cnt : 0.0);
     node_damage_[n] = dmax;
   }
@@ -160,14 +153,14 @@ stroma_ToolState tool_state_message(const Model& m, int t, const StateFrame& f, 
   return msg;
 }
 
-stroma_Scene scene_message(const Model& m, uint64_t session) {
-  const RenderSpec& r = m.spec.render;
+stroma_Scene scene_message(const CompiledScenario& sc, uint64_t session) {
+  const RenderSpec& r = sc.spec.render;
   stroma_Scene msg{};
-  std::snprintf(msg.scenario, sizeof(msg.scenario), "%s", m.spec.name.c_str());
+  std::snprintf(msg.scenario, sizeof(msg.scenario), "%s", sc.spec.name.c_str());
   msg.session = session;
   msg.has_camera = r.has_camera;
   Vec3 up{0, 1, 0};
-  const Vec3& g = m.spec.gravity;
+  const Vec3& g = sc.spec.gravity;
   const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   if (r.camera_up) up = *r.camera_up;
   else if (gn > 0) up = {-g[0] / gn, -g[1] / gn, -g[2] / gn};

@@ -80,7 +80,7 @@ TEST(BodyContact, BarDroppedOntoAFixedBlockRestsOnItCarryingItsWeight) {
   TickWorkspace w(*m);
   double min_dy = 0;
   for (int k = 0; k < 400; ++k) {
-    const TickReport r = tick(*m, s, w);
+    const TickReport& r = tick(*m, s, w);
     ASSERT_NE(r.status, TickStatus::NonFinite);
     min_dy = std::min(min_dy, probe_displacement(*m, s, m->probes[0])[1]);
   }
@@ -89,7 +89,7 @@ TEST(BodyContact, BarDroppedOntoAFixedBlockRestsOnItCarryingItsWeight) {
   // At rest the contact carries the weight, vertically.
   EXPECT_NEAR(f[1], weight, 0.01 * weight);
   EXPECT_LT(std::hypot(f[0], f[2]), 0.01 * weight);
-  EXPECT_GT(s.body_contact.contacts, 0);
+  EXPECT_GT(w.report.body_contact.contacts, 0);
   // It rests on the top face: penetration δ > 0 but small (pressure ρgh over k), never fell in.
   const double dy = probe_displacement(*m, s, m->probes[0])[1];
   const double delta = -dy - gap;
@@ -97,7 +97,7 @@ TEST(BodyContact, BarDroppedOntoAFixedBlockRestsOnItCarryingItsWeight) {
   EXPECT_GT(delta, 0.0);
   EXPECT_LT(delta, 10 * pressure / m->body_contact->stiffness) << "δ " << delta;
   EXPECT_GT(min_dy, -gap - m->body_contact->body_depth[0]);
-  EXPECT_NEAR(s.body_contact.max_depth, delta, 0.5 * delta);
+  EXPECT_NEAR(w.report.body_contact.max_depth, delta, 0.5 * delta);
   // The bar did not drift sideways off the block.
   const Vec3 u = probe_displacement(*m, s, m->probes[0]);
   EXPECT_LT(std::hypot(u[0], u[2]), 1e-4);
@@ -115,9 +115,9 @@ TEST(BodyContact, ImpactAtLargeStepsStoresNoPenaltyEnergyAboveTheKineticEnergy) 
   double worst = 0;
   for (int k = 0; k < 40; ++k) {
     tick(*m, s, w);
-    worst = std::max(worst, s.body_contact.energy);  // penetration at the start of each tick
+    worst = std::max(worst, w.report.body_contact.energy);  // penetration at the start of each tick
   }
-  EXPECT_GT(s.body_contact.contacts, 0);
+  EXPECT_GT(w.report.body_contact.contacts, 0);
   EXPECT_LT(worst, 0.05 * impact) << "penalty energy " << worst << " J vs impact " << impact << " J";
   const BodyRange& bar = m->fem.bodies[1];
   double lowest = 1e300;
@@ -133,7 +133,7 @@ TEST(BodyContact, BodiesThatMissEachOtherFallExactlyAsImplicitEulerFreeFall) {
   const double h = m->time_step, g = 9.81;
   const int n = 150;
   for (int k = 0; k < n; ++k) tick(*m, s, w);
-  EXPECT_EQ(s.body_contact.contacts, 0);
+  EXPECT_EQ(w.report.body_contact.contacts, 0);
   EXPECT_TRUE(w.springs.empty());
   // Backward Euler free fall with Rayleigh mass damping α: v ← (v − g h)/(1 + α h).
   const double alpha = 20;
@@ -205,7 +205,7 @@ body_contact: {{}}
   double worst_overlap = 0;
   for (int k = 0; k < 150; ++k) {
     tick(*m, s, w);
-    touched |= s.body_contact.contacts > 0;
+    touched |= w.report.body_contact.contacts > 0;
     worst_overlap = std::max(worst_overlap, max_x(L) - min_x(R));
   }
   ASSERT_TRUE(touched);
@@ -214,7 +214,7 @@ body_contact: {{}}
   // They separated, moving apart (implicit Euler dissipates part of the impact).
   EXPECT_LT(momentum(L)[0], -0.2 * p0);
   EXPECT_GT(momentum(R)[0], 0.2 * p0);
-  EXPECT_EQ(s.body_contact.contacts, 0);
+  EXPECT_EQ(w.report.body_contact.contacts, 0);
   // Total momentum: zero before; the exchange is antisymmetric up to the one-tick lag of the
   // cross-body stiffness coupling.
   const Vec3 pl = momentum(L), pr = momentum(R);

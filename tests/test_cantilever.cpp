@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/headless_runner.hpp"
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
@@ -43,10 +44,11 @@ ScenarioSpec static_spec(const std::string& mesh, ElementModel model, LinearSolv
 }
 
 Vec3 run_static(const ScenarioSpec& spec) {
-  auto m = compile_model(spec);
+  const CompiledScenario sc_m = compile_scenario(spec);
+  const auto& m = sc_m.model;
   RunOptions o;
   o.progress = false;
-  const RunResult r = run_headless(*m, o);
+  const RunResult r = run_headless(sc_m, o);
   EXPECT_TRUE(r.static_converged);
   return probe_displacement(*m, r.final_state, m->probes.at(0));
 }
@@ -160,10 +162,11 @@ TEST(Cantilever, ImplicitEulerPeriodAndDecayMatchBackwardEulerTheory) {
   ScenarioSpec sspec = spec;
   sspec.solver.integrator = Integrator::Static;
   sspec.solver.linear_solver = LinearSolverKind::Cholmod;
-  auto ms = compile_model(sspec);
+  const CompiledScenario sc_ms = compile_scenario(sspec);
+  const auto& ms = sc_ms.model;
   RunOptions so;
   so.progress = false;
-  const double u_static = probe_displacement(*ms, run_headless(*ms, so).final_state, ms->probes[0])[1];
+  const double u_static = probe_displacement(*ms, run_headless(sc_ms, so).final_state, ms->probes[0])[1];
 
   State s = State::initial(*m);
   TickWorkspace ws(*m);
@@ -289,10 +292,11 @@ TEST(Cantilever, SelfWeightOnASlidingBaseMatchesTheBarSolution) {
   twist.box = BoxSpec{{-1e-6, 0.01 - 1e-6, -1e-6}, {1e-6, 0.01 + 1e-6, 1e-6}};  // (0, 0.01, 0)
   twist.axes = 4;  // z: no rotation about x
   s.bodies[0].fixed = {floor, corner, twist};
-  auto m = compile_model(s);
+  const CompiledScenario sc_m = compile_scenario(s);
+  const auto& m = sc_m.model;
   RunOptions o;
   o.progress = false;
-  const RunResult r = run_headless(*m, o);
+  const RunResult r = run_headless(sc_m, o);
   ASSERT_TRUE(r.static_converged);
   // Mean u_x over the top face x = L, and the base really slid (Poisson expansion).
   double ux = 0, spread = 0;

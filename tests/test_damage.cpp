@@ -6,6 +6,7 @@
 
 #include "engine/damage.hpp"
 #include "engine/headless_runner.hpp"
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
@@ -106,7 +107,7 @@ TEST(Damage, RuptureKeepsTheSimulationStableAndConvergent) {
     ASSERT_NE(r.status, TickStatus::NonFinite) << "tick " << k;
     not_converged += r.status == TickStatus::SolverNotConverged;
     const double e = w.stepper().kinetic_energy(s.tissue) + w.stepper().elastic_energy(s.tissue) +
-                     s.tools[0].contact_energy;
+                     w.report.tools[0].contact_energy;
     ASSERT_TRUE(std::isfinite(e));
     if (s.damage_count[kRuptured] == 0) e_max_before = std::max(e_max_before, e);
     e_max = std::max(e_max, e);
@@ -121,7 +122,8 @@ TEST(Damage, RuptureKeepsTheSimulationStableAndConvergent) {
 // faces, oriented outward from the intact element (tools can then enter the tear).
 TEST(Damage, RuptureExposesInnerFacesOrientedOutwardOfTheIntactSide) {
   ScenarioSpec spec = load_scenario(kDir + "regression/liver_probe_damage.yaml");
-  auto m = compile_model(spec);
+  const CompiledScenario sc_m = compile_scenario(spec);
+  const auto& m = sc_m.model;
   ASSERT_FALSE(m->collision_face_elem.empty());
   State s = State::initial(*m);
   TickWorkspace w(*m);
@@ -132,7 +134,7 @@ TEST(Damage, RuptureExposesInnerFacesOrientedOutwardOfTheIntactSide) {
   RunOptions o;
   o.progress = false;
   o.metrics = false;
-  const RunResult r = run_headless(*m, o);
+  const RunResult r = run_headless(sc_m, o);
   ASSERT_GT(r.final_state.damage_count[kRuptured], 0);
   int exposed = 0;
   for (size_t f = 0; f < r.final_state.face_active.size(); ++f) {

@@ -14,6 +14,7 @@
 
 #include "bench/accuracy/quarter_block_mesh.hpp"
 #include "engine/headless_runner.hpp"
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/trajectory.hpp"
 
@@ -48,12 +49,13 @@ TEST(Indentation, SphereForceWithinTenPercentOfTheBondedLayerHertzReference) {
       "    shape: {type: sphere, radius: 0.005}\n"
       "    contact: {stiffness: 1.0e9}\n";
   const ScenarioSpec spec = parse_scenario(yaml, "indentation.yaml", "");
-  auto m = compile_model(spec);
+  const CompiledScenario sc_m = compile_scenario(spec);
+  const auto& m = sc_m.model;
   RunOptions o;
   o.progress = false;
-  const RunResult r = run_headless(*m, o);
+  const RunResult r = run_headless(sc_m, o);
   ASSERT_TRUE(r.static_converged) << "residual " << r.static_residual << " after " << r.newton_iterations;
-  const ToolState& ts = r.final_state.tools.at(0);
+  const ToolOutput& ts = r.final_tools.at(0);
   ASSERT_GT(ts.contacts, 0);
   const double F = 4.0 * ts.force[2];  // quarter model
   const double reference = 0.019604;

@@ -32,13 +32,14 @@ TEST(Runner, WritesConsistentOutputs) {
   const fs::path dir = fs::temp_directory_path() / "stroma_runner_test";
   fs::remove_all(dir);
   // The liver without tools: the collide stage must cost exactly nothing.
-  auto m = compile_model(load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/regression/liver_damped.yaml"));
+  const CompiledScenario sc_m = compile_scenario(load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/regression/liver_damped.yaml"));
+  const auto& m = sc_m.model;
   RunOptions o;
   o.steps = 20;
   o.out_dir = dir.string();
   o.vtu_every = 10;
   o.progress = false;
-  const RunResult r = run_headless(*m, o);
+  const RunResult r = run_headless(sc_m, o);
   EXPECT_EQ(r.steps, 20);
   EXPECT_NEAR(r.sim_time, 20 * m->time_step, 1e-15);
 

@@ -643,7 +643,7 @@ TEST(ScenarioLoaderTools, ParsesToolsWithLimitsAndResolvesScript) {
   ASSERT_EQ(s.tools.size(), 1u);
   const ToolSpec& t = s.tools[0].spec;
   EXPECT_EQ(t.name, "probe");
-  EXPECT_EQ(t.script, "dir/traj/press.yaml");
+  EXPECT_EQ(s.tools[0].script, "dir/traj/press.yaml");
   EXPECT_EQ(t.workspace_min, (Vec3{-1, -2, -3}));
   EXPECT_EQ(t.workspace_max, (Vec3{1, 2, 3}));
   EXPECT_DOUBLE_EQ(t.max_speed, 2.5);

@@ -64,7 +64,7 @@ TEST(Tick, DivergedStepIsRolledBackAndRedoneInSubsteps) {
   auto m = compile_model(spec);
   State s = State::initial(*m);
   TickWorkspace w(*m);
-  const double L = w.max_step_displacement;
+  const double L = m->max_step_displacement;
   ASSERT_GT(L, 1.0);  // half the liver's bounding-box diagonal, in mesh units
   const double h = m->time_step;
   auto throw_at = [&](double speed) {

@@ -155,18 +155,19 @@ TEST(SessionLog, RoundTripsExactlyAndRejectsInterruptedLogs) {
 
 TEST(ScriptedTool, HeadlessRunFollowsTheTrajectoryAndGoesIdleAfterTimeout) {
   ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
-  spec.tools.at(0).spec.script = std::string(STROMA_SOURCE_DIR) + "/scenarios/trajectories/liver_press.yaml";
-  auto m = compile_model(spec);
+  spec.tools.at(0).script = std::string(STROMA_SOURCE_DIR) + "/scenarios/trajectories/liver_press.yaml";
+  const CompiledScenario sc_m = compile_scenario(spec);
+  const auto& m = sc_m.model;
   RunOptions o;
   o.steps = 1500;
   o.progress = false;
   o.metrics = false;
-  const RunResult r = run_headless(*m, o);
+  const RunResult r = run_headless(sc_m, o);
   const ToolState& t = r.final_state.tools.at(0);
   EXPECT_TRUE(t.active);
   EXPECT_EQ(t.seq, 1500u);
   // Applied at the start of the last tick: the script sampled at t = 1.499 s.
-  const ToolPose want = m->tool_scripts[0].sample(1.499);
+  const ToolPose want = sc_m.tool_scripts[0].sample(1.499);
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(t.pose.position[k], want.position[k], 1e-12);
 
   // The same scene driven by a session log that stops commanding: idle after `timeout`.
@@ -178,10 +179,10 @@ TEST(ScriptedTool, HeadlessRunFollowsTheTrajectoryAndGoesIdleAfterTimeout) {
   end.kind = SessionEvent::End;
   end.tick = 400;  // 0.4 s < timeout 0.5 s
   o.replay = write_temp("stroma_idle.log", std::string(kSessionLogHeader) + format_session_event(cmd) + format_session_event(end));
-  EXPECT_TRUE(run_headless(*m, o).final_state.tools[0].active);
+  EXPECT_TRUE(run_headless(sc_m, o).final_state.tools[0].active);
   end.tick = 700;  // 0.7 s > timeout: idle, pose held
   o.replay = write_temp("stroma_idle.log", std::string(kSessionLogHeader) + format_session_event(cmd) + format_session_event(end));
-  const RunResult idle = run_headless(*m, o);
+  const RunResult idle = run_headless(sc_m, o);
   EXPECT_FALSE(idle.final_state.tools[0].active);
   EXPECT_EQ(idle.final_state.tools[0].pose.position, want.position);
 }

@@ -20,4 +20,25 @@ struct ContactSpring {
   double C[9] = {};
 };
 
+/// The contact point Σ w_a x_a of spring `sp` at positions x.
+inline void spring_point(const ContactSpring& sp, const double* x, double* p) {
+  for (int k = 0; k < 3; ++k)
+    p[k] = sp.w[0] * x[3 * sp.node[0] + k] + sp.w[1] * x[3 * sp.node[1] + k] + sp.w[2] * x[3 * sp.node[2] + k];
+}
+
+/// The force on the tissue of spring `sp` as the implicit step applied it, at the end of a step
+/// from positions x0 to x with end velocities v: f − K·(p(x) − p(x0)) − C·v_p (the spring is
+/// linearised where it was found; implicit Euler evaluates it at the end of the step).
+inline void spring_force_after_step(const ContactSpring& sp, const double* x0, const double* x, const double* v,
+                                    double* f) {
+  double p0[3], p1[3], vp[3];
+  spring_point(sp, x0, p0);
+  spring_point(sp, x, p1);
+  spring_point(sp, v, vp);
+  const double dp[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+  for (int k = 0; k < 3; ++k)
+    f[k] = sp.force[k] - (sp.K[3 * k] * dp[0] + sp.K[3 * k + 1] * dp[1] + sp.K[3 * k + 2] * dp[2]) -
+           (sp.C[3 * k] * vp[0] + sp.C[3 * k + 1] * vp[1] + sp.C[3 * k + 2] * vp[2]);
+}
+
 }  // namespace stroma

@@ -110,6 +110,16 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
       for (int a = 0; a < 4; ++a)
         for (int b = 0; b < 4; ++b) m.slots[e][4 * a + b] = m.pattern.diag[all_tets[e][a]];
     }
+  m.node_element_ptr.assign(nn + 1, 0);
+  for (const ElementParams& ep : m.elements)
+    for (int32_t n : ep.node) ++m.node_element_ptr[n + 1];
+  for (int32_t i = 0; i < nn; ++i) m.node_element_ptr[i + 1] += m.node_element_ptr[i];
+  m.node_element.resize(m.node_element_ptr.back());
+  std::vector<int32_t> fill(m.node_element_ptr.begin(), m.node_element_ptr.end() - 1);
+  for (size_t e = 0; e < m.elements.size(); ++e)
+    for (int32_t n : m.elements[e].node) m.node_element[fill[n]++] = static_cast<int32_t>(e);
+  m.any_stiffness_damping = std::any_of(m.elements.begin(), m.elements.end(),
+                                        [](const ElementParams& e) { return e.beta != 0.0; });
   for (int32_t i = 0; i < nn; ++i)
     for (int32_t s = m.pattern.row_ptr[i]; s < m.pattern.row_ptr[i + 1]; ++s) {
       const int32_t j = m.pattern.col[s];

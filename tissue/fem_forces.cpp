@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "tissue/mat3.hpp"
+#include "tissue/material.hpp"
 #include "tissue/rotation.hpp"
 #include "tissue/stable_neo_hookean.hpp"
 
@@ -47,22 +48,6 @@ inline void rotated_stress(const double* R, const double* G, double lambda, doub
   m3::mul(R, sig, P);
   if (eps_out)
     for (int k = 0; k < 9; ++k) eps_out[k] = e[k];
-}
-
-/// out_a = −scale·P·g_a for a = 1..3 and out_0 = −Σ, accumulated into the nodal array.
-inline void scatter_pg(const ElementParams& ep, const double* P, double scale, double* out) {
-  double f[4][3];
-  for (int a = 0; a < 3; ++a) {
-    const double* g = ep.g + 3 * a;
-    for (int i = 0; i < 3; ++i) f[a + 1][i] = -scale * (P[3 * i] * g[0] + P[3 * i + 1] * g[1] + P[3 * i + 2] * g[2]);
-  }
-  for (int i = 0; i < 3; ++i) f[0][i] = -(f[1][i] + f[2][i] + f[3][i]);
-  for (int a = 0; a < 4; ++a) {
-    double* o = out + 3 * ep.node[a];
-    o[0] += f[a][0];
-    o[1] += f[a][1];
-    o[2] += f[a][2];
-  }
 }
 
 /// Elements per batch: 8 doubles fill an AVX-512 register. Everything up to the final scatter
@@ -214,14 +199,14 @@ double pass_range(const FemModel& m, const ElasticPass& p, int32_t begin, int32_
   double energy = 0.0;
   BatchInput in;
   double F[9][kBatch], R[9][kBatch], fo[12][kBatch], en[kBatch];
-  Lanes neg_vol, kv_scale, k_scale;
+  Lanes force_scale, kv_scale, k_scale;  // force_scale = +V: the forces are −V·P·g_a
   for (int32_t e0 = begin; e0 < end; e0 += kBatch) {
     const int count = std::min<int32_t>(kBatch, end - e0);
     gather(m, p.x, e0, count, in, p.damage);
     batch_gradient(in.d, in.g, F);
     batch_rotations<K>(m, e0, count, in, F, R);
-    for (int l = 0; l < kBatch; ++l) neg_vol[l] = in.vol[l];
-    batch_stress_forces(R, F, in, 1.0, neg_vol, fo, en);
+    for (int l = 0; l < kBatch; ++l) force_scale[l] = in.vol[l];
+    batch_stress_forces(R, F, in, 1.0, force_scale, fo, en);
     for (int l = 0; l < count; ++l) {
       const ElementParams& ep = m.elements[e0 + l];
       energy += en[l];
@@ -307,13 +292,7 @@ void element_von_mises(const FemModel& m, const double* x, double* out) {
         qr_rotation(m.rest_frame[e].data(), d1, d2, R);
       double P[9], eps[9];
       rotated_stress(R, F, ep.lambda, ep.mu, 1.0, P, eps);
-      // σ in the element frame (rotation does not change the von Mises value).
-      const double tr = eps[0] + eps[4] + eps[8];
-      double s[9];
-      for (int k = 0; k < 9; ++k) s[k] = 2.0 * ep.mu * eps[k];
-      s[0] += ep.lambda * tr; s[4] += ep.lambda * tr; s[8] += ep.lambda * tr;
-      const double a = s[0] - s[4], b = s[4] - s[8], c = s[8] - s[0];
-      out[e] = std::sqrt(0.5 * (a * a + b * b + c * c) + 3.0 * (s[1] * s[1] + s[2] * s[2] + s[5] * s[5]));
+      out[e] = von_mises_stress(eps, ep.lambda, ep.mu);  // in the element frame: rotation-invariant
     }
 }
 

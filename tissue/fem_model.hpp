@@ -49,6 +49,10 @@ struct BodyRange {
 };
 
 /// The whole compiled FEM system.
+/// Invariants: every array indexed by node has num_nodes entries (rest, f_ext: 3·num_nodes);
+/// elements, slots and (QR only) rest_frame are parallel; ranges and bodies cover the elements
+/// in order without overlap; constrained nodes (mask 7) have zero rows and columns in every
+/// projected matrix; a node used by no tetrahedron is fully constrained and massless.
 struct FemModel {
   int32_t num_nodes = 0;
   std::vector<double> rest;                 ///< 3n rest positions
@@ -69,6 +73,13 @@ struct FemModel {
   /// Off-diagonal blocks (slot, row node, column node) touching a constrained DOF.
   std::vector<std::array<int32_t, 3>> constrained_offdiag;
   std::vector<BodyRange> bodies;
+  /// Elements around each node (CSR): node i's are node_element[node_element_ptr[i] ..
+  /// node_element_ptr[i + 1]), in increasing order. Damage (mass removal at rupture) and the
+  /// warped preconditioner (a rotation per node) read them.
+  std::vector<int32_t> node_element_ptr, node_element;
+  /// Some element has Rayleigh stiffness damping (β > 0): the symplectic step and the Newton
+  /// residual need a K·v pass only then.
+  bool any_stiffness_damping = false;
 
   /// Number of degrees of freedom (3 per node, constrained included).
   int32_t dofs() const { return 3 * num_nodes; }

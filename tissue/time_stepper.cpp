@@ -1,6 +1,7 @@
 #include "tissue/time_stepper.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "tissue/constraints.hpp"
@@ -22,77 +23,15 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
   A_.assign(9 * static_cast<size_t>(m_.pattern.nnzb()), 0.0);
   const bool needs_direct = cfg_.linear_solver == LinearSolverKind::Cholmod &&
                             cfg_.integrator != Integrator::SymplecticEuler;
-  any_beta_ = std::any_of(m_.elements.begin(), m_.elements.end(),
-                          [](const ElementParams& e) { return e.beta != 0.0; });
   if (needs_direct) cholmod_ = std::make_unique<CholmodSolver>(m_.pattern);
-  if (cfg_.preconditioner == Preconditioner::WarpedCholesky &&
-      cfg_.linear_solver == LinearSolverKind::CG) {
-    node_element_.assign(m_.num_nodes, -1);
-    for (size_t e = 0; e < m_.elements.size(); ++e)
-      for (int32_t n : m_.elements[e].node)
-        if (node_element_[n] < 0) node_element_[n] = static_cast<int32_t>(e);
-    node_rot_.assign(9 * static_cast<size_t>(m_.num_nodes), 0.0);
-    warp_a_.assign(n3, 0.0);
-    warp_b_.assign(n3, 0.0);
-    warp_op_.apply = &TimeStepper::apply_warped;
-    warp_op_.context = this;
-  }
-}
-
-void TimeStepper::build_rest_factor(double h_mass, double k_beta, double k_const) {
-  if (rest_factor_ && rest_factor_key_[0] == h_mass && rest_factor_key_[1] == k_beta &&
-      rest_factor_key_[2] == k_const)
-    return;
-  std::vector<double> A0(A_.size(), 0.0);
-  ElasticPass p;
-  p.x = m_.rest.data();
-  p.kvals = A0.data();
-  p.k_beta = k_beta;
-  p.k_const = k_const;
-  elastic_pass(m_, p);
-  for (int32_t i = 0; i < m_.num_nodes; ++i) {
-    double* D = A0.data() + 9 * m_.pattern.diag[i];
-    const double md = h_mass < 0 ? 0.0 : (1.0 + h_mass * m_.alpha[i]) * m_.mass[i];
-    D[0] += md;
-    D[4] += md;
-    D[8] += md;
-  }
-  stroma::project_constraints(m_, A0.data(), 1.0, false);
-  if (!rest_factor_) rest_factor_ = std::make_unique<CholmodSolver>(m_.pattern);
-  rest_factor_->factor(A0.data());
-  rest_factor_key_[0] = h_mass;
-  rest_factor_key_[1] = k_beta;
-  rest_factor_key_[2] = k_const;
+  if (cfg_.preconditioner == Preconditioner::WarpedCholesky && cfg_.linear_solver == LinearSolverKind::CG)
+    warped_ = std::make_unique<WarpedPreconditioner>(m_);
 }
 
 void TimeStepper::prepare(double h) {
-  if (!warp_op_.apply) return;
-  if (cfg_.integrator == Integrator::ImplicitEuler) build_rest_factor(h, h, h * h);
-  if (cfg_.integrator == Integrator::Static) build_rest_factor(-1.0, 0.0, 1.0);
-}
-
-void TimeStepper::update_node_rotations() {
-  for (int32_t i = 0; i < m_.num_nodes; ++i) {
-    double* R = node_rot_.data() + 9 * i;
-    const int32_t e = node_element_[i];
-    if (e < 0 || m_.constrained[i] == 7) {
-      std::fill(R, R + 9, 0.0);
-      R[0] = R[4] = R[8] = 1.0;
-    } else {
-      std::copy(rot_.begin() + 9 * e, rot_.begin() + 9 * e + 9, R);
-    }
-  }
-}
-
-void TimeStepper::apply_warped(void* self, const double* r, double* z) {
-  auto* t = static_cast<TimeStepper*>(self);
-  const int32_t n = t->m_.num_nodes;
-  const double* R = t->node_rot_.data();
-  double* a = t->warp_a_.data();
-  double* b = t->warp_b_.data();
-  for (int32_t i = 0; i < n; ++i) m3::mulv_t(R + 9 * i, r + 3 * i, a + 3 * i);
-  t->rest_factor_->solve(a, b);
-  for (int32_t i = 0; i < n; ++i) m3::mulv(R + 9 * i, b + 3 * i, z + 3 * i);
+  if (!warped_) return;
+  if (cfg_.integrator == Integrator::ImplicitEuler) warped_->factor(h, h, h * h);
+  if (cfg_.integrator == Integrator::Static) warped_->factor(-1.0, 0.0, 1.0);
 }
 
 TimeStepper::~TimeStepper() = default;
@@ -101,14 +40,48 @@ void TimeStepper::project_constraints(double* A, double diag_scale) {
   stroma::project_constraints(m_, A, diag_scale, true);
 }
 
-double TimeStepper::assemble(const TissueState& s, double h) {
+void TimeStepper::add_mass_diagonal(double* A, double h) const {
+  for (int32_t i = 0; i < m_.num_nodes; ++i) {
+    double* D = A + 9 * m_.pattern.diag[i];
+    const double md = (1.0 + h * m_.alpha[i]) * mass(i);
+    D[0] += md;
+    D[4] += md;
+    D[8] += md;
+  }
+}
+
+void TimeStepper::scatter_springs(double* force, double* A, double k_scale, double c_scale, const double* v) const {
+  for (int c = 0; c < in_.spring_count; ++c) {
+    const ContactSpring& sp = in_.springs[c];
+    double f[3] = {sp.force[0], sp.force[1], sp.force[2]};
+    if (v) {  // explicit damping at the contact point's velocity
+      double vc[3] = {0, 0, 0};
+      for (int a = 0; a < 3; ++a)
+        for (int k = 0; k < 3; ++k) vc[k] += sp.w[a] * v[3 * sp.node[a] + k];
+      for (int k = 0; k < 3; ++k) f[k] -= sp.C[3 * k] * vc[0] + sp.C[3 * k + 1] * vc[1] + sp.C[3 * k + 2] * vc[2];
+    }
+    for (int a = 0; a < 3; ++a)
+      for (int k = 0; k < 3; ++k) force[3 * sp.node[a] + k] += sp.w[a] * f[k];
+    if (!A) continue;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) {
+        const double ww = sp.w[a] * sp.w[b];
+        double* B = A + 9 * sp.slot[3 * a + b];
+        for (int k = 0; k < 9; ++k) B[k] += ww * (k_scale * sp.K[k] + c_scale * sp.C[k]);
+      }
+  }
+}
+
+double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& inputs) {
+  in_ = inputs;
   std::fill(force_.begin(), force_.end(), 0.0);
   ElasticPass p;
   p.x = s.x.data();
   p.force = force_.data();
   p.rotations = rot_.data();
-  p.damage = damage_;
+  p.damage = in_.damage;
   const bool implicit = cfg_.integrator == Integrator::ImplicitEuler;
+  const bool any_beta = m_.any_stiffness_damping;
   if (implicit) {
     // A = (1 + hα) M + h(β + h) K. The damping and h·K·v terms of the right-hand side come
     // from one SpMV with A below, cheaper than a second element pass over the velocities.
@@ -116,7 +89,7 @@ double TimeStepper::assemble(const TissueState& s, double h) {
     p.kvals = A_.data();
     p.k_beta = h;
     p.k_const = h * h;
-  } else if (any_beta_) {
+  } else if (any_beta) {
     std::fill(kv_.begin(), kv_.end(), 0.0);
     p.v = s.v.data();
     p.kv = kv_.data();
@@ -126,37 +99,13 @@ double TimeStepper::assemble(const TissueState& s, double h) {
   const double energy = elastic_pass(m_, p);
   // Contact: forces join the elastic ones; stiffness and damping join the system matrix, so
   // the SpMV below also forms their −h(hK + C)v terms of the right-hand side.
-  for (int c = 0; c < n_springs_; ++c) {
-    const ContactSpring& sp = springs_[c];
-    double f[3] = {sp.force[0], sp.force[1], sp.force[2]};
-    if (!implicit) {  // explicit damping at the contact point's velocity
-      double vc[3] = {0, 0, 0};
-      for (int a = 0; a < 3; ++a)
-        for (int k = 0; k < 3; ++k) vc[k] += sp.w[a] * s.v[3 * sp.node[a] + k];
-      for (int k = 0; k < 3; ++k) f[k] -= sp.C[3 * k] * vc[0] + sp.C[3 * k + 1] * vc[1] + sp.C[3 * k + 2] * vc[2];
-    }
-    for (int a = 0; a < 3; ++a)
-      for (int k = 0; k < 3; ++k) force_[3 * sp.node[a] + k] += sp.w[a] * f[k];
-    if (implicit) {
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          const double ww = sp.w[a] * sp.w[b];
-          double* B = A_.data() + 9 * sp.slot[3 * a + b];
-          for (int k = 0; k < 9; ++k) B[k] += ww * (h * h * sp.K[k] + h * sp.C[k]);
-        }
-    }
-  }
+  if (implicit) scatter_springs(force_.data(), A_.data(), h * h, h);
+  else scatter_springs(force_.data(), nullptr, 0.0, 0.0, s.v.data());
 
   const int32_t n = m_.num_nodes;
   const double* fe = m_.f_ext.data();
   if (implicit) {
-    for (int32_t i = 0; i < n; ++i) {
-      double* D = A_.data() + 9 * m_.pattern.diag[i];
-      const double md = (1.0 + h * m_.alpha[i]) * mass(i);
-      D[0] += md;
-      D[4] += md;
-      D[8] += md;
-    }
+    add_mass_diagonal(A_.data(), h);
     // h(f_ext + f − αMv − (β + h)Kv) = h(f_ext + f) + Mv − Av   (constrained v are 0).
     bsr_spmv(m_.pattern, A_.data(), s.v.data(), tmp_.data());
     for (int32_t i = 0; i < n; ++i) {
@@ -168,10 +117,10 @@ double TimeStepper::assemble(const TissueState& s, double h) {
       }
     }
     project_constraints(A_.data(), 1.0);
-    if (warp_op_.apply) {
+    if (warped_) {
       // Rest-pose factor with this step's coefficients: built once, rebuilt only if h changes.
-      build_rest_factor(h, h, h * h);
-      update_node_rotations();
+      warped_->factor(h, h, h * h);
+      warped_->update_rotations(rot_.data());
     }
   } else {
     for (int32_t i = 0; i < n; ++i) {
@@ -179,7 +128,7 @@ double TimeStepper::assemble(const TissueState& s, double h) {
       const double inv = mi > 0 ? 1.0 / mi : 0.0;
       for (int k = 0; k < 3; ++k) {
         const int32_t d = 3 * i + k;
-        const double f = fe[d] + dm * m_.gravity[k] + force_[d] - am * s.v[d] - (any_beta_ ? kv_[d] : 0.0);
+        const double f = fe[d] + dm * m_.gravity[k] + force_[d] - am * s.v[d] - (any_beta ? kv_[d] : 0.0);
         rhs_[d] = dof_constrained(m_, i, k) ? 0.0 : h * f * inv;
       }
     }
@@ -221,8 +170,8 @@ SolveStats TimeStepper::solve(TissueState& s) {
     st.iterations = 0;
     return st;
   }
-  return cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner,
-                   cfg_.max_iterations, cfg_.tolerance, warp_op_.apply ? &warp_op_ : nullptr);
+  return cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, cfg_.max_iterations, cfg_.tolerance,
+                   external());
 }
 
 double TimeStepper::implicit_residual(const TissueState& s, double h, const double* dv, bool matrix, double* R,
@@ -241,7 +190,7 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
   ElasticPass p;
   p.x = xk;
   p.force = force_.data();
-  p.damage = damage_;
+  p.damage = in_.damage;
   if (matrix) {
     std::fill(A_.begin(), A_.end(), 0.0);
     p.kvals = A_.data();
@@ -249,7 +198,8 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
     p.k_const = h * h;
     p.rotations = rot_.data();
   }
-  if (any_beta_) {  // hβK(x)v: the stiffness damping at the iterate
+  const bool any_beta = m_.any_stiffness_damping;
+  if (any_beta) {  // hβK(x)v: the stiffness damping at the iterate
     std::fill(kv_.begin(), kv_.end(), 0.0);
     p.v = vk;
     p.kv = kv_.data();
@@ -261,8 +211,8 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
   // Contacts, linearised at the step's start as in assemble(): force f_c − (hK_c + C_c)v at the
   // iterate, so h·that = h f_c − (h²K_c + hC_c)v; tmp_ collects the (h²K_c + hC_c)v part.
   std::fill(tmp_.begin(), tmp_.end(), 0.0);
-  for (int c = 0; c < n_springs_; ++c) {
-    const ContactSpring& sp = springs_[c];
+  for (int c = 0; c < in_.spring_count; ++c) {
+    const ContactSpring& sp = in_.springs[c];
     double vc[3] = {0, 0, 0};
     for (int a = 0; a < 3; ++a)
       for (int k = 0; k < 3; ++k) vc[k] += sp.w[a] * vk[3 * sp.node[a] + k];
@@ -271,37 +221,22 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
       lin[k] = (h * h * sp.K[3 * k] + h * sp.C[3 * k]) * vc[0] + (h * h * sp.K[3 * k + 1] + h * sp.C[3 * k + 1]) * vc[1] +
                (h * h * sp.K[3 * k + 2] + h * sp.C[3 * k + 2]) * vc[2];
     for (int a = 0; a < 3; ++a)
-      for (int k = 0; k < 3; ++k) {
-        force_[3 * sp.node[a] + k] += sp.w[a] * sp.force[k];
-        tmp_[3 * sp.node[a] + k] += sp.w[a] * lin[k];
-      }
+      for (int k = 0; k < 3; ++k) tmp_[3 * sp.node[a] + k] += sp.w[a] * lin[k];
     for (int k = 0; k < 3; ++k) contact_merit += -h * sp.force[k] * vc[k] + 0.5 * vc[k] * lin[k];
-    if (matrix)
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          const double ww = sp.w[a] * sp.w[b];
-          double* B = A_.data() + 9 * sp.slot[3 * a + b];
-          for (int k = 0; k < 9; ++k) B[k] += ww * (h * h * sp.K[k] + h * sp.C[k]);
-        }
   }
+  scatter_springs(force_.data(), matrix ? A_.data() : nullptr, h * h, h);
   const double* fe = m_.f_ext.data();
   double r2 = 0, phi = elastic_energy + contact_merit;
+  if (matrix) add_mass_diagonal(A_.data(), h);
   for (int32_t i = 0; i < n; ++i) {
     const double mi = mass(i), dm = mi - m_.mass[i];
-    if (matrix) {
-      double* D = A_.data() + 9 * m_.pattern.diag[i];
-      const double md = (1.0 + h * m_.alpha[i]) * mi;
-      D[0] += md;
-      D[4] += md;
-      D[8] += md;
-    }
     for (int k = 0; k < 3; ++k) {
       const int32_t d = 3 * i + k;
       if (dof_constrained(m_, i, k)) {
         R[d] = 0.0;
         continue;
       }
-      const double kv = any_beta_ ? kv_[d] : 0.0;
+      const double kv = any_beta ? kv_[d] : 0.0;
       R[d] = h * (fe[d] + dm * m_.gravity[k] + force_[d]) - (1.0 + h * m_.alpha[i]) * mi * vk[d] + mi * s.v[d] - kv -
              tmp_[d];
       r2 += R[d] * R[d];
@@ -312,10 +247,19 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
   }
   if (matrix) {
     project_constraints(A_.data(), 1.0);
-    if (warp_op_.apply) update_node_rotations();
+    if (warped_) warped_->update_rotations(rot_.data());
   }
   if (merit) *merit = phi;
   return std::sqrt(r2);
+}
+
+double TimeStepper::timed_residual(NewtonStats& st, const TissueState& s, double h, const double* dv, bool matrix,
+                                   double* R, double* merit) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const double r = implicit_residual(s, h, dv, matrix, R, merit);
+  st.element_pass_ns +=
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count();
+  return r;
 }
 
 NewtonStats TimeStepper::newton(TissueState& s, double h) {
@@ -338,22 +282,22 @@ NewtonStats TimeStepper::newton(TissueState& s, double h) {
   const double scale = std::max({std::sqrt(b2), std::sqrt(m2), h * std::sqrt(f2), h * std::sqrt(e2), 1e-300});
   // The first check is a forces-only pass: most ticks end here (the linearised step is good).
   double phi = 0;
-  double rn = implicit_residual(s, h, dv, false, newton_r_.data(), &phi);
+  double rn = timed_residual(st, s, h, dv, false, newton_r_.data(), &phi);
   if (rn > cfg_.newton_tolerance * scale && std::isfinite(rn)) {
     // The linearised step may have gone uphill in the incremental potential (large steps on
     // soft, inverted or near-incompressible elements): then shorten it towards Δv = 0 first.
     double phi0 = 0;
     std::fill(newton_dv_.begin(), newton_dv_.end(), 0.0);
-    implicit_residual(s, h, newton_dv_.data(), false, newton_trial_r_.data(), &phi0);
+    timed_residual(st, s, h, newton_dv_.data(), false, newton_trial_r_.data(), &phi0);
     for (int ls = 0; ls < 5 && !(phi <= phi0) && std::isfinite(phi0); ++ls) {
       ++st.line_search_halvings;
       for (size_t d = 0; d < n3; ++d) dv[d] *= 0.5;
-      rn = implicit_residual(s, h, dv, false, newton_r_.data(), &phi);
+      rn = timed_residual(st, s, h, dv, false, newton_r_.data(), &phi);
     }
   }
   bool a_current = false;  // A_ assembled at the current iterate?
   while (st.iterations < cfg_.newton_iterations && rn > cfg_.newton_tolerance * scale && std::isfinite(rn)) {
-    if (!a_current) rn = implicit_residual(s, h, dv, true, newton_r_.data(), &phi);
+    if (!a_current) rn = timed_residual(st, s, h, dv, true, newton_r_.data(), &phi);
     a_current = true;  // (line-search trials assemble at the point they try)
     std::fill(newton_delta_.begin(), newton_delta_.end(), 0.0);
     if (cfg_.linear_solver == LinearSolverKind::Cholmod) {
@@ -361,7 +305,7 @@ NewtonStats TimeStepper::newton(TissueState& s, double h) {
       cholmod_->solve(newton_r_.data(), newton_delta_.data());
     } else {
       const SolveStats cs = cg_.solve(m_.pattern, A_.data(), newton_r_.data(), newton_delta_.data(), cfg_.preconditioner,
-                                      cfg_.max_iterations, cfg_.tolerance, warp_op_.apply ? &warp_op_ : nullptr);
+                                      cfg_.max_iterations, cfg_.tolerance, external());
       st.linear_iterations += cs.iterations;
     }
     ++st.iterations;
@@ -378,7 +322,7 @@ NewtonStats TimeStepper::newton(TissueState& s, double h) {
     for (int ls = 0; ls < 5 && !accepted; ++ls, t *= 0.5) {
       for (size_t d = 0; d < n3; ++d) newton_dv_[d] = dv[d] + t * newton_delta_[d];
       double phi_try = 0;
-      const double r_try = implicit_residual(s, h, newton_dv_.data(), true, newton_trial_r_.data(), &phi_try);
+      const double r_try = timed_residual(st, s, h, newton_dv_.data(), true, newton_trial_r_.data(), &phi_try);
       const bool finite = std::isfinite(r_try) && std::isfinite(phi_try);
       const bool armijo = descent && phi_try <= phi - 1e-4 * t * slope;
       const bool round_off = std::abs(phi_try - phi) <= phi_noise && r_try < rn;
@@ -414,93 +358,6 @@ void TimeStepper::integrate(TissueState& s, double h) {
   }
 }
 
-StaticResult TimeStepper::solve_static(TissueState& s,
-                                       const std::function<void(const TissueState&)>& before_iteration) {
-  StaticResult res;
-  const int32_t n = m_.num_nodes;
-  std::fill(s.v.begin(), s.v.end(), 0.0);
-  double fref = 0;
-  for (int32_t i = 0; i < n; ++i)
-    for (int k = 0; k < 3; ++k)
-      if (!dof_constrained(m_, i, k)) fref += m_.f_ext[3 * i + k] * m_.f_ext[3 * i + k];
-  fref = std::sqrt(fref);
-  if (fref == 0) fref = 1.0;
-  CholmodSolver* direct = cholmod_.get();
-  std::unique_ptr<CholmodSolver> own;
-  if (cfg_.linear_solver == LinearSolverKind::Cholmod && !direct) {
-    own = std::make_unique<CholmodSolver>(m_.pattern);
-    direct = own.get();
-  }
-  for (int it = 0; it <= cfg_.static_max_newton; ++it) {
-    std::fill(force_.begin(), force_.end(), 0.0);
-    std::fill(A_.begin(), A_.end(), 0.0);
-    ElasticPass p;
-    p.x = s.x.data();
-    p.force = force_.data();
-    p.kvals = A_.data();
-    p.k_const = 1.0;
-    p.rotations = rot_.data();
-    p.damage = damage_;
-    if (before_iteration) before_iteration(s);
-    elastic_pass(m_, p);
-    for (int c = 0; c < n_springs_; ++c) {  // contact: force and stiffness at this iterate
-      const ContactSpring& sp = springs_[c];
-      for (int a = 0; a < 3; ++a)
-        for (int k = 0; k < 3; ++k) force_[3 * sp.node[a] + k] += sp.w[a] * sp.force[k];
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          double* B = A_.data() + 9 * sp.slot[3 * a + b];
-          for (int k = 0; k < 9; ++k) B[k] += sp.w[a] * sp.w[b] * sp.K[k];
-        }
-    }
-    double rn = 0, dsum = 0;
-    int dcount = 0;
-    for (int32_t i = 0; i < n; ++i) {
-      for (int k = 0; k < 3; ++k) {
-        const int32_t d = 3 * i + k;
-        rhs_[d] = dof_constrained(m_, i, k) ? 0.0 : m_.f_ext[d] + force_[d];
-        rn += rhs_[d] * rhs_[d];
-      }
-      const double* D = A_.data() + 9 * m_.pattern.diag[i];
-      for (int k = 0; k < 3; ++k)
-        if (!dof_constrained(m_, i, k)) {
-          dsum += D[4 * k];
-          ++dcount;
-        }
-    }
-    res.relative_residual = std::sqrt(rn) / fref;
-    if (!std::isfinite(res.relative_residual)) return res;
-    if (res.relative_residual <= cfg_.static_tolerance) {
-      res.converged = true;
-      return res;
-    }
-    if (it == cfg_.static_max_newton) break;
-    // Constrained rows get the mean free diagonal: keeps CG's conditioning; rhs there is 0.
-    const double scale = dcount ? dsum / dcount : 1.0;
-    stroma::project_constraints(m_, A_.data(), scale, false);
-    std::fill(tmp_.begin(), tmp_.end(), 0.0);
-    if (direct) {
-      if (!direct->factor(A_.data())) return res;
-      direct->solve(rhs_.data(), tmp_.data());
-    } else {
-      if (warp_op_.apply) {
-        build_rest_factor(-1.0, 0.0, 1.0);
-        update_node_rotations();
-      }
-      // Inner solves need not be tighter than the Newton target relative to this residual.
-      const double tol = std::clamp(
-          0.1 * cfg_.static_tolerance / std::max(res.relative_residual, 1e-300), 1e-14, 0.1);
-      const SolveStats cs = cg_.solve(m_.pattern, A_.data(), rhs_.data(), tmp_.data(),
-                                      cfg_.preconditioner, 20 * cfg_.max_iterations, tol,
-                                      warp_op_.apply ? &warp_op_ : nullptr);
-      res.linear_iterations += cs.iterations;
-    }
-    for (size_t d = 0; d < s.x.size(); ++d) s.x[d] += tmp_[d];
-    ++res.newton_iterations;
-  }
-  return res;
-}
-
 double TimeStepper::kinetic_energy(const TissueState& s) const {
   double e = 0;
   for (int32_t i = 0; i < m_.num_nodes; ++i) {
@@ -519,7 +376,7 @@ double TimeStepper::external_potential(const TissueState& s) const {
 double TimeStepper::elastic_energy(const TissueState& s) const {
   ElasticPass p;
   p.x = s.x.data();
-  p.damage = damage_;  // damaged elements store (1 − d) of the energy
+  p.damage = in_.damage;  // damaged elements store (1 − d) of the energy
   return elastic_pass(m_, p);
 }
 

@@ -9,6 +9,7 @@
 /// Symplectic Euler: v ← v + h M⁻¹ (f_ext + f(x) − C v),   x ← x + h v.
 /// Static: Newton on f_ext + f(x) = 0 with the tangent R·Ke·Rᵀ.
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <vector>
@@ -19,6 +20,7 @@
 #include "tissue/fem_model.hpp"
 #include "tissue/options.hpp"
 #include "tissue/tissue_state.hpp"
+#include "tissue/warped_preconditioner.hpp"
 
 namespace stroma {
 
@@ -45,6 +47,17 @@ struct NewtonStats {
   int linear_iterations = 0;       ///< CG iterations of the extra solves
   double relative_residual = 0;    ///< ‖R(Δv)‖ / scale at exit (0: not measured, iterations = 1)
   int line_search_halvings = 0;    ///< step halvings the line search needed, summed
+  int64_t element_pass_ns = 0;     ///< wall time of its element passes (residuals, assemblies)
+};
+
+/// What a step is solved against besides the state: the collide stage's contact springs and
+/// the damage stage's element damage and current lumped masses. Pointers (may be null: none /
+/// the model's masses) must stay valid until the step's integrate() has run.
+struct StepInputs {
+  const ContactSpring* springs = nullptr;  ///< this tick's contacts
+  int spring_count = 0;
+  const float* damage = nullptr;       ///< per element d ∈ [0, 1]: stiffness × (1 − d)
+  const double* node_mass = nullptr;   ///< current lumped masses (gravity follows them)
 };
 
 /// Result of a static solve.
@@ -56,6 +69,11 @@ struct StaticResult {
 };
 
 /// Stages of one time step over a FemModel. Not thread-safe; one per physics thread.
+///
+/// Invariant (the order of a step): assemble(s, h, inputs) fixes the step's inputs; solve(),
+/// newton(), integrate() and the energy queries (kinetic_energy, elastic_energy) use the inputs
+/// of the last assemble() until the next one. Before the first assemble() the inputs are none
+/// (no contact, no damage, the model's masses).
 class TimeStepper {
  public:
   TimeStepper(const FemModel& model, const StepperSettings& settings);
@@ -65,22 +83,9 @@ class TimeStepper {
   /// factorisation), so the first tick is not slower than the others. Optional.
   void prepare(double h);
 
-  /// Contact springs for the next assemble (the collide stage's output). The array must stay
-  /// valid until assemble() has run; n = 0 clears them.
-  void set_contact_springs(const ContactSpring* springs, int n) {
-    springs_ = springs;
-    n_springs_ = n;
-  }
-
-  /// Per-element damage d (stiffness × (1 − d)) for the following assemblies; null = none.
-  void set_element_damage(const float* damage) { damage_ = damage; }
-  /// Current lumped masses (damage removes ruptured elements' mass); null = the model's.
-  /// Gravity follows the current mass.
-  void set_node_mass(const double* mass) { mass_ = mass; }
-
-  /// Stage "assemble": element pass at the current state and the step's right-hand side.
-  /// Returns the elastic energy at s.x (before the step).
-  double assemble(const TissueState& s, double h);
+  /// Stage "assemble": element pass at the current state and the step's right-hand side, with
+  /// this step's inputs (kept for the rest of the step). Returns the elastic energy at s.x.
+  double assemble(const TissueState& s, double h, const StepInputs& inputs);
   /// Stage "solve": Δv (implicit Euler) into s.dv. No-op for symplectic Euler.
   SolveStats solve(TissueState& s);
   /// Newton iterations on the implicit-Euler equations after solve() (StepperSettings::
@@ -91,23 +96,25 @@ class TimeStepper {
   /// Stage "integrate": update v and x; constrained nodes keep v = 0.
   void integrate(TissueState& s, double h);
 
-  /// Newton iterations to static equilibrium from s.x (velocities zeroed). `before_iteration`,
-  /// if given, runs before each iteration's assembly with the current iterate — the engine
-  /// uses it to recompute contacts (set_contact_springs) as the active set changes.
-  StaticResult solve_static(TissueState& s,
-                            const std::function<void(const TissueState&)>& before_iteration = {});
+  /// Newton iterations to static equilibrium of load_factor·f_ext + f(x) + f_c(x) = 0 from s.x
+  /// (velocities zeroed; tissue/static_solve.cpp). `inputs_at`, if given, returns the inputs
+  /// (contacts found at that iterate, damage, masses) before each iteration's assembly — the
+  /// engine recomputes contacts as the active set changes. Stops early (not converged) when
+  /// the residual turns non-finite or grows beyond kStaticDivergence × its start.
+  StaticResult solve_static(TissueState& s, double load_factor = 1.0,
+                            const std::function<StepInputs(const TissueState&)>& inputs_at = {});
 
   /// ½ vᵀ M v.
   double kinetic_energy(const TissueState& s) const;
   /// Potential of the constant external forces: −f_extᵀ (x − X).
   double external_potential(const TissueState& s) const;
-  /// Elastic energy at s.x (a separate element pass; not for the hot loop).
+  /// Elastic energy at s.x with the last step's damage (a separate element pass; not for the hot loop).
   double elastic_energy(const TissueState& s) const;
   /// Elastic force at s.x into `f` (3n), for tests and diagnostics.
   void elastic_force(const TissueState& s, double* f) const;
   /// The implicit-Euler step's incremental potential Φ(Δv) (the merit newton()'s line search
   /// descends) and, into R (3n), its negative gradient R(Δv), for tests and diagnostics.
-  /// Contacts: the springs of the last set_contact_springs. Uses the Newton scratch.
+  /// Contacts: the springs of the last assemble(). Uses the Newton scratch.
   double implicit_step_merit(const TissueState& s, double h, const double* dv, double* R) {
     double phi = 0;
     implicit_residual(s, h, dv, false, R, &phi);
@@ -123,6 +130,11 @@ class TimeStepper {
 
  private:
   void project_constraints(double* A, double diag_scale);
+  /// Adds (1 + h·α_i)·m_i to each node's diagonal block of A (the step's mass term).
+  void add_mass_diagonal(double* A, double h) const;
+  /// Adds each contact spring's w_a·f to `force` and, with A, w_a w_b (k_scale·K + c_scale·C)
+  /// to its blocks. With velocities v (explicit integration), f includes the damping −C·v_p.
+  void scatter_springs(double* force, double* A, double k_scale, double c_scale, const double* v = nullptr) const;
   /// R(dv) of the implicit-Euler equations into R (see newton()); with `matrix`, also A at the
   /// iterate (A_, its constraints projected; node rotations updated). Returns ‖R‖. `merit`:
   /// the incremental potential Φ(Δv) whose gradient is −R (up to a constant; damping and
@@ -131,30 +143,23 @@ class TimeStepper {
   /// newton() descends it, so an accepted iteration never adds energy the equations lack.
   double implicit_residual(const TissueState& s, double h, const double* dv, bool matrix, double* R,
                            double* merit = nullptr);
-  /// Factors A₀ = (1 + h_mass·α)·M + (k_beta·β + k_const)·K(rest) for the warped
-  /// preconditioner (h_mass < 0: no mass term, for static solves).
-  void build_rest_factor(double h_mass, double k_beta, double k_const);
-  /// Per-node rotations (9 per node) from the element rotations of the last element pass.
-  void update_node_rotations();
-  static void apply_warped(void* self, const double* r, double* z);
+  /// implicit_residual, timed into st.element_pass_ns.
+  double timed_residual(NewtonStats& st, const TissueState& s, double h, const double* dv, bool matrix, double* R,
+                        double* merit);
   const FemModel& m_;
   StepperSettings cfg_;
-  bool any_beta_ = false;
-  const float* damage_ = nullptr;
-  const double* mass_ = nullptr;
-  double mass(int32_t i) const { return mass_ ? mass_[i] : m_.mass[i]; }
-  const ContactSpring* springs_ = nullptr;
-  int n_springs_ = 0;
+  StepInputs in_;  ///< the inputs of the last assemble()
+  double mass(int32_t i) const { return in_.node_mass ? in_.node_mass[i] : m_.mass[i]; }
   std::vector<double> force_, kv_, rhs_, A_, rot_, tmp_;
   std::vector<double> newton_x_, newton_v_, newton_r_, newton_trial_r_, newton_delta_, newton_dv_;  // Newton scratch
   CgSolver cg_;
   std::unique_ptr<CholmodSolver> cholmod_;
-  // Warped rest-pose Cholesky preconditioner (only when selected).
-  std::unique_ptr<CholmodSolver> rest_factor_;
-  double rest_factor_key_[3] = {-1, -1, -1};  // coefficients it was built with
-  std::vector<int32_t> node_element_;          // an element incident to each node (−1: none)
-  std::vector<double> node_rot_, warp_a_, warp_b_;
-  ExternalPreconditioner warp_op_;
+  std::unique_ptr<WarpedPreconditioner> warped_;  ///< only when selected
+  const ExternalPreconditioner* external() const { return warped_ ? warped_->op() : nullptr; }
 };
+
+/// A static Newton attempt whose residual grows beyond this multiple of its starting value is
+/// abandoned as diverging (the caller then takes a smaller load increment).
+inline constexpr double kStaticDivergence = 1e6;
 
 }  // namespace stroma

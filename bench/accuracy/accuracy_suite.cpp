@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/accuracy/quarter_block_mesh.hpp"
+#include "engine/compiled_scenario.hpp"
 #include "engine/headless_runner.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
@@ -47,14 +48,14 @@ std::string tag_mm(const std::string& tag) {  // "3p333" → "3.333"
 
 /// Runs a static model `runs` times headless; the value is measure(final state) of the last run,
 /// the time the median solve; fills p's value, ok, error and s_per_sim_s.
-void timed_static_runs(const Model& m, int runs, const std::function<double(const RunResult&)>& measure,
+void timed_static_runs(const CompiledScenario& sc, int runs, const std::function<double(const RunResult&)>& measure,
                        AccuracyPoint& p) {
   std::vector<double> secs;
   for (int r = 0; r < runs; ++r) {
     RunOptions o;
     o.progress = false;
     o.metrics = false;
-    const RunResult res = run_headless(m, o);
+    const RunResult res = run_headless(sc, o);
     secs.push_back(res.wall_seconds);
     p.value = measure(res);
     p.ok = res.static_converged;
@@ -89,7 +90,8 @@ AccuracyPoint run_static(const std::string& src, const StaticConfig& c, int runs
     spec.solver.tolerance = c.tolerance;
     spec.solver.max_iterations = 2000;
   }
-  auto m = compile_model(spec);
+  const CompiledScenario sc = compile_scenario(spec);
+  const auto& m = sc.model;
   AccuracyPoint p;
   p.problem = "cantilever_static";
   p.sweep = c.sweep;
@@ -97,7 +99,7 @@ AccuracyPoint run_static(const std::string& src, const StaticConfig& c, int runs
                         c.solver == "cholmod" ? "CHOLMOD" : fmt::format("CG {:.0e}", c.tolerance));
   p.nodes = m->fem.num_nodes;
   p.reference = kStaticReference;
-  timed_static_runs(*m, runs, [&](const RunResult& r) { return probe_displacement(*m, r.final_state, m->probes[0])[1]; }, p);
+  timed_static_runs(sc, runs, [&](const RunResult& r) { return probe_displacement(*m, r.final_state, m->probes[0])[1]; }, p);
   return p;
 }
 
@@ -207,7 +209,8 @@ tools:
     shape: {{type: sphere, radius: 0.005}}
     contact: {{stiffness: {:g}}}
 )", mesh, c.linear ? "linear" : "corotational", traj, c.stiffness);
-  auto m = compile_model(parse_scenario(yaml, "indentation (accuracy suite)", src));
+  const CompiledScenario sc = compile_scenario(parse_scenario(yaml, "indentation (accuracy suite)", src));
+  const auto& m = sc.model;
   AccuracyPoint p;
   p.problem = "indentation";
   p.sweep = c.sweep;
@@ -215,7 +218,7 @@ tools:
   p.nodes = m->fem.num_nodes;
   p.reference = kIndentForce;
   // Force = 4 × the quarter model's.
-  timed_static_runs(*m, runs, [](const RunResult& r) { return 4.0 * r.final_state.tools.at(0).force[2]; }, p);
+  timed_static_runs(sc, runs, [](const RunResult& r) { return 4.0 * r.final_tools.at(0).force[2]; }, p);
   return p;
 }
 
@@ -260,7 +263,7 @@ bool simulate(const Model& m, double duration, std::vector<double>& u, double* s
   u.reserve(static_cast<size_t>(ticks));
   const auto t0 = std::chrono::steady_clock::now();
   for (long k = 0; k < ticks; ++k) {
-    const TickReport r = tick(m, s, w);
+    const TickReport& r = tick(m, s, w);
     if (r.status == TickStatus::NonFinite) return false;
     u.push_back(probe_displacement(m, s, m.probes[0])[1]);
   }

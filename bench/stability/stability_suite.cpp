@@ -75,13 +75,14 @@ double contact_energy(const Model& m, const State& s, TickWorkspace& w) {
   double energy = 0;
   for (size_t k = 0; k < m.tools.size(); ++k) {
     ToolState ts = s.tools[k];
+    ToolOutput out;
     springs.clear();
-    tool_contact(m.tools[k], ts, surf, w.bvh, s.tissue.x.data(), nullptr, 0.0, springs);
-    energy += ts.contact_energy;
+    tool_contact(m.tools[k], ts, out, surf, w.bvh, s.tissue.x.data(), nullptr, 0.0, springs);
+    energy += out.contact_energy;
   }
   if (m.body_contact) {
     springs.clear();
-    BodyContactState out;
+    BodyContactOutput out;
     body_contact(*m.body_contact, surf, w.bvh, s.tissue.x.data(), nullptr, 0.0, nullptr, m.fem.constrained.data(),
                  w.body_boxes.data(), springs, pairs, out);
     energy += out.energy;
@@ -127,7 +128,7 @@ StabilityResult run_case(const CaseSetup& c) {
   for (int k = 0; k < ticks; ++k) {
     int n_in = 0;
     if (driving) last_command = !c.drive(*m, s, inputs, &n_in);
-    const TickReport r = tick(*m, s, w, inputs, n_in);
+    const TickReport& r = tick(*m, s, w, inputs, n_in);
     ++res.ticks;
     res.max_cg_iterations = std::max(res.max_cg_iterations, r.solve.iterations);
     res.cg_capped += r.status == TickStatus::SolverNotConverged;

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state_io.hpp"
@@ -270,6 +271,7 @@ Look plain_look(ColorField field = ColorField::None, int msaa = 4) {
 
 struct LiverScene {
   std::shared_ptr<const Model> model;
+  VisualMapping mapping;                      // visual vertex ← tetrahedra
   Mesh visual;                                // rest positions of the visual surface
   std::vector<double> pressed_nodes;          // liver_probe_press.ref.csv
   std::vector<float> rest_positions, pressed_positions;  // the mapping applied to fem.rest / pressed
@@ -294,9 +296,11 @@ std::vector<float> displacement_magnitude(const std::vector<float>& x, const std
 const LiverScene& liver() {
   static const LiverScene scene = [] {
     LiverScene s;
-    s.model = compile_model(load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml"));
-    if (s.model->visuals.empty() || !s.model->visuals[0]) throw std::runtime_error("liver.yaml has no visual");
-    const VisualModel& v = *s.model->visuals[0];
+    const CompiledScenario sc = compile_scenario(load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml"));
+    s.model = sc.model;
+    if (sc.visuals.empty() || !sc.visuals[0]) throw std::runtime_error("liver.yaml has no visual");
+    const VisualModel& v = *sc.visuals[0];
+    s.mapping = v.mapping;
     for (const Vec3& p : v.rest)
       s.visual.positions.insert(s.visual.positions.end(), {float(p[0]), float(p[1]), float(p[2])});
     s.visual.triangles = v.triangles;

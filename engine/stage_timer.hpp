@@ -1,0 +1,34 @@
+#pragma once
+/// \file stage_timer.hpp
+/// Times a block of the tick into a stage of its report (RAII). Adds, so a stage run several
+/// times in one tick (a retried step) reports its total.
+
+#include <chrono>
+#include <cstdint>
+
+#include "engine/tick.hpp"
+
+namespace stroma {
+
+inline int64_t steady_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+class StageTimer {
+ public:
+  StageTimer(TickReport& r, Stage s) : r_(r), s_(static_cast<int>(s)), t0_(steady_now_ns()) {}
+  ~StageTimer() {
+    r_.stage_ns[s_] += steady_now_ns() - t0_;
+    r_.stage_ran[s_] = true;
+  }
+  StageTimer(const StageTimer&) = delete;
+  StageTimer& operator=(const StageTimer&) = delete;
+
+ private:
+  TickReport& r_;
+  int s_;
+  int64_t t0_;
+};
+
+}  // namespace stroma

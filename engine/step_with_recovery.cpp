@@ -1,0 +1,109 @@
+#include "engine/step_with_recovery.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/stage_timer.hpp"
+
+namespace stroma {
+
+namespace {
+
+bool all_finite(const std::vector<double>& a) {
+  double acc = 0;
+  for (double v : a) acc += v * 0.0;  // NaN/Inf poison the sum; finite values add exact zeros
+  return acc == 0.0;
+}
+
+/// Puts the tissue back to the start of the tick; the warm start is cleared (it may hold the
+/// failed solve).
+void restore(TissueState& t, const TickWorkspace& w) {
+  std::copy(w.backup_x.begin(), w.backup_x.end(), t.x.begin());
+  std::copy(w.backup_v.begin(), w.backup_v.end(), t.v.begin());
+  std::fill(t.dv.begin(), t.dv.end(), 0.0);
+  std::fill(t.dv_prev.begin(), t.dv_prev.end(), 0.0);
+}
+
+/// True if the step just integrated over h moved no node by more than `limit` (|v|·h, v the
+/// new velocity) and every position and velocity is finite (NaN/Inf fail the comparisons).
+bool sane_step(const TissueState& t, double h, double limit) {
+  const double v2max = (limit / h) * (limit / h);
+  bool ok = true;
+  for (size_t i = 0; i + 2 < t.v.size(); i += 3)
+    ok &= t.v[i] * t.v[i] + t.v[i + 1] * t.v[i + 1] + t.v[i + 2] * t.v[i + 2] <= v2max;
+  return ok && all_finite(t.x);
+}
+
+/// assemble → solve → integrate over h. False (state possibly half-updated: the caller rolls
+/// back) if the solve is non-finite, capped while `cap_fails`, or the result is not sane.
+/// `first` says whether this is the tick's full step (its elastic energy is reported).
+bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, bool first, bool cap_fails) {
+  TimeStepper& stepper = w.stepper();
+  TissueState& t = s.tissue;
+  {
+    StageTimer st(r, Stage::Assemble);
+    const double e = stepper.assemble(t, h, step_inputs(m, s, w));
+    if (first) r.elastic_energy = e;
+  }
+  {
+    StageTimer st(r, Stage::Solve);
+    r.solve = stepper.solve(t);
+  }
+  // A capped CG is usable (its residual may exceed ‖b‖ — CG minimises the error's energy norm,
+  // not the residual) but on a badly conditioned step it can add energy: by default the tick is
+  // redone in sub-steps, whose systems are better conditioned (solver.on_cg_cap). A diverging
+  // solve shows up as NaN/Inf or as an absurd displacement below.
+  if (!std::isfinite(r.solve.relative_residual) || !all_finite(t.dv)) return false;
+  if (cap_fails && !r.solve.converged) return false;
+  if (stepper.settings().newton_iterations > 1) {
+    // Newton iterations: their element passes count under Assemble, their solves under Solve.
+    const int64_t t0 = steady_now_ns();
+    r.newton = stepper.newton(t, h);
+    const int64_t total = steady_now_ns() - t0;
+    r.stage_ns[static_cast<int>(Stage::Assemble)] += r.newton.element_pass_ns;
+    r.stage_ns[static_cast<int>(Stage::Solve)] += total - r.newton.element_pass_ns;
+    if (!all_finite(t.dv)) return false;
+  }
+  {
+    StageTimer st(r, Stage::Integrate);
+    stepper.integrate(t, h);
+  }
+  return sane_step(t, h, m.max_step_displacement);
+}
+
+}  // namespace
+
+void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& r) {
+  const double h = m.time_step;
+  // Rollback point: the tissue's positions and velocities (two copies of 3n doubles).
+  std::copy(s.tissue.x.begin(), s.tissue.x.end(), w.backup_x.begin());
+  std::copy(s.tissue.v.begin(), s.tissue.v.end(), w.backup_v.begin());
+  const bool cap_fails = m.substep_on_cg_cap;
+  bool ok = step(m, s, w, h, r, true, cap_fails);
+  // Speculative body contacts whose vertex never reached its face would pull it in: release them
+  // and redo the step (only ticks where something is about to touch pay for this).
+  while (ok && m.body_contact && r.contact_releases < kMaxContactReleases &&
+         release_pulling_contacts(s.tissue.x.data(), w.body_pairs, w.springs) > 0) {
+    ++r.contact_releases;
+    restore(s.tissue, w);
+    ok = step(m, s, w, h, r, false, cap_fails);
+  }
+  if (ok) return;
+  // The engine defends itself: roll back and redo the tick in 2, 4, … sub-steps (a smaller step
+  // is both more stable and better conditioned), warm start cleared.
+  for (int k = 2; k <= kMaxSubsteps && !ok; k *= 2) {
+    restore(s.tissue, w);
+    ok = true;
+    // From kKeepCappedSubsteps on a capped solve is kept: a finite, advanced state beats none.
+    for (int i = 0; i < k && ok; ++i) ok = step(m, s, w, h / k, r, false, cap_fails && k < kKeepCappedSubsteps);
+    r.substeps = k;
+  }
+  if (ok) {
+    r.status = TickStatus::Recovered;
+  } else {
+    restore(s.tissue, w);
+    r.status = TickStatus::NonFinite;
+  }
+}
+
+}  // namespace stroma
