@@ -262,7 +262,7 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, ToolOutput& out, const Co
     const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;
     for_each_sample(ns, [&](double u, double v) {
       const double w0 = 1.0 - u - v;
-      double q[3], d[3], dist2, Rs;
+      double q[3], d[3] = {0, 0, 0}, dist2, Rs;
       for (int a = 0; a < 3; ++a) q[a] = w0 * p0[a] + u * p1[a] + v * p2[a];
       if (!deepest_capsule(g, q, d, dist2, Rs)) return;
       if (springs.size() == springs.capacity()) {

@@ -1,0 +1,56 @@
+// engine/session_log: recorded server sessions round-trip exactly; interrupted logs are refused.
+
+#include <gtest/gtest.h>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include "engine/headless_runner.hpp"
+#include "engine/session_log.hpp"
+#include "haptics/tool.hpp"
+#include "engine/trajectory.hpp"
+#include "tissue/input_error.hpp"
+
+using namespace stroma;
+namespace fs = std::filesystem;
+
+namespace {
+std::string write_temp(const std::string& name, const std::string& text) {
+  const fs::path p = fs::temp_directory_path() / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+}  // namespace
+
+TEST(SessionLog, RoundTripsExactlyAndRejectsInterruptedLogs) {
+  SessionEvent a;
+  a.kind = SessionEvent::Tool;
+  a.tick = 12;
+  a.input.tool = 1;
+  a.input.seq = 99;
+  a.input.client_time_ns = 123456789;
+  a.input.pose.position = {0.1, 1.0 / 3.0, -2e-17};
+  a.input.pose.orientation = {std::sqrt(0.5), 0, std::sqrt(0.5), 0};
+  a.input.pose.jaw = 0.7;
+  a.input.pose.buttons = 5;
+  SessionEvent b;
+  b.kind = SessionEvent::Step;
+  b.tick = 12;
+  b.steps = 7;
+  SessionEvent end;
+  end.kind = SessionEvent::End;
+  end.tick = 40;
+  const std::string path = write_temp("stroma_session.log", std::string(kSessionLogHeader) + format_session_event(a) +
+                                                                 format_session_event(b) + format_session_event(end));
+  const auto ev = read_session_log(path);
+  ASSERT_EQ(ev.size(), 3u);
+  EXPECT_EQ(ev[0].input.pose.position, a.input.pose.position);  // bit-exact doubles
+  EXPECT_EQ(ev[0].input.pose.orientation, a.input.pose.orientation);
+  EXPECT_EQ(ev[0].input.seq, 99u);
+  EXPECT_EQ(ev[0].input.pose.buttons, 5u);
+  EXPECT_EQ(ev[1].steps, 7u);
+  EXPECT_EQ(ev[2].tick, 40);
+  const std::string cut = write_temp("stroma_session_cut.log", std::string(kSessionLogHeader) + format_session_event(a));
+  EXPECT_THROW(read_session_log(cut), InputError);
+}
+

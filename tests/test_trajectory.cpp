@@ -1,0 +1,63 @@
+// engine/trajectory: timed tool trajectories (interpolation, slerp, CSV/YAML, errors with lines).
+
+#include <gtest/gtest.h>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include "engine/headless_runner.hpp"
+#include "engine/session_log.hpp"
+#include "haptics/tool.hpp"
+#include "engine/trajectory.hpp"
+#include "tissue/input_error.hpp"
+
+using namespace stroma;
+namespace fs = std::filesystem;
+
+namespace {
+std::string write_temp(const std::string& name, const std::string& text) {
+  const fs::path p = fs::temp_directory_path() / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+}  // namespace
+
+TEST(Trajectory, InterpolatesPositionJawAndSlerpsOrientation) {
+  const std::string path = write_temp("stroma_traj.yaml",
+                                      "keyframes:\n"
+                                      "  - {t: 0, position: [0, 0, 0], orientation: [1, 0, 0, 0], jaw: 0}\n"
+                                      "  - {t: 2, position: [2, 4, -2], orientation: [0, 0, 0, 1], jaw: 1, buttons: 3}\n");
+  const Trajectory tr = load_trajectory(path);
+  const ToolPose p = tr.sample(0.5);
+  EXPECT_NEAR(p.position[0], 0.5, 1e-15);
+  EXPECT_NEAR(p.position[1], 1.0, 1e-15);
+  EXPECT_NEAR(p.position[2], -0.5, 1e-15);
+  EXPECT_NEAR(p.jaw, 0.25, 1e-15);
+  // Slerp from identity to 180° about z: at u = 1/4 the angle is 45°: q = (cos 22.5°, 0, 0, sin 22.5°).
+  EXPECT_NEAR(p.orientation[0], std::cos(M_PI / 8), 1e-12);
+  EXPECT_NEAR(p.orientation[3], std::sin(M_PI / 8), 1e-12);
+  EXPECT_EQ(tr.sample(-1).position, (Vec3{0, 0, 0}));   // held before the start
+  EXPECT_EQ(tr.sample(9).position, (Vec3{2, 4, -2}));   // held after the end
+  EXPECT_EQ(tr.sample(9).buttons, 3u);
+}
+
+TEST(Trajectory, CsvAndErrorsWithLine) {
+  const Trajectory tr = parse_trajectory_csv("t,x,y,z,jaw\n0,0,0,0,0\n1,1,0,0,0.5\n", "a.csv");
+  EXPECT_NEAR(tr.sample(0.5).position[0], 0.5, 1e-15);
+  EXPECT_NEAR(tr.sample(0.5).jaw, 0.25, 1e-15);
+  auto expect = [](const std::string& text, int line, const std::string& words) {
+    try {
+      parse_trajectory_csv(text, "b.csv");
+      FAIL() << words;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.line(), line) << e.what();
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  expect("t,x,y\n0,0,0\n", 1, "missing column 'z'");
+  expect("t,x,y,z\n0,0,0,0\n0,1,1,1\n", 3, "does not increase");
+  expect("t,x,y,z\n0,0,zero,0\n", 2, "expected a finite number, got 'zero'");
+  expect("t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,1,0,0\n", 2, "not a unit quaternion");
+  expect("t,x,y,z,speed\n0,0,0,0,1\n", 1, "unknown column 'speed'");
+}
+
