@@ -7,7 +7,8 @@
 ///
 /// Hand-written rather than FCL's BVHModel: the query is one analytic sphere against boxes and
 /// the refit reads the engine's own position array in place (FCL would need its own vertex copy
-/// updated each tick). The comparison against FCL belongs to issue 4's benchmark.
+/// updated each tick). Measured 7× faster than FCL's BVHModel at 276–10k triangles
+/// (bench/bench_collision.cpp, docs/PERFORMANCE.md).
 
 #include <array>
 #include <cstddef>

@@ -1,6 +1,6 @@
 #pragma once
 /// \file damage.hpp
-/// Tissue damage (issue 4): per-element measures from the corotated strain — von Mises stress
+/// Tissue damage: per-element measures from the corotated strain — von Mises stress
 /// or the largest principal strain — compared with each body's thresholds after every tick
 /// (the "damage" stage). Above onset a damage variable d ∈ [0, 1] grows irreversibly and the
 /// element's stiffness is scaled by (1 − d); at rupture d = 1 and the element carries no load.
@@ -11,7 +11,8 @@
 /// damage model is in the collision set from load time, switched on and off), and the element's
 /// mass (ρV/4 per node) leaves the nodes still attached to intact tissue (nodes left with no
 /// intact element keep theirs as free debris, so none becomes massless); gravity follows.
-/// Not yet: the renderer's published mesh is not re-extracted.
+/// Renderers see damage as a per-vertex colour (TissueState.damage); the published surface
+/// itself is not re-extracted at a tear.
 
 #include <cstdint>
 #include <vector>

@@ -218,30 +218,398 @@ Camera make_camera(const RenderOptions& o, const SceneState& s, const Renderer& 
   return r.fit_camera(dir, up, fov);
 }
 
-}  // namespace
+/// Where the results go besides the frames.
+struct OutputPaths {
+  std::string ffmpeg;  ///< empty: PNG frames only
+  std::string video;
+  std::string stats_file;
+};
 
-int run_render(const RenderOptions& o) {
-  if (!(o.fps > 0 && o.fps <= 240)) throw InputError("", 0, "--fps", fmt::format("must be in (0, 240], got {}", o.fps));
+/// Prepares the output directory and settles the video and statistics paths. Throws InputError
+/// before anything starts.
+OutputPaths prepare_outputs(const RenderOptions& o) {
   prepare_out_dir(o.out_dir);
-  std::string ffmpeg;
-  std::string video = o.video;
+  OutputPaths out;
+  out.video = o.video;
   if (!o.no_video) {
-    ffmpeg = find_program("ffmpeg");
-    if (ffmpeg.empty() && !video.empty())
-      spdlog::warn("--video {}: ffmpeg is not installed (scripts/setup.sh installs it); writing PNG frames only", video);
-    if (video.empty()) video = (fs::path(o.out_dir) / "video.mp4").string();
+    out.ffmpeg = find_program("ffmpeg");
+    if (out.ffmpeg.empty() && !out.video.empty())
+      spdlog::warn("--video {}: ffmpeg is not installed (scripts/setup.sh installs it); writing PNG frames only", out.video);
+    if (out.video.empty()) out.video = (fs::path(o.out_dir) / "video.mp4").string();
   }
-  const std::string stats_file = o.stats_file.empty() ? (fs::path(o.out_dir) / "render_stats.json").string() : o.stats_file;
+  out.stats_file = o.stats_file.empty() ? (fs::path(o.out_dir) / "render_stats.json").string() : o.stats_file;
+  return out;
+}
 
+/// Blocks SIGINT and SIGTERM so that they end the recording between frames (stop_requested)
+/// and the frames, statistics and video still get written. Call before any thread starts
+/// (GL's, the PNG writer's): threads inherit the mask, and a thread without it could take the
+/// signal, whose default action ends the process.
+sigset_t block_stop_signals() {
   sigset_t sigs;
   sigemptyset(&sigs);
   sigaddset(&sigs, SIGINT);
   sigaddset(&sigs, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
-  auto signalled = [&] {
-    const timespec zero{0, 0};
-    return sigtimedwait(&sigs, nullptr, &zero) > 0;
-  };
+  return sigs;
+}
+
+/// Whether one of `sigs` is pending (and consumes it); does not wait.
+bool stop_requested(const sigset_t& sigs) {
+  const timespec zero{0, 0};
+  return sigtimedwait(&sigs, nullptr, &zero) > 0;
+}
+
+void sleep_ms(long ms) {
+  const timespec ts{0, ms * 1'000'000};
+  nanosleep(&ts, nullptr);
+}
+
+/// The server this process follows: what its samples change (the scene state and the renderer)
+/// and the readers they come from.
+struct Follower {
+  const RenderOptions& o;
+  const Readers& rd;
+  Renderer& renderer;
+  SceneState& st;
+};
+
+void apply_scene(Follower& f, const stroma_Scene& sc) {
+  f.st.scene = sc;
+  f.st.have_scene = true;
+  f.st.camera_dirty = true;
+  f.renderer.set_look(make_look(f.o, f.st));
+}
+
+/// A mesh of another session comes from a restarted server, whose bodies replace all earlier ones.
+void start_session(Follower& f, uint64_t session) {
+  if (f.st.have_mesh) {
+    ++f.st.restarts;
+    spdlog::info("a new server session: reloading the scene");
+  }
+  f.st.session = session;
+  f.renderer.clear_bodies();
+  f.st.body_id.clear();
+  f.st.body_verts.clear();
+  f.st.tools.clear();
+}
+
+void apply_mesh(Follower& f, const stroma_TissueMesh& m) {
+  if (m.session != f.st.session) start_session(f, m.session);
+  const size_t nv = m.rest_positions._length / 3;
+  const auto it = f.st.body_id.find(m.body);
+  try {
+    if (it == f.st.body_id.end())
+      f.st.body_id[m.body] = f.renderer.add_body(m.rest_positions._buffer, nv, m.triangles._buffer, m.triangles._length / 3);
+    else
+      f.renderer.replace_body(it->second, m.rest_positions._buffer, nv, m.triangles._buffer, m.triangles._length / 3);
+  } catch (const std::exception& e) {
+    spdlog::error("mesh of body '{}' ignored: {}", m.body, e.what());
+    return;
+  }
+  f.st.body_verts[m.body] = nv;
+  f.st.have_mesh = true;
+  f.st.camera_dirty = true;
+  spdlog::info("body '{}': {} mesh, {} vertices, {} triangles", m.body, m.visual ? "visual" : "boundary", nv,
+               m.triangles._length / 3);
+}
+
+/// A state of another session or of a body without a mesh is stale; one whose sizes do not
+/// match its body's mesh is bad. Both are counted, not shown.
+void apply_state(Follower& f, const stroma_TissueState& s) {
+  const auto it = f.st.body_id.find(s.body);
+  if (s.session != f.st.session || it == f.st.body_id.end()) {
+    ++f.st.stale_states;
+    return;
+  }
+  const size_t nv = f.st.body_verts[s.body];
+  if (s.positions._length != 3 * nv || s.scalar._length != nv || (s.damage._length && s.damage._length != nv)) {
+    ++f.st.bad_states;
+    return;
+  }
+  f.renderer.update_body(it->second, s.positions._buffer, s.scalar._buffer, s.damage._length ? s.damage._buffer : nullptr);
+  ++f.st.states;
+  f.st.state_frame = s.frame;
+  f.st.sim_time = s.sim_time;
+  f.st.newest_publish_ns = s.publish_time_ns;
+}
+
+ToolView tool_view(const stroma_ToolState& t) {
+  ToolView v;
+  for (uint32_t i = 0; i + 6 < t.capsules._length; i += 7) {
+    const float* c = t.capsules._buffer + i;
+    v.capsules.push_back({{c[0], c[1], c[2]}, {c[3], c[4], c[5]}, c[6]});
+  }
+  v.in_contact = t.in_contact;
+  return v;
+}
+
+/// Takes every sample that arrived since the last call into the scene state and the renderer.
+void poll(Follower& f) {
+  take_all<stroma_Scene>(f.rd.scene, [&](const stroma_Scene& sc) { apply_scene(f, sc); });
+  take_all<stroma_TissueMesh>(f.rd.mesh, [&](const stroma_TissueMesh& m) { apply_mesh(f, m); });
+  take_all<stroma_TissueState>(f.rd.state, [&](const stroma_TissueState& s) { apply_state(f, s); });
+  take_all<stroma_ToolState>(f.rd.tool, [&](const stroma_ToolState& t) { f.st.tools[t.tool] = tool_view(t); });
+  take_all<stroma_DamageEvent>(f.rd.damage, [&](const stroma_DamageEvent& d) {
+    if (d.level >= 0 && d.level < 3) ++f.st.damage_events[d.level];
+  });
+}
+
+/// The camera may frame the bodies, so it is placed anew after a new mesh or scene.
+void update_camera(Follower& f) {
+  if (!f.st.camera_dirty) return;
+  f.renderer.set_camera(make_camera(f.o, f.st, f.renderer));
+  f.st.camera_dirty = false;
+}
+
+/// The scene (camera, colours) is written just before the meshes: give it a moment so the first
+/// frame already looks as the scenario asks.
+void wait_for_scene(Follower& f) {
+  for (int i = 0; i < 50 && !f.st.have_scene; ++i) {
+    sleep_ms(10);
+    poll(f);
+  }
+}
+
+enum class WaitResult { Ready, Stopped, TimedOut };
+
+/// Polls until a server's mesh and first state are in (it may start after us), a stop signal
+/// arrives, or --wait runs out (logged).
+WaitResult wait_for_server(Follower& f, const sigset_t& stop_signals) {
+  const int64_t wait_start = monotonic_ns();
+  int64_t last_note = wait_start;
+  spdlog::info("waiting for a server on DDS domain {} ...", f.o.domain);
+  // Recording starts with the first state: before it only the rest shape is known, not the
+  // shape the tissue has now. A paused server sends no states: then after 2 s the rest shape.
+  int64_t mesh_time = 0;
+  while (true) {
+    poll(f);
+    if (f.st.have_mesh && mesh_time == 0) mesh_time = monotonic_ns();
+    if (f.st.have_mesh && (f.st.states > 0 || monotonic_ns() - mesh_time > 2'000'000'000LL)) {
+      wait_for_scene(f);
+      return WaitResult::Ready;
+    }
+    if (stop_requested(stop_signals)) return WaitResult::Stopped;
+    const int64_t now = monotonic_ns();
+    if (f.o.wait > 0 && static_cast<double>(now - wait_start) * 1e-9 >= f.o.wait) {
+      spdlog::error("no server's {} after {} s on DDS domain {} (is `stroma serve` running with the same domain and DDS configuration?)",
+                    f.st.have_mesh ? "state" : "mesh", f.o.wait, f.o.domain);
+      return WaitResult::TimedOut;
+    }
+    if (now - last_note > 5'000'000'000LL) {
+      spdlog::info("still waiting for a server ...");
+      last_note = now;
+    }
+    sleep_ms(20);
+  }
+}
+
+/// What the frame loop measured, for the statistics.
+struct Recording {
+  int64_t start = 0, end = 0;  // CLOCK_MONOTONIC ns
+  uint64_t late_drops = 0, writer_drops = 0;
+  std::vector<double> render_ms;
+
+  double seconds() const { return static_cast<double>(end - start) * 1e-9; }
+};
+
+/// Sleeps to the frame's deadline `next` and moves it on by a period; returns the time woken.
+/// If we are already past the next deadline, the frames in between are dropped (counted): the
+/// recording keeps wall-clock time, never falls behind.
+int64_t sleep_to_deadline(int64_t& next, int64_t period, uint64_t& late_drops) {
+  timespec dl{static_cast<time_t>(next / 1'000'000'000), static_cast<long>(next % 1'000'000'000)};
+  clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, nullptr);
+  const int64_t now = monotonic_ns();
+  if (now - next >= period) {
+    const int64_t missed = (now - next) / period;
+    late_drops += static_cast<uint64_t>(missed);
+    next += missed * period;
+  }
+  next += period;
+  return now;
+}
+
+void show_tools(Follower& f) {
+  std::vector<ToolView> tools;
+  for (const auto& [name, v] : f.st.tools)
+    if (!v.capsules.empty()) tools.push_back(v);
+  f.renderer.set_tools(std::move(tools));
+}
+
+/// Renders the scene as it is now into a buffer of the PNG writer and queues it; false when the
+/// writer had no free buffer (all still being written, or it failed).
+bool render_frame(Follower& f, FrameWriter& writer, std::vector<double>& render_ms) {
+  update_camera(f);
+  show_tools(f);
+  Image* img = writer.acquire();
+  if (!img) return false;
+  const int64_t t0 = monotonic_ns();
+  f.renderer.render(*img);
+  render_ms.push_back(static_cast<double>(monotonic_ns() - t0) * 1e-6);
+  writer.submit(img, f.st.newest_publish_ns, f.st.sim_time, f.st.state_frame, render_ms.back());
+  f.st.newest_publish_ns = 0;  // the same state in a later frame has no new latency to measure
+  return true;
+}
+
+/// Renders a frame per period until --frames or --duration is reached, a stop signal arrives or
+/// the writer fails; nothing when `stopped` already.
+Recording record(Follower& f, FrameWriter& writer, const sigset_t& stop_signals, bool stopped) {
+  const RenderOptions& o = f.o;
+  Recording rec;
+  const int64_t period = static_cast<int64_t>(1e9 / o.fps);
+  rec.start = monotonic_ns();
+  int64_t next = rec.start;
+  int64_t last_progress = rec.start;
+  spdlog::info("recording {}x{} at {} FPS into {}/", o.width, o.height, o.fps, o.out_dir);
+  while (!stopped) {
+    if (stop_requested(stop_signals)) break;
+    if (o.frames > 0 && static_cast<long>(writer.submitted()) >= o.frames) break;
+    if (o.duration > 0 && static_cast<double>(next - rec.start) * 1e-9 >= o.duration) break;
+    poll(f);
+    const int64_t now = sleep_to_deadline(next, period, rec.late_drops);
+    poll(f);
+    if (!render_frame(f, writer, rec.render_ms)) {
+      ++rec.writer_drops;
+      if (!writer.error().empty()) break;
+      continue;
+    }
+    if (now - last_progress > 2'000'000'000LL) {
+      spdlog::info("{} frames (dropped {}), sim time {:.2f} s", writer.submitted(), rec.late_drops + rec.writer_drops,
+                   f.st.sim_time);
+      last_progress = now;
+    }
+  }
+  rec.end = monotonic_ns();
+  return rec;
+}
+
+/// From the server publishing the frame's state to its PNG on disk, ms; negative when the frame
+/// showed no new state.
+double publish_to_disk_ms(const render::WrittenFrame& w) {
+  return w.stamp_ns > 0 ? static_cast<double>(w.written_ns - w.stamp_ns) * 1e-6 : -1.0;
+}
+
+std::vector<double> publish_to_disk_ms(const std::vector<render::WrittenFrame>& frames) {
+  std::vector<double> latency_ms;
+  for (const auto& w : frames)
+    if (const double lat = publish_to_disk_ms(w); lat >= 0) latency_ms.push_back(lat);
+  return latency_ms;
+}
+
+void write_frames_csv(const std::string& dir, const std::vector<render::WrittenFrame>& frames) {
+  std::ofstream csv(fs::path(dir) / "frames.csv");
+  csv << "frame,sim_time,state_frame,render_ms,latency_ms\n";
+  for (const auto& w : frames) {
+    const double lat = publish_to_disk_ms(w);
+    csv << fmt::format("{},{:.6f},{},{:.3f},{}\n", w.index, w.sim_time, w.state_frame, w.render_ms,
+                       lat >= 0 ? fmt::format("{:.3f}", lat) : "");
+  }
+}
+
+double fps_achieved(const Recording& rec, size_t written) {
+  const double wall = rec.seconds();
+  return wall > 0 ? static_cast<double>(written) / wall : 0.0;
+}
+
+nlohmann::ordered_json make_stats(const RenderOptions& o, const render::GlContext& gl, const SceneState& st,
+                                  const Recording& rec, size_t written, const std::vector<double>& latency_ms) {
+  const std::vector<double>& render_ms = rec.render_ms;
+  nlohmann::ordered_json stats;
+  stats["frames_written"] = written;
+  stats["frames_dropped_late"] = rec.late_drops;
+  stats["frames_dropped_writer"] = rec.writer_drops;
+  stats["fps_target"] = o.fps;
+  stats["fps_achieved"] = fps_achieved(rec, written);
+  stats["size"] = {o.width, o.height};
+  stats["msaa"] = o.msaa;
+  stats["gl"] = {{"version", gl.version()}, {"renderer", gl.renderer()}};
+  stats["render_ms"] = {{"p50", percentile(render_ms, 0.5)}, {"p99", percentile(render_ms, 0.99)},
+                        {"max", render_ms.empty() ? 0.0 : *std::max_element(render_ms.begin(), render_ms.end())}};
+  stats["publish_to_disk_ms"] = {{"frames", latency_ms.size()}, {"p50", percentile(latency_ms, 0.5)},
+                                 {"p99", percentile(latency_ms, 0.99)}};
+  stats["states_received"] = st.states;
+  stats["states_ignored"] = st.stale_states + st.bad_states;
+  stats["server_restarts"] = st.restarts;
+  stats["damage_events"] = {{"warning", st.damage_events[0]}, {"onset", st.damage_events[1]}, {"rupture", st.damage_events[2]}};
+  stats["last_sim_time"] = st.sim_time;
+  return stats;
+}
+
+void log_summary(const Recording& rec, size_t written, const std::vector<double>& latency_ms) {
+  spdlog::info("{} frames written in {:.1f} s ({:.1f} FPS), dropped {} late + {} writer-busy; render p50 {:.1f} ms; "
+               "publish-to-disk p50 {:.1f} ms p99 {:.1f} ms",
+               written, rec.seconds(), fps_achieved(rec, written), rec.late_drops, rec.writer_drops,
+               percentile(rec.render_ms, 0.5), percentile(latency_ms, 0.5), percentile(latency_ms, 0.99));
+}
+
+/// Encodes the frames into the video and names it in `stats`; false (logged) if that failed.
+bool add_video(const RenderOptions& o, const OutputPaths& out, nlohmann::ordered_json& stats) {
+  const std::string err = encode_video(out.ffmpeg, o.out_dir, o.fps, out.video);
+  if (!err.empty()) {
+    spdlog::error("video: {}", err);
+    return false;
+  }
+  spdlog::info("video: {}", out.video);
+  stats["video"] = out.video;
+  return true;
+}
+
+bool write_stats(const std::string& file, const nlohmann::ordered_json& stats) {
+  std::ofstream f(file);
+  f << stats.dump(2) << '\n';
+  if (!f) {
+    spdlog::error("cannot write {}", file);
+    return false;
+  }
+  return true;
+}
+
+/// Waits for the last PNGs, then writes frames.csv, the video and the statistics; returns the
+/// exit code. No frame at all is a failure unless a signal ended the wait for the server.
+int finish_recording(const RenderOptions& o, const OutputPaths& out, const render::GlContext& gl, const SceneState& st,
+                     const Recording& rec, FrameWriter& writer, bool stopped) {
+  writer.finish();
+  int exit_code = 0;
+  const std::string werr = writer.error();
+  if (!werr.empty()) {
+    spdlog::error("writing frames failed: {}", werr);
+    exit_code = 1;
+  }
+  write_frames_csv(o.out_dir, writer.written());
+  const std::vector<double> latency_ms = publish_to_disk_ms(writer.written());
+  const size_t written = writer.written().size();
+  nlohmann::ordered_json stats = make_stats(o, gl, st, rec, written, latency_ms);
+  log_summary(rec, written, latency_ms);
+  if (!out.ffmpeg.empty() && written > 0 && exit_code == 0 && !add_video(o, out, stats)) exit_code = 1;
+  if (!write_stats(out.stats_file, stats)) exit_code = 1;
+  if (written == 0 && !stopped) exit_code = 1;
+  return exit_code;
+}
+
+/// Everything that needs the DDS participant: waits for a server, records, writes the results;
+/// returns the exit code.
+int follow_and_record(const RenderOptions& o, const OutputPaths& out, const render::GlContext& gl,
+                      dds_entity_t participant, Renderer& renderer, SceneState& st, const sigset_t& stop_signals) {
+  const Readers rd = create_readers(participant);
+  Follower f{o, rd, renderer, st};
+  const WaitResult waited = wait_for_server(f, stop_signals);
+  if (waited == WaitResult::TimedOut) return 1;
+  // One frame before the clock starts: llvmpipe compiles shaders on first use (~0.1 s), which
+  // would otherwise cost the first frames of the recording.
+  update_camera(f);
+  renderer.warm_up();
+  FrameWriter writer(o.out_dir, o.png_level);
+  const bool stopped = waited == WaitResult::Stopped;
+  const Recording rec = record(f, writer, stop_signals, stopped);
+  return finish_recording(o, out, gl, st, rec, writer, stopped);
+}
+
+}  // namespace
+
+int run_render(const RenderOptions& o) {
+  if (!(o.fps > 0 && o.fps <= 240)) throw InputError("", 0, "--fps", fmt::format("must be in (0, 240], got {}", o.fps));
+  const OutputPaths out = prepare_outputs(o);
+  const sigset_t stop_signals = block_stop_signals();
 
   // GL first: a machine without OSMesa fails here, before any DDS traffic.
   render::GlContext gl(o.width, o.height);
@@ -252,237 +620,8 @@ int run_render(const RenderOptions& o) {
   const DdsParticipant pp = create_participant(o.domain, o.dds_config);
   spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
   int exit_code = 0;
-  nlohmann::ordered_json stats;
   try {
-    const Readers rd = create_readers(pp.participant);
-
-    // Samples → scene state. A mesh of a new session (a restarted server) resets the bodies.
-    auto poll = [&] {
-      take_all<stroma_Scene>(rd.scene, [&](const stroma_Scene& sc) {
-        st.scene = sc;
-        st.have_scene = true;
-        st.camera_dirty = true;
-        renderer.set_look(make_look(o, st));
-      });
-      take_all<stroma_TissueMesh>(rd.mesh, [&](const stroma_TissueMesh& m) {
-        if (m.session != st.session) {
-          if (st.have_mesh) {
-            ++st.restarts;
-            spdlog::info("a new server session: reloading the scene");
-          }
-          st.session = m.session;
-          renderer.clear_bodies();
-          st.body_id.clear();
-          st.body_verts.clear();
-          st.tools.clear();
-        }
-        const size_t nv = m.rest_positions._length / 3;
-        const auto it = st.body_id.find(m.body);
-        try {
-          if (it == st.body_id.end())
-            st.body_id[m.body] = renderer.add_body(m.rest_positions._buffer, nv, m.triangles._buffer, m.triangles._length / 3);
-          else
-            renderer.replace_body(it->second, m.rest_positions._buffer, nv, m.triangles._buffer, m.triangles._length / 3);
-        } catch (const std::exception& e) {
-          spdlog::error("mesh of body '{}' ignored: {}", m.body, e.what());
-          return;
-        }
-        st.body_verts[m.body] = nv;
-        st.have_mesh = true;
-        st.camera_dirty = true;
-        spdlog::info("body '{}': {} mesh, {} vertices, {} triangles", m.body, m.visual ? "visual" : "boundary", nv,
-                     m.triangles._length / 3);
-      });
-      take_all<stroma_TissueState>(rd.state, [&](const stroma_TissueState& s) {
-        const auto it = st.body_id.find(s.body);
-        if (s.session != st.session || it == st.body_id.end()) {
-          ++st.stale_states;
-          return;
-        }
-        const size_t nv = st.body_verts[s.body];
-        if (s.positions._length != 3 * nv || s.scalar._length != nv || (s.damage._length && s.damage._length != nv)) {
-          ++st.bad_states;
-          return;
-        }
-        renderer.update_body(it->second, s.positions._buffer, s.scalar._buffer, s.damage._length ? s.damage._buffer : nullptr);
-        ++st.states;
-        st.state_frame = s.frame;
-        st.sim_time = s.sim_time;
-        st.newest_publish_ns = s.publish_time_ns;
-      });
-      take_all<stroma_ToolState>(rd.tool, [&](const stroma_ToolState& t) {
-        ToolView v;
-        for (uint32_t i = 0; i + 6 < t.capsules._length; i += 7) {
-          const float* c = t.capsules._buffer + i;
-          v.capsules.push_back({{c[0], c[1], c[2]}, {c[3], c[4], c[5]}, c[6]});
-        }
-        v.in_contact = t.in_contact;
-        st.tools[t.tool] = std::move(v);
-      });
-      take_all<stroma_DamageEvent>(rd.damage, [&](const stroma_DamageEvent& d) {
-        if (d.level >= 0 && d.level < 3) ++st.damage_events[d.level];
-      });
-    };
-
-    // Wait for a server's mesh (it may start after us).
-    const int64_t wait_start = monotonic_ns();
-    int64_t last_note = wait_start;
-    spdlog::info("waiting for a server on DDS domain {} ...", o.domain);
-    bool stop = false;
-    // Recording starts with the first state: before it only the rest shape is known, not the
-    // shape the tissue has now. A paused server sends no states: then after 2 s the rest shape.
-    int64_t mesh_time = 0;
-    while (true) {
-      poll();
-      if (st.have_mesh && mesh_time == 0) mesh_time = monotonic_ns();
-      if (st.have_mesh && (st.states > 0 || monotonic_ns() - mesh_time > 2'000'000'000LL)) {
-        // The scene (camera, colours) is written just before the meshes: give it a moment so
-        // the first frame already looks as the scenario asks.
-        for (int i = 0; i < 50 && !st.have_scene; ++i) {
-          const timespec ts{0, 10'000'000};
-          nanosleep(&ts, nullptr);
-          poll();
-        }
-        break;
-      }
-      if (signalled()) {
-        stop = true;
-        break;
-      }
-      const int64_t now = monotonic_ns();
-      if (o.wait > 0 && static_cast<double>(now - wait_start) * 1e-9 >= o.wait) {
-        spdlog::error("no server's {} after {} s on DDS domain {} (is `stroma serve` running with the same domain and DDS configuration?)",
-                      st.have_mesh ? "state" : "mesh", o.wait, o.domain);
-        dds_delete(pp.participant);
-        return 1;
-      }
-      if (now - last_note > 5'000'000'000LL) {
-        spdlog::info("still waiting for a server ...");
-        last_note = now;
-      }
-      const timespec ts{0, 20'000'000};
-      nanosleep(&ts, nullptr);
-    }
-
-    // One frame before the clock starts: llvmpipe compiles shaders on first use (~0.1 s), which
-    // would otherwise cost the first frames of the recording.
-    {
-      if (st.camera_dirty) {
-        renderer.set_camera(make_camera(o, st, renderer));
-        st.camera_dirty = false;
-      }
-      renderer.warm_up();
-    }
-    FrameWriter writer(o.out_dir, o.png_level);
-    const int64_t period = static_cast<int64_t>(1e9 / o.fps);
-    const int64_t start = monotonic_ns();
-    int64_t next = start;
-    uint64_t late_drops = 0, writer_drops = 0, rendered = 0;
-    std::vector<double> render_ms;
-    int64_t last_progress = start;
-    spdlog::info("recording {}x{} at {} FPS into {}/", o.width, o.height, o.fps, o.out_dir);
-    while (!stop) {
-      if (signalled()) break;
-      if (o.frames > 0 && static_cast<long>(writer.submitted()) >= o.frames) break;
-      if (o.duration > 0 && static_cast<double>(next - start) * 1e-9 >= o.duration) break;
-      poll();
-      // Sleep to the frame's deadline; if we are already past the next one, the frames in
-      // between are dropped (counted): the recording keeps wall-clock time, never falls behind.
-      timespec dl{static_cast<time_t>(next / 1'000'000'000), static_cast<long>(next % 1'000'000'000)};
-      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, nullptr);
-      const int64_t now = monotonic_ns();
-      if (now - next >= period) {
-        const int64_t missed = (now - next) / period;
-        late_drops += static_cast<uint64_t>(missed);
-        next += missed * period;
-      }
-      next += period;
-      poll();
-      if (st.camera_dirty) {
-        renderer.set_camera(make_camera(o, st, renderer));
-        st.camera_dirty = false;
-      }
-      std::vector<ToolView> tools;
-      for (const auto& [name, v] : st.tools)
-        if (!v.capsules.empty()) tools.push_back(v);
-      renderer.set_tools(std::move(tools));
-      Image* img = writer.acquire();
-      if (!img) {
-        ++writer_drops;
-        if (!writer.error().empty()) break;
-        continue;
-      }
-      const int64_t t0 = monotonic_ns();
-      renderer.render(*img);
-      render_ms.push_back(static_cast<double>(monotonic_ns() - t0) * 1e-6);
-      ++rendered;
-      writer.submit(img, st.newest_publish_ns, st.sim_time, st.state_frame, render_ms.back());
-      st.newest_publish_ns = 0;  // the same state in a later frame has no new latency to measure
-      if (now - last_progress > 2'000'000'000LL) {
-        spdlog::info("{} frames (dropped {}), sim time {:.2f} s", writer.submitted(), late_drops + writer_drops, st.sim_time);
-        last_progress = now;
-      }
-    }
-    const int64_t end = monotonic_ns();
-    writer.finish();
-    const std::string werr = writer.error();
-    if (!werr.empty()) {
-      spdlog::error("writing frames failed: {}", werr);
-      exit_code = 1;
-    }
-
-    // Per-frame log and statistics.
-    std::vector<double> latency_ms;
-    {
-      std::ofstream csv(fs::path(o.out_dir) / "frames.csv");
-      csv << "frame,sim_time,state_frame,render_ms,latency_ms\n";
-      for (const auto& w : writer.written()) {
-        const double lat = w.stamp_ns > 0 ? static_cast<double>(w.written_ns - w.stamp_ns) * 1e-6 : -1.0;
-        if (lat >= 0) latency_ms.push_back(lat);
-        csv << fmt::format("{},{:.6f},{},{:.3f},{}\n", w.index, w.sim_time, w.state_frame, w.render_ms,
-                           lat >= 0 ? fmt::format("{:.3f}", lat) : "");
-      }
-    }
-    const double wall = static_cast<double>(end - start) * 1e-9;
-    const size_t written = writer.written().size();
-    stats["frames_written"] = written;
-    stats["frames_dropped_late"] = late_drops;
-    stats["frames_dropped_writer"] = writer_drops;
-    stats["fps_target"] = o.fps;
-    stats["fps_achieved"] = wall > 0 ? static_cast<double>(written) / wall : 0.0;
-    stats["size"] = {o.width, o.height};
-    stats["msaa"] = o.msaa;
-    stats["gl"] = {{"version", gl.version()}, {"renderer", gl.renderer()}};
-    stats["render_ms"] = {{"p50", percentile(render_ms, 0.5)}, {"p99", percentile(render_ms, 0.99)},
-                          {"max", render_ms.empty() ? 0.0 : *std::max_element(render_ms.begin(), render_ms.end())}};
-    stats["publish_to_disk_ms"] = {{"frames", latency_ms.size()}, {"p50", percentile(latency_ms, 0.5)},
-                                   {"p99", percentile(latency_ms, 0.99)}};
-    stats["states_received"] = st.states;
-    stats["states_ignored"] = st.stale_states + st.bad_states;
-    stats["server_restarts"] = st.restarts;
-    stats["damage_events"] = {{"warning", st.damage_events[0]}, {"onset", st.damage_events[1]}, {"rupture", st.damage_events[2]}};
-    stats["last_sim_time"] = st.sim_time;
-    spdlog::info("{} frames written in {:.1f} s ({:.1f} FPS), dropped {} late + {} writer-busy; render p50 {:.1f} ms; "
-                 "publish-to-disk p50 {:.1f} ms p99 {:.1f} ms",
-                 written, wall, stats["fps_achieved"].get<double>(), late_drops, writer_drops,
-                 percentile(render_ms, 0.5), percentile(latency_ms, 0.5), percentile(latency_ms, 0.99));
-    if (!ffmpeg.empty() && written > 0 && exit_code == 0) {
-      const std::string err = encode_video(ffmpeg, o.out_dir, o.fps, video);
-      if (err.empty()) {
-        spdlog::info("video: {}", video);
-        stats["video"] = video;
-      } else {
-        spdlog::error("video: {}", err);
-        exit_code = 1;
-      }
-    }
-    std::ofstream f(stats_file);
-    f << stats.dump(2) << '\n';
-    if (!f) {
-      spdlog::error("cannot write {}", stats_file);
-      exit_code = 1;
-    }
-    if (written == 0 && !stop) exit_code = 1;
+    exit_code = follow_and_record(o, out, gl, pp.participant, renderer, st, stop_signals);
   } catch (...) {
     dds_delete(pp.participant);
     throw;

@@ -334,10 +334,9 @@ nlohmann::ordered_json histogram_json(const LatencyHistogram& h) {
           {"histogram", bins}};
 }
 
-}  // namespace
-
-int run_serve(const ServeOptions& o) {
-  const ScenarioSpec spec = load_scenario(o.scenario);
+/// Loads and compiles the scenario to serve; a static scenario is refused (file:line:field).
+CompiledScenario load_servable(const std::string& path) {
+  const ScenarioSpec spec = load_scenario(path);
   if (spec.solver.integrator == Integrator::Static) {
     // A static scenario solves equilibria, not time steps: there is nothing to tick at 1 kHz.
     const SourceLocation& at = spec.solver.integrator_where;
@@ -346,8 +345,102 @@ int run_serve(const ServeOptions& o) {
                      "implicit_euler (or symplectic_euler) to serve this scenario, or `stroma run` for its static "
                      "equilibrium");
   }
-  const CompiledScenario scenario = compile_scenario(spec);
-  for (const auto& n : scenario.notes) spdlog::warn("{}", n);
+  CompiledScenario sc = compile_scenario(spec);
+  for (const auto& n : sc.notes) spdlog::warn("{}", n);
+  if (sc.model->tools.size() > static_cast<size_t>(kMaxTools))
+    throw std::runtime_error(fmt::format("at most {} tools are supported", kMaxTools));
+  return sc;
+}
+
+/// Opens the --record session log and writes its header (null without --record).
+std::FILE* open_record(const ServeOptions& o) {
+  if (o.record_file.empty()) return nullptr;
+  std::FILE* record = std::fopen(o.record_file.c_str(), "w");
+  if (!record) throw std::runtime_error(fmt::format("--record: cannot write '{}'", o.record_file));
+  std::fputs(kSessionLogHeader, record);
+  std::fprintf(record, "# scenario: %s\n", o.scenario.c_str());
+  return record;
+}
+
+/// Closes the session log and says whether it replays; returns false on any loss or error.
+bool close_record(const ServeOptions& o, std::FILE* record, bool record_error, const PhysicsLoop& loop) {
+  if (std::fclose(record) != 0) record_error = true;
+  if (record_error) {
+    spdlog::error("--record: error writing '{}'", o.record_file);
+    return false;
+  }
+  if (loop.stats().record_dropped) {
+    spdlog::error("--record: {} events lost (recorder fell behind); '{}' is incomplete and will not replay",
+                  loop.stats().record_dropped, o.record_file);
+    return false;
+  }
+  spdlog::info("session recorded in {} (replay: stroma run {} --replay {})", o.record_file, o.scenario, o.record_file);
+  return true;
+}
+
+/// Blocks until the loop finishes, SIGINT/SIGTERM arrives (signals go to this thread only) or
+/// --duration has passed.
+void wait_for_stop(const ServeOptions& o, const sigset_t& sigs, const PhysicsLoop& loop) {
+  const auto start = std::chrono::steady_clock::now();
+  const timespec poll{0, 100 * 1000 * 1000};
+  while (!loop.finished.load()) {
+    const int sig = sigtimedwait(&sigs, nullptr, &poll);
+    if (sig == SIGINT || sig == SIGTERM) {
+      spdlog::info("signal {}: shutting down", sig == SIGINT ? "SIGINT" : "SIGTERM");
+      return;
+    }
+    if (o.duration > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= o.duration)
+      return;
+  }
+}
+
+/// The --stats JSON: timing, misses, stage means, solver health, command and damage counters.
+nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, const PhysicsLoop& loop,
+                                  const RealtimeResult& rt, const DdsParticipant& pp, const InputCounters& counters,
+                                  uint64_t status_sent) {
+  const PhysicsLoopStats& st = loop.stats();
+  nlohmann::ordered_json j;
+  j["scenario"] = model.name;
+  j["time_step"] = model.time_step;
+  j["realtime"] = {{"mode", o.realtime}, {"fifo", rt.fifo}, {"memory_locked", rt.memory_locked},
+                   {"pinned_cpu", rt.pinned ? o.cpu : -1}, {"problems", rt.problems}};
+  j["dds"] = {{"domain", o.domain}, {"config", pp.config_source}};
+  j["loops"] = st.loops;
+  j["ticks"] = st.ticks;
+  j["missed_deadlines"] = st.missed_deadlines;
+  j["missed_ratio"] = st.loops ? static_cast<double>(st.missed_deadlines) / static_cast<double>(st.loops) : 0.0;
+  j["sim_time"] = st.sim_time;
+  j["wall_time"] = st.wall_time;
+  j["lag"] = st.lag;
+  j["wake_latency"] = histogram_json(st.wake);
+  j["tick_time"] = histogram_json(st.tick);
+  j["cg_iterations"] = {{"mean", st.ticks ? static_cast<double>(st.cg_iterations_total) / static_cast<double>(st.ticks) : 0.0},
+                        {"max", st.cg_iterations_max}};
+  nlohmann::ordered_json stages;
+  for (int s = 0; s < kStageCount; ++s)
+    stages[std::string(stage_name(static_cast<Stage>(s)))] =
+        st.ticks ? static_cast<double>(st.stage_ns_total[s]) * 1e-6 / static_cast<double>(st.ticks) : 0.0;
+  j["stage_ms_mean"] = stages;
+  j["ticks_not_converged"] = st.not_converged;
+  j["ticks_non_finite"] = st.non_finite;
+  j["ticks_recovered"] = st.recovered;
+  j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
+  j["tool_commands"] = {{"accepted", counters.accepted.load()}, {"clamped", counters.clamped.load()},
+                        {"rejected", counters.rejected.load()}};
+  j["status_messages"] = status_sent;
+  if (model.has_damage) {
+    const State& fs = loop.state();
+    j["damage"] = {{"elements_warned", fs.damage_count[1]}, {"elements_damaged", fs.damage_count[2]},
+                   {"elements_ruptured", fs.damage_count[3]}, {"first_onset_time", fs.first_damage_time},
+                   {"events_dropped", loop.damage_dropped.load()}};
+  }
+  return j;
+}
+
+}  // namespace
+
+int run_serve(const ServeOptions& o) {
+  const CompiledScenario scenario = load_servable(o.scenario);
   const std::shared_ptr<const Model>& model = scenario.model;
   const RealtimeMode rt_mode = o.realtime == "fifo" ? RealtimeMode::Fifo
                                : o.realtime == "off" ? RealtimeMode::Off
@@ -376,15 +469,7 @@ int run_serve(const ServeOptions& o) {
     lo.start_paused = o.start_paused;
     lo.record = !o.record_file.empty();
     lo.spin_us = o.spin_us;
-    if (model->tools.size() > static_cast<size_t>(kMaxTools))
-      throw std::runtime_error(fmt::format("at most {} tools are supported", kMaxTools));
-    std::FILE* record = nullptr;
-    if (lo.record) {
-      record = std::fopen(o.record_file.c_str(), "w");
-      if (!record) throw std::runtime_error(fmt::format("--record: cannot write '{}'", o.record_file));
-      std::fputs(kSessionLogHeader, record);
-      std::fprintf(record, "# scenario: %s\n", o.scenario.c_str());
-    }
+    std::FILE* record = open_record(o);
     PhysicsLoop loop(model, lo);
     std::atomic<bool> stop{false};
     std::atomic<uint64_t> status_sent{0};
@@ -425,38 +510,14 @@ int run_serve(const ServeOptions& o) {
     spdlog::info("serving '{}' at {:.0f} Hz ({} nodes, {} tets); Ctrl-C to stop", model->name,
                  1.0 / model->time_step, model->fem.num_nodes, model->fem.elements.size());
 
-    const auto start = std::chrono::steady_clock::now();
-    const timespec poll{0, 100 * 1000 * 1000};
-    while (!loop.finished.load()) {
-      const int sig = sigtimedwait(&sigs, nullptr, &poll);
-      if (sig == SIGINT || sig == SIGTERM) {
-        spdlog::info("signal {}: shutting down", sig == SIGINT ? "SIGINT" : "SIGTERM");
-        break;
-      }
-      if (o.duration > 0 &&
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= o.duration)
-        break;
-    }
+    wait_for_stop(o, sigs, loop);
     stop = true;
     physics.join();
     publisher.join();
     inputs.join();
     feedback.join();
     if (recorder.joinable()) recorder.join();
-    if (record) {
-      if (std::fclose(record) != 0) record_error = true;
-      if (record_error) {
-        spdlog::error("--record: error writing '{}'", o.record_file);
-        exit_code = 1;
-      } else if (loop.stats().record_dropped) {
-        spdlog::error("--record: {} events lost (recorder fell behind); '{}' is incomplete and will not replay",
-                      loop.stats().record_dropped, o.record_file);
-        exit_code = 1;
-      } else {
-        spdlog::info("session recorded in {} (replay: stroma run {} --replay {})", o.record_file,
-                     o.scenario, o.record_file);
-      }
-    }
+    if (record && !close_record(o, record, record_error, loop)) exit_code = 1;
     if (!o.final_state_file.empty()) write_state_csv(o.final_state_file, loop.state());
     if (rt_failed) exit_code = 1;
 
@@ -466,43 +527,8 @@ int run_serve(const ServeOptions& o) {
                  st.loops ? 100.0 * static_cast<double>(st.missed_deadlines) / static_cast<double>(st.loops) : 0.0,
                  st.wake.percentile_us(0.99), st.tick.percentile_us(0.99) * 1e-3, st.lag);
     if (!o.stats_file.empty()) {
-      nlohmann::ordered_json j;
-      j["scenario"] = model->name;
-      j["time_step"] = model->time_step;
-      j["realtime"] = {{"mode", o.realtime}, {"fifo", rt.fifo}, {"memory_locked", rt.memory_locked},
-                       {"pinned_cpu", rt.pinned ? o.cpu : -1}, {"problems", rt.problems}};
-      j["dds"] = {{"domain", o.domain}, {"config", pp.config_source}};
-      j["loops"] = st.loops;
-      j["ticks"] = st.ticks;
-      j["missed_deadlines"] = st.missed_deadlines;
-      j["missed_ratio"] = st.loops ? static_cast<double>(st.missed_deadlines) / static_cast<double>(st.loops) : 0.0;
-      j["sim_time"] = st.sim_time;
-      j["wall_time"] = st.wall_time;
-      j["lag"] = st.lag;
-      j["wake_latency"] = histogram_json(st.wake);
-      j["tick_time"] = histogram_json(st.tick);
-      j["cg_iterations"] = {{"mean", st.ticks ? static_cast<double>(st.cg_iterations_total) / static_cast<double>(st.ticks) : 0.0},
-                            {"max", st.cg_iterations_max}};
-      nlohmann::ordered_json stages;
-      for (int s = 0; s < kStageCount; ++s)
-        stages[std::string(stage_name(static_cast<Stage>(s)))] =
-            st.ticks ? static_cast<double>(st.stage_ns_total[s]) * 1e-6 / static_cast<double>(st.ticks) : 0.0;
-      j["stage_ms_mean"] = stages;
-      j["ticks_not_converged"] = st.not_converged;
-      j["ticks_non_finite"] = st.non_finite;
-      j["ticks_recovered"] = st.recovered;
-      j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
-      j["tool_commands"] = {{"accepted", counters.accepted.load()}, {"clamped", counters.clamped.load()},
-                            {"rejected", counters.rejected.load()}};
-      j["status_messages"] = status_sent.load();
-      if (model->has_damage) {
-        const State& fs = loop.state();
-        j["damage"] = {{"elements_warned", fs.damage_count[1]}, {"elements_damaged", fs.damage_count[2]},
-                       {"elements_ruptured", fs.damage_count[3]}, {"first_onset_time", fs.first_damage_time},
-                       {"events_dropped", loop.damage_dropped.load()}};
-      }
       std::ofstream f(o.stats_file);
-      f << j.dump(2) << '\n';
+      f << stats_json(o, *model, loop, rt, pp, counters, status_sent.load()).dump(2) << '\n';
       if (!f) {
         spdlog::error("cannot write --stats file '{}'", o.stats_file);
         exit_code = 1;

@@ -51,124 +51,68 @@ bool parse_line(const std::string& line, ToolPose& p) {
   return true;
 }
 
-}  // namespace
+/// The client's two endpoints: commands out (best effort, keep last 1), feedback in (keep 64).
+struct ToolEndpoints {
+  dds_entity_t writer = 0, reader = 0;
+};
 
-int run_tool_client(const ToolClientOptions& o) {
-  Trajectory traj;
-  if (!o.script.empty()) traj = load_trajectory(o.script);  // InputError → exit 2 in the CLI
-  const DdsParticipant pp = create_participant(o.domain, o.dds_config);
-  spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
-  const dds_entity_t t_cmd = dds_check(dds_create_topic(pp.participant, &stroma_ToolCommand_desc, "stroma_ToolCommand", nullptr, nullptr), "topic");
-  const dds_entity_t t_fb = dds_check(dds_create_topic(pp.participant, &stroma_ToolFeedback_desc, "stroma_ToolFeedback", nullptr, nullptr), "topic");
+ToolEndpoints open_endpoints(dds_entity_t participant) {
+  const dds_entity_t t_cmd = dds_check(dds_create_topic(participant, &stroma_ToolCommand_desc, "stroma_ToolCommand", nullptr, nullptr), "topic");
+  const dds_entity_t t_fb = dds_check(dds_create_topic(participant, &stroma_ToolFeedback_desc, "stroma_ToolFeedback", nullptr, nullptr), "topic");
   dds_qos_t* q = dds_create_qos();
   dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
-  const dds_entity_t writer = dds_check(dds_create_writer(pp.participant, t_cmd, q, nullptr), "writer");
+  ToolEndpoints ep;
+  ep.writer = dds_check(dds_create_writer(participant, t_cmd, q, nullptr), "writer");
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 64);
-  const dds_entity_t reader = dds_check(dds_create_reader(pp.participant, t_fb, q, nullptr), "reader");
+  ep.reader = dds_check(dds_create_reader(participant, t_fb, q, nullptr), "reader");
   dds_delete_qos(q);
+  return ep;
+}
 
-  // Wait for the server's command reader: commands sent before matching are lost.
-  const int64_t wait_end = mono_ns() + static_cast<int64_t>(o.wait_server * 1e9);
+/// Waits until a server reads the command topic (commands sent before matching are lost).
+bool wait_for_server(dds_entity_t writer, double seconds) {
+  const int64_t wait_end = mono_ns() + static_cast<int64_t>(seconds * 1e9);
   dds_publication_matched_status_t ms{};
   while ((dds_get_publication_matched_status(writer, &ms), ms.current_count == 0) && mono_ns() < wait_end)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  if (ms.current_count == 0) {
-    spdlog::error("no server is reading stroma_ToolCommand on domain {} after {:.0f} s", o.domain, o.wait_server);
-    dds_delete(pp.participant);
-    return 1;
+  return ms.current_count > 0;
+}
+
+/// Receiver thread: every feedback of tool `name` marks the commands up to the seq it echoes
+/// as arrived (the echoed one with its force) until `done`.
+void receive_feedback(dds_entity_t participant, dds_entity_t reader, const std::string& name, std::vector<Sent>& sent,
+                      const std::atomic<bool>& done, std::atomic<uint64_t>& feedback_msgs) {
+  const uint64_t capacity = sent.size() - 1;
+  const dds_entity_t ws = dds_create_waitset(participant);
+  const dds_entity_t rc = dds_create_readcondition(reader, DDS_ANY_STATE);
+  dds_waitset_attach(ws, rc, reader);
+  void* samples[64] = {nullptr};
+  dds_sample_info_t infos[64];
+  uint64_t acked = 0;
+  while (!done.load()) {
+    dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(50));
+    const dds_return_t n = dds_take(reader, samples, infos, 64, 64);
+    const int64_t now = mono_ns();
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      const auto* f = static_cast<const stroma_ToolFeedback*>(samples[i]);
+      if (name != f->tool) continue;
+      feedback_msgs.fetch_add(1);
+      const uint64_t s = std::min<uint64_t>(f->seq, capacity);
+      if (s > acked && sent[s].sent_ns != 0) {
+        sent[s].received_ns.store(now);
+        for (int c = 0; c < 3; ++c) sent[s].force[c].store(f->force[c]);
+      }
+      acked = std::max(acked, s);
+    }
+    if (n > 0) dds_return_loan(reader, samples, n);
   }
+}
 
-  const double duration = o.duration > 0 ? o.duration : traj.keys.empty() ? 0.0 : traj.end_time();
-  const size_t capacity = traj.keys.empty() ? 1000000 : static_cast<size_t>(duration * o.rate) + 2;
-  std::vector<Sent> sent(capacity + 1);
-  std::atomic<bool> done{false};
-  std::atomic<uint64_t> feedback_msgs{0};
-
-  // A haptic bridge is a real-time client: ask for SCHED_FIFO (silently best effort if denied)
-  // so the round trips measure the server, not the client's scheduling.
-  const RealtimeMode rt = o.realtime ? RealtimeMode::Auto : RealtimeMode::Off;
-  std::thread receiver([&] {
-    setup_realtime_thread(rt, -1, 55, 64 * 1024);
-    const dds_entity_t ws = dds_create_waitset(pp.participant);
-    const dds_entity_t rc = dds_create_readcondition(reader, DDS_ANY_STATE);
-    dds_waitset_attach(ws, rc, reader);
-    void* samples[64] = {nullptr};
-    dds_sample_info_t infos[64];
-    uint64_t acked = 0;
-    while (!done.load()) {
-      dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(50));
-      const dds_return_t n = dds_take(reader, samples, infos, 64, 64);
-      const int64_t now = mono_ns();
-      for (dds_return_t i = 0; i < n; ++i) {
-        if (!infos[i].valid_data) continue;
-        const auto* f = static_cast<const stroma_ToolFeedback*>(samples[i]);
-        if (o.name != f->tool) continue;
-        feedback_msgs.fetch_add(1);
-        // Every command up to the echoed seq that has no arrival yet arrives now.
-        const uint64_t s = std::min<uint64_t>(f->seq, capacity);
-        for (uint64_t k = std::max<uint64_t>(acked + 1, 1); k <= s; ++k) {
-          if (sent[k].sent_ns == 0) continue;
-          if (k == s) {
-            sent[k].received_ns.store(now);
-            for (int c = 0; c < 3; ++c) sent[k].force[c].store(f->force[c]);
-          }
-        }
-        acked = std::max(acked, s);
-      }
-      if (n > 0) dds_return_loan(reader, samples, n);
-    }
-  });
-
-  setup_realtime_thread(rt, -1, 55, 64 * 1024);
-  stroma_ToolCommand msg{};
-  std::snprintf(msg.tool, sizeof(msg.tool), "%s", o.name.c_str());
-  uint64_t seq = 0;
-  const int64_t t0 = mono_ns();
-  auto send = [&](const ToolPose& p) {
-    if (seq >= capacity) return;
-    msg.seq = ++seq;
-    msg.client_time_ns = mono_ns();
-    for (int k = 0; k < 3; ++k) msg.position[k] = p.position[k];
-    for (int k = 0; k < 4; ++k) msg.orientation[k] = p.orientation[k];
-    msg.jaw = p.jaw;
-    msg.buttons = p.buttons;
-    sent[seq].sent_ns = msg.client_time_ns;
-    dds_write(writer, &msg);
-  };
-  if (!traj.keys.empty()) {
-    const int64_t period = static_cast<int64_t>(1e9 / o.rate);
-    int64_t next = t0;
-    int64_t last_report = t0;
-    while (next - t0 <= static_cast<int64_t>(duration * 1e9)) {
-      timespec ts{static_cast<time_t>(next / 1000000000LL), static_cast<long>(next % 1000000000LL)};
-      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-      send(traj.sample(static_cast<double>(next - t0) * 1e-9));
-      next += period;
-      if (next - last_report > 2000000000LL) {
-        last_report = next;
-        spdlog::info("sent {} commands, {:.1f} s of {:.1f} s", seq, (next - t0) * 1e-9, duration);
-      }
-    }
-  } else {
-    std::string line;
-    int ln = 0;
-    while (std::getline(std::cin, line)) {
-      ++ln;
-      if (line.empty() || line[0] == '#') continue;
-      ToolPose p;
-      if (!parse_line(line, p)) {
-        spdlog::error("stdin:{}: expected 'x y z [qw qx qy qz] [jaw]', got '{}'", ln, line);
-        continue;
-      }
-      send(p);
-      if (o.duration > 0 && mono_ns() - t0 > static_cast<int64_t>(o.duration * 1e9)) break;
-    }
-  }
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // last feedback in flight
-  done = true;
-  receiver.join();
-
+/// Writes the CSV log and prints the summary line; returns the number of commands echoed.
+uint64_t report(const ToolClientOptions& o, const std::vector<Sent>& sent, uint64_t seq, int64_t t0,
+                uint64_t feedback_msgs) {
   std::vector<double> rtt;
   uint64_t echoed = 0;
   std::FILE* csv = o.out_csv.empty() ? nullptr : std::fopen(o.out_csv.c_str(), "w");
@@ -197,9 +141,89 @@ int run_tool_client(const ToolClientOptions& o) {
   };
   fmt::print("tool '{}': {} commands sent, {} feedback messages, {} commands echoed ({} superseded or lost, {:.2f} %); "
              "round trip ms p50 {:.3f} p99 {:.3f} max {:.3f}\n",
-             o.name, seq, feedback_msgs.load(), echoed, seq - echoed,
+             o.name, seq, feedback_msgs, echoed, seq - echoed,
              seq ? 100.0 * static_cast<double>(seq - echoed) / static_cast<double>(seq) : 0.0, pct(0.5), pct(0.99),
              pct(1.0));
+  return echoed;
+}
+
+}  // namespace
+
+int run_tool_client(const ToolClientOptions& o) {
+  Trajectory traj;
+  if (!o.script.empty()) traj = load_trajectory(o.script);  // InputError → exit 2 in the CLI
+  const DdsParticipant pp = create_participant(o.domain, o.dds_config);
+  spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
+  const ToolEndpoints ep = open_endpoints(pp.participant);
+  if (!wait_for_server(ep.writer, o.wait_server)) {
+    spdlog::error("no server is reading stroma_ToolCommand on domain {} after {:.0f} s", o.domain, o.wait_server);
+    dds_delete(pp.participant);
+    return 1;
+  }
+
+  const double duration = o.duration > 0 ? o.duration : traj.keys.empty() ? 0.0 : traj.end_time();
+  const size_t capacity = traj.keys.empty() ? 1000000 : static_cast<size_t>(duration * o.rate) + 2;
+  std::vector<Sent> sent(capacity + 1);
+  std::atomic<bool> done{false};
+  std::atomic<uint64_t> feedback_msgs{0};
+
+  // A haptic bridge is a real-time client: ask for SCHED_FIFO (silently best effort if denied)
+  // so the round trips measure the server, not the client's scheduling.
+  const RealtimeMode rt = o.realtime ? RealtimeMode::Auto : RealtimeMode::Off;
+  std::thread receiver([&] {
+    setup_realtime_thread(rt, -1, 55, 64 * 1024);
+    receive_feedback(pp.participant, ep.reader, o.name, sent, done, feedback_msgs);
+  });
+
+  setup_realtime_thread(rt, -1, 55, 64 * 1024);
+  stroma_ToolCommand msg{};
+  std::snprintf(msg.tool, sizeof(msg.tool), "%s", o.name.c_str());
+  uint64_t seq = 0;
+  const int64_t t0 = mono_ns();
+  auto send = [&](const ToolPose& p) {
+    if (seq >= capacity) return;
+    msg.seq = ++seq;
+    msg.client_time_ns = mono_ns();
+    for (int k = 0; k < 3; ++k) msg.position[k] = p.position[k];
+    for (int k = 0; k < 4; ++k) msg.orientation[k] = p.orientation[k];
+    msg.jaw = p.jaw;
+    msg.buttons = p.buttons;
+    sent[seq].sent_ns = msg.client_time_ns;
+    dds_write(ep.writer, &msg);
+  };
+  if (!traj.keys.empty()) {  // the script at --rate, on absolute deadlines
+    const int64_t period = static_cast<int64_t>(1e9 / o.rate);
+    int64_t next = t0;
+    int64_t last_report = t0;
+    while (next - t0 <= static_cast<int64_t>(duration * 1e9)) {
+      timespec ts{static_cast<time_t>(next / 1000000000LL), static_cast<long>(next % 1000000000LL)};
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+      send(traj.sample(static_cast<double>(next - t0) * 1e-9));
+      next += period;
+      if (next - last_report > 2000000000LL) {
+        last_report = next;
+        spdlog::info("sent {} commands, {:.1f} s of {:.1f} s", seq, (next - t0) * 1e-9, duration);
+      }
+    }
+  } else {  // stdin lines as they come
+    std::string line;
+    int ln = 0;
+    while (std::getline(std::cin, line)) {
+      ++ln;
+      if (line.empty() || line[0] == '#') continue;
+      ToolPose p;
+      if (!parse_line(line, p)) {
+        spdlog::error("stdin:{}: expected 'x y z [qw qx qy qz] [jaw]', got '{}'", ln, line);
+        continue;
+      }
+      send(p);
+      if (o.duration > 0 && mono_ns() - t0 > static_cast<int64_t>(o.duration * 1e9)) break;
+    }
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // last feedback in flight
+  done = true;
+  receiver.join();
+  report(o, sent, seq, t0, feedback_msgs.load());
   dds_delete(pp.participant);
   return feedback_msgs.load() > 0 ? 0 : 1;
 }

@@ -1,4 +1,4 @@
-// Body–body contact (issue 6: "a body dropped onto a fixed one"): a bar dropped onto a fixed
+// Body–body contact (a body dropped onto a fixed one): a bar dropped onto a fixed
 // block comes to rest on it carrying exactly its weight; bodies that miss each other fall
 // freely (implicit Euler's exact free fall); two free bars colliding head-on bounce apart without
 // passing through, conserving momentum; scenario errors name file, line and field.

@@ -16,6 +16,7 @@
 #include "engine/physics_loop.hpp"
 #include "engine/tick.hpp"
 #include "haptics/feedback.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 namespace fs = std::filesystem;
@@ -150,26 +151,8 @@ TEST(Feedback, SlowIndenterFollowsTheQuasiStaticForceCurve) {
   const std::string mesh =
       write_quarter_block((fs::temp_directory_path() / "stroma_feedback_block.msh").string(), a, H, 5e-4, 1.5);
   auto scenario = [&](const std::string& solver, const std::string& script) {
-    return "name: slow_indenter\n"
-           "time_step: 0.001\n"
-           "gravity: [0, 0, 0]\n"
-           "solver: " + solver + "\n"
-           "bodies:\n"
-           "  - name: block\n"
-           "    mesh: " + mesh + "\n"
-           "    material: {model: corotational, young_modulus: 5000, poisson_ratio: 0.45, density: 1000,\n"
-           "               rayleigh_mass: 20}\n"
-           "    fixed:\n"
-           "      - box: {min: [-1, -1, -1.0e-9], max: [1, 1, 1.0e-9]}\n"
-           "      - {box: {min: [-1.0e-9, -1, -1], max: [1.0e-9, 1, 1]}, axes: [x]}\n"
-           "      - {box: {min: [-1, -1.0e-9, -1], max: [1, 1.0e-9, 1]}, axes: [y]}\n"
-           "tools:\n"
-           "  - name: sphere\n"
-           "    script: " + script + "\n"
-           "    shape: {type: sphere, radius: 0.005}\n"
-           "    contact: {stiffness: 1.0e9}\n"
-           "    max_speed: 1\n"
-           "    timeout: 100\n";
+    return test_scenarios::indentation_block_yaml(mesh, script, solver, "corotational", ", rayleigh_mass: 20",
+                                                  "    max_speed: 1\n    timeout: 100\n");
   };
   const std::string dyn_traj = (fs::temp_directory_path() / "stroma_slow_indent.csv").string();
   {

@@ -17,6 +17,7 @@
 #include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/trajectory.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 namespace fs = std::filesystem;
@@ -31,23 +32,8 @@ TEST(Indentation, SphereForceWithinTenPercentOfTheBondedLayerHertzReference) {
     std::fprintf(f, "t,x,y,z\n0,0,0,%.17g\n", H + R - d);
     std::fclose(f);
   }
-  const std::string yaml =
-      "name: indentation\n"
-      "gravity: [0, 0, 0]\n"
-      "solver: {integrator: static, linear_solver: cholmod, static_tolerance: 1.0e-9, static_max_newton: 40}\n"
-      "bodies:\n"
-      "  - name: block\n"
-      "    mesh: " + mesh + "\n"
-      "    material: {model: linear, young_modulus: 5000, poisson_ratio: 0.45, density: 1000}\n"
-      "    fixed:\n"
-      "      - box: {min: [-1, -1, -1.0e-9], max: [1, 1, 1.0e-9]}\n"
-      "      - {box: {min: [-1.0e-9, -1, -1], max: [1.0e-9, 1, 1]}, axes: [x]}\n"
-      "      - {box: {min: [-1, -1.0e-9, -1], max: [1, 1.0e-9, 1]}, axes: [y]}\n"
-      "tools:\n"
-      "  - name: sphere\n"
-      "    script: " + traj + "\n"
-      "    shape: {type: sphere, radius: 0.005}\n"
-      "    contact: {stiffness: 1.0e9}\n";
+  const std::string yaml = test_scenarios::indentation_block_yaml(
+      mesh, traj, "{integrator: static, linear_solver: cholmod, static_tolerance: 1.0e-9, static_max_newton: 40}");
   const ScenarioSpec spec = parse_scenario(yaml, "indentation.yaml", "");
   const CompiledScenario sc_m = compile_scenario(spec);
   const auto& m = sc_m.model;

@@ -1,26 +1,18 @@
 // engine/session_log: recorded server sessions round-trip exactly; interrupted logs are refused.
 
 #include <gtest/gtest.h>
+
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <limits>
-#include "engine/headless_runner.hpp"
+#include <string>
+
 #include "engine/session_log.hpp"
-#include "haptics/tool.hpp"
-#include "engine/trajectory.hpp"
+#include "tests/test_scenarios.hpp"
 #include "tissue/input_error.hpp"
 
 using namespace stroma;
-namespace fs = std::filesystem;
 
-namespace {
-std::string write_temp(const std::string& name, const std::string& text) {
-  const fs::path p = fs::temp_directory_path() / name;
-  std::ofstream(p) << text;
-  return p.string();
-}
-}  // namespace
+using test_scenarios::write_temp;
 
 TEST(SessionLog, RoundTripsExactlyAndRejectsInterruptedLogs) {
   SessionEvent a;

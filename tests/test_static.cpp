@@ -15,6 +15,7 @@
 #include "bench/accuracy/quarter_block_mesh.hpp"
 #include "engine/compiled_scenario.hpp"
 #include "engine/headless_runner.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 namespace fs = std::filesystem;
@@ -31,22 +32,8 @@ std::string indentation_yaml(const std::string& model, double depth, const std::
   std::FILE* f = std::fopen(traj.c_str(), "w");
   std::fprintf(f, "t,x,y,z\n0,0,0,%.17g\n", H + R - depth);
   std::fclose(f);
-  return "name: static_indentation\n"
-         "gravity: [0, 0, 0]\n"
-         "solver: {integrator: static, linear_solver: cholmod" + solver_tail + "}\n"
-         "bodies:\n"
-         "  - name: block\n"
-         "    mesh: " + mesh + "\n"
-         "    material: {model: " + model + ", young_modulus: 5000, poisson_ratio: 0.45, density: 1000}\n"
-         "    fixed:\n"
-         "      - box: {min: [-1, -1, -1.0e-9], max: [1, 1, 1.0e-9]}\n"
-         "      - {box: {min: [-1.0e-9, -1, -1], max: [1.0e-9, 1, 1]}, axes: [x]}\n"
-         "      - {box: {min: [-1, -1.0e-9, -1], max: [1, 1.0e-9, 1]}, axes: [y]}\n"
-         "tools:\n"
-         "  - name: sphere\n"
-         "    script: " + traj + "\n"
-         "    shape: {type: sphere, radius: 0.005}\n"
-         "    contact: {stiffness: 1.0e9}\n";
+  return test_scenarios::indentation_block_yaml(mesh, traj,
+                                               "{integrator: static, linear_solver: cholmod" + solver_tail + "}", model);
 }
 
 nlohmann::json read_json(const fs::path& p) {

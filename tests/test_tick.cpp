@@ -21,7 +21,7 @@ TEST(Tick, SceneWithoutToolsSkipsInputAndCollisionStages) {
   ASSERT_TRUE(m->tools.empty());
   State s = State::initial(*m);
   TickWorkspace w(*m);
-  const TickReport r = tick(*m, s, w);
+  const TickReport r = tick(*m, s, w);  // a copy: the second model's tick below must not overwrite it
   EXPECT_FALSE(r.stage_ran[static_cast<int>(Stage::ReadInputs)]);
   EXPECT_FALSE(r.stage_ran[static_cast<int>(Stage::Collide)]);
   EXPECT_EQ(r.stage_ns[static_cast<int>(Stage::Collide)], 0);
@@ -33,7 +33,35 @@ TEST(Tick, SceneWithoutToolsSkipsInputAndCollisionStages) {
   ASSERT_FALSE(mt->tools.empty());
   State st = State::initial(*mt);
   TickWorkspace wt(*mt);
-  EXPECT_TRUE(tick(*mt, st, wt).stage_ran[static_cast<int>(Stage::ReadInputs)]);
+  const TickReport& rt = tick(*mt, st, wt);
+  EXPECT_TRUE(rt.stage_ran[static_cast<int>(Stage::ReadInputs)]);
+  // hand_off runs when there are tools (their end-of-step force and feedback) and is timed.
+  EXPECT_TRUE(rt.stage_ran[static_cast<int>(Stage::HandOff)]);
+  EXPECT_GT(rt.stage_ns[static_cast<int>(Stage::HandOff)], 0);
+  EXPECT_FALSE(r.stage_ran[static_cast<int>(Stage::HandOff)]) << "no tools: nothing to hand off";
+}
+
+// With Newton iterations the element passes of the iterations are counted under assemble and
+// only their linear solves under solve.
+TEST(Tick, NewtonElementPassesCountAsAssembly) {
+  ScenarioSpec spec = load_scenario(kDir + "cantilever_dynamic.yaml");
+  spec.time_step = 0.01;
+  spec.solver.newton_iterations = 4;
+  spec.solver.newton_tolerance = 1e-12;  // always iterate
+  auto m = compile_model(spec);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  int64_t newton_passes = 0, assemble = 0;
+  for (int k = 0; k < 5; ++k) {
+    const TickReport& r = tick(*m, s, w);
+    ASSERT_NE(r.status, TickStatus::NonFinite);
+    EXPECT_GT(r.newton.iterations, 1);
+    newton_passes += r.newton.element_pass_ns;
+    assemble += r.stage_ns[static_cast<int>(Stage::Assemble)];
+    EXPECT_GE(r.stage_ns[static_cast<int>(Stage::Assemble)], r.newton.element_pass_ns);
+  }
+  EXPECT_GT(newton_passes, 0);
+  EXPECT_GT(assemble, newton_passes) << "the first assembly is counted too";
 }
 
 TEST(Tick, NonFiniteSolveLeavesTheStateUnadvanced) {

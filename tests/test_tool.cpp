@@ -12,10 +12,12 @@
 #include "engine/session_log.hpp"
 #include "haptics/tool.hpp"
 #include "engine/trajectory.hpp"
+#include "tests/test_scenarios.hpp"
 #include "tissue/input_error.hpp"
 
 using namespace stroma;
 namespace fs = std::filesystem;
+using test_scenarios::write_temp;
 
 namespace {
 ToolSpec limited(InvalidCommandPolicy p) {
@@ -31,11 +33,6 @@ ToolPose at(double x, double y, double z) {
   ToolPose p;
   p.position = {x, y, z};
   return p;
-}
-std::string write_temp(const std::string& name, const std::string& text) {
-  const fs::path p = fs::temp_directory_path() / name;
-  std::ofstream(p) << text;
-  return p.string();
 }
 }  // namespace
 

@@ -1,26 +1,18 @@
 // engine/trajectory: timed tool trajectories (interpolation, slerp, CSV/YAML, errors with lines).
 
 #include <gtest/gtest.h>
+
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <limits>
-#include "engine/headless_runner.hpp"
-#include "engine/session_log.hpp"
-#include "haptics/tool.hpp"
+#include <string>
+
 #include "engine/trajectory.hpp"
+#include "tests/test_scenarios.hpp"
 #include "tissue/input_error.hpp"
 
 using namespace stroma;
-namespace fs = std::filesystem;
 
-namespace {
-std::string write_temp(const std::string& name, const std::string& text) {
-  const fs::path p = fs::temp_directory_path() / name;
-  std::ofstream(p) << text;
-  return p.string();
-}
-}  // namespace
+using test_scenarios::write_temp;
 
 TEST(Trajectory, InterpolatesPositionJawAndSlerpsOrientation) {
   const std::string path = write_temp("stroma_traj.yaml",
