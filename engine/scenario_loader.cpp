@@ -5,161 +5,43 @@
 /// errors, with a "did you mean" suggestion), every value is type- and range-checked, and every
 /// error is an InputError carrying the file, the 1-based line and the dotted field path.
 ///
-/// Structure: `Field` is one YAML node at a field path, with typed conversions that throw
-/// InputError; `MapReader` is a YAML map at a field path that validates its keys on
-/// construction and hands out `Field`s (optional or required). The section parsers below only
-/// say which key goes where, with which range.
+/// The checking itself is the generic schema layer (engine/yaml_schema.hpp: `Field`,
+/// `MapReader`, ranges, choice tables). The section parsers below only say which key goes where,
+/// with which range.
 
 #include <algorithm>
-#include <cctype>
 #include <cerrno>
-#include <charconv>
-#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <initializer_list>
-#include <limits>
 #include <map>
-#include <optional>
 #include <sstream>
 #include <string>
 #include <system_error>
-#include <utility>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
 
 #include "engine/scenario_spec.hpp"
+#include "engine/yaml_schema.hpp"
 #include "tissue/input_error.hpp"
 
 namespace stroma {
 namespace {
 
-// ---------------------------------------------------------------------------------------------
-// Small string helpers
-
-std::string join(const std::vector<std::string>& items, const char* sep = ", ") {
-  std::string s;
-  for (std::size_t i = 0; i < items.size(); ++i) {
-    if (i) s += sep;
-    s += items[i];
-  }
-  return s;
-}
-
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
-/// Optimal-string-alignment distance (Levenshtein plus adjacent transpositions), case-blind.
-int edit_distance(const std::string& a_in, const std::string& b_in) {
-  const std::string a = lower(a_in), b = lower(b_in);
-  const std::size_t n = a.size(), m = b.size();
-  std::vector<std::vector<int>> d(n + 1, std::vector<int>(m + 1, 0));
-  for (std::size_t i = 0; i <= n; ++i) d[i][0] = static_cast<int>(i);
-  for (std::size_t j = 0; j <= m; ++j) d[0][j] = static_cast<int>(j);
-  for (std::size_t i = 1; i <= n; ++i) {
-    for (std::size_t j = 1; j <= m; ++j) {
-      const int cost = a[i - 1] == b[j - 1] ? 0 : 1;
-      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
-      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
-        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
-    }
-  }
-  return d[n][m];
-}
-
-/// The candidate closest to `word` if it is within edit distance 2 (and the distance is smaller
-/// than the word itself, so one-letter keys don't "match" everything); empty otherwise.
-std::string closest(const std::string& word, const std::vector<std::string>& candidates) {
-  std::string best;
-  int best_d = 3;
-  for (const auto& c : candidates) {
-    const int d = edit_distance(word, c);
-    if (d < best_d && d < static_cast<int>(word.size())) {
-      best_d = d;
-      best = c;
-    }
-  }
-  return best;
-}
-
-std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates) {
-  const std::string c = closest(word, candidates);
-  return c.empty() ? std::string() : "did you mean '" + c + "'? ";
-}
-
-std::string format_number(double v) {
-  std::ostringstream os;
-  os.precision(15);
-  os << v;
-  return os.str();
-}
-
-std::string child_path(const std::string& parent, const std::string& key) {
-  return parent.empty() ? key : parent + "." + key;
-}
-
-std::string index_path(const std::string& parent, std::size_t i) {
-  return parent + "[" + std::to_string(i) + "]";
-}
-
-/// Last component of a field path, for messages: "bodies[0].material.density" -> "density",
-/// "gravity[1]" -> "gravity[1]".
-std::string leaf_name(const std::string& path) {
-  const auto dot = path.rfind('.');
-  return dot == std::string::npos ? path : path.substr(dot + 1);
-}
-
-// ---------------------------------------------------------------------------------------------
-// Numeric ranges
-
-/// An allowed interval for a number; either bound may be absent, open or closed. A note can be
-/// appended to the message when the value is below / above the range.
-struct Range {
-  std::optional<double> lo, hi;
-  bool lo_closed = false, hi_closed = false;
-  std::string note_lo, note_hi;
-
-  /// -1 if v is below the range, +1 if above, 0 if inside.
-  int violated(double v) const {
-    if (lo && (lo_closed ? v < *lo : v <= *lo)) return -1;
-    if (hi && (hi_closed ? v > *hi : v >= *hi)) return +1;
-    return 0;
-  }
-  std::string describe() const {
-    std::string s = "must be";
-    if (lo) s += std::string(lo_closed ? " >= " : " > ") + format_number(*lo);
-    if (lo && hi) s += " and";
-    if (hi) s += std::string(hi_closed ? " <= " : " < ") + format_number(*hi);
-    return s;
-  }
-};
-
-Range any_value() { return {}; }
-Range greater_than(double lo) { return Range{lo, std::nullopt, false, false, {}, {}}; }
-Range at_least(double lo) { return Range{lo, std::nullopt, true, false, {}, {}}; }
-Range open_interval(double lo, double hi) { return Range{lo, hi, false, false, {}, {}}; }
+using yaml::at_least;
+using yaml::Choices;
+using yaml::did_you_mean;
+using yaml::Field;
+using yaml::format_number;
+using yaml::greater_than;
+using yaml::join;
+using yaml::MapReader;
+using yaml::open_interval;
+using yaml::Range;
 
 // ---------------------------------------------------------------------------------------------
 // Enumerations
-
-template <class E>
-struct Choice {
-  const char* name;
-  E value;
-};
-template <class E>
-using Choices = std::vector<Choice<E>>;
-
-template <class E>
-std::vector<std::string> names_of(const Choices<E>& choices) {
-  std::vector<std::string> names;
-  for (const auto& c : choices) names.emplace_back(c.name);
-  return names;
-}
 
 const Choices<Integrator> kIntegrators = {{"implicit_euler", Integrator::ImplicitEuler},
                                           {"symplectic_euler", Integrator::SymplecticEuler},
@@ -188,284 +70,6 @@ const Choices<RotationMethod> kRotationMethods = {{"polar", RotationMethod::Pola
                                                   {"qr", RotationMethod::QR}};
 
 // ---------------------------------------------------------------------------------------------
-// Field: one YAML node at a field path
-
-class MapReader;
-
-/// One YAML node at a dotted field path, with typed conversions. Every failure throws
-/// InputError pointing at this node's line and path.
-class Field {
- public:
-  /// `key_line` is the 1-based line of the key that introduced the node (for list items and the
-  /// root: the node's own line). It is used when the node has no reliable position (empty
-  /// values) and for "missing field" errors inside a map.
-  Field(const std::string* file, YAML::Node node, std::string path, int key_line)
-      : file_(file), node_(std::move(node)), path_(std::move(path)), key_line_(key_line) {
-    const int own = node_.Mark().line;
-    line_ = (node_.IsNull() || own < 0) ? key_line_ : own + 1;
-    if (line_ <= 0) line_ = key_line_;
-  }
-
-  const std::string& file() const { return *file_; }
-  const std::string& path() const { return path_; }
-  int line() const { return line_; }
-  int key_line() const { return key_line_; }
-  const YAML::Node& yaml() const { return node_; }
-  SourceLocation location() const { return {*file_, key_line_}; }
-
-  [[noreturn]] void fail(const std::string& message) const { fail_at(line_, message); }
-  [[noreturn]] void fail_at(int line, const std::string& message) const {
-    throw InputError(*file_, line, path_, message);
-  }
-
-  /// A node below this one (same file).
-  Field child(YAML::Node node, std::string path, int key_line) const {
-    return Field(file_, std::move(node), std::move(path), key_line);
-  }
-
-  /// What the node is, for "expected X, got Y" messages.
-  std::string got() const {
-    if (!node_.IsDefined() || node_.IsNull()) return "an empty value";
-    if (node_.IsSequence()) return "a list";
-    if (node_.IsMap()) return "a map";
-    if (is_string_tagged()) return "the quoted string '" + node_.Scalar() + "'";
-    return "'" + node_.Scalar() + "'";
-  }
-
-  // -- typed conversions ------------------------------------------------------------------------
-
-  double number(const Range& range = any_value()) const {
-    const std::string text = plain_scalar("a number");
-    const auto v = parse_double(text);
-    if (!v) fail("expected a number, got " + got());
-    if (!std::isfinite(*v)) fail("expected a finite number, got " + got());
-    check_range(*v, text, range);
-    return *v;
-  }
-
-  template <class I>
-  I integer(const Range& range = any_value()) const {
-    const std::string text = plain_scalar("an integer");
-    long long v = 0;
-    const char* first = text.data();
-    const char* last = text.data() + text.size();
-    if (first != last && *first == '+') ++first;
-    const auto [ptr, ec] = std::from_chars(first, last, v);
-    if (ec == std::errc::result_out_of_range ||
-        (ec == std::errc() && ptr == last &&
-         (v < std::numeric_limits<I>::min() || v > std::numeric_limits<I>::max()))) {
-      fail(leaf_name(path_) + " = " + text + " is out of range: must be between " +
-           std::to_string(std::numeric_limits<I>::min()) + " and " +
-           std::to_string(std::numeric_limits<I>::max()));
-    }
-    if (ec != std::errc() || ptr != last || first == last)
-      fail("expected an integer, got " + got());
-    check_range(static_cast<double>(v), text, range);
-    return static_cast<I>(v);
-  }
-
-  bool is_scalar() const { return node_.IsScalar(); }
-  bool is_null() const { return node_.IsNull(); }
-
-  bool boolean() const {
-    const std::string text = plain_scalar("true or false");
-    if (text == "true" || text == "True" || text == "TRUE") return true;
-    if (text == "false" || text == "False" || text == "FALSE") return false;
-    fail("expected true or false, got " + got());
-  }
-
-  /// A non-empty string scalar.
-  std::string string() const {
-    if (!node_.IsScalar()) fail("expected a string, got " + got());
-    if (node_.Scalar().empty()) fail("must not be empty");
-    return node_.Scalar();
-  }
-
-  Vec3 vec3() const {
-    if (!node_.IsSequence() || node_.size() != 3) {
-      std::string what = got();
-      if (node_.IsSequence())
-        what = "a list of " + std::to_string(node_.size()) +
-               (node_.size() == 1 ? " item" : " items");
-      fail("expected a list of 3 numbers, got " + what);
-    }
-    const auto items = list();
-    return {items[0].number(), items[1].number(), items[2].number()};
-  }
-
-  template <class E>
-  E choice(const Choices<E>& choices) const {
-    const std::vector<std::string> names = names_of(choices);
-    if (!node_.IsScalar()) fail("expected one of " + join(names) + ", got " + got());
-    const std::string& text = node_.Scalar();
-    for (const auto& c : choices)
-      if (text == c.name) return c.value;
-    fail("unknown " + leaf_name(path_) + " '" + text + "': " + did_you_mean(text, names) +
-         "expected one of " + join(names));
-  }
-
-  /// The items of a list (an empty value is not a list: write [] for an empty one).
-  std::vector<Field> list() const {
-    if (!node_.IsSequence()) {
-      fail("expected a list, got " + got() +
-           (node_.IsNull() ? std::string(" (write [] for an empty list)") : std::string()));
-    }
-    std::vector<Field> items;
-    std::size_t i = 0;
-    for (const auto& item : node_) {
-      const int l = item.Mark().line >= 0 ? item.Mark().line + 1 : line_;
-      items.push_back(child(item, index_path(path_, i++), l));
-    }
-    return items;
-  }
-
-  MapReader map(std::initializer_list<const char*> allowed) const;
-
-  // -- uniform "store into" interface used by MapReader::read / require -------------------------
-
-  void get(double& out, const Range& r = any_value()) const { out = number(r); }
-  void get(int& out, const Range& r = any_value()) const { out = integer<int>(r); }
-  void get(long& out, const Range& r = any_value()) const { out = integer<long>(r); }
-  void get(bool& out) const { out = boolean(); }
-  void get(std::string& out) const { out = string(); }
-  void get(Vec3& out) const { out = vec3(); }
-  template <class E>
-  void get(E& out, const Choices<E>& choices) const { out = choice(choices); }
-  template <class T, class... A>
-  void get(std::optional<T>& out, const A&... args) const {
-    T v{};
-    get(v, args...);
-    out = v;
-  }
-
- private:
-  bool is_string_tagged() const {
-    const std::string& tag = node_.Tag();
-    return tag == "!" || tag == "tag:yaml.org,2002:str";
-  }
-
-  /// The text of a plain (unquoted) scalar, or an "expected <what>" error.
-  std::string plain_scalar(const char* what) const {
-    if (!node_.IsScalar() || is_string_tagged())
-      fail(std::string("expected ") + what + ", got " + got());
-    return node_.Scalar();
-  }
-
-  static std::optional<double> parse_double(const std::string& text) {
-    const char* first = text.data();
-    const char* last = text.data() + text.size();
-    if (first != last && *first == '+') ++first;
-    if (first == last) return std::nullopt;
-    double v = 0;
-    const auto [ptr, ec] = std::from_chars(first, last, v, std::chars_format::general);
-    if (ec == std::errc::result_out_of_range) return std::numeric_limits<double>::infinity();
-    if (ec != std::errc() || ptr != last) return std::nullopt;
-    return v;
-  }
-
-  void check_range(double v, const std::string& text, const Range& range) const {
-    const int side = range.violated(v);
-    if (side == 0) return;
-    std::string msg = leaf_name(path_) + " = " + text + " is out of range: " + range.describe();
-    const std::string& note = side < 0 ? range.note_lo : range.note_hi;
-    if (!note.empty()) msg += " (" + note + ")";
-    fail(msg);
-  }
-
-  const std::string* file_;
-  YAML::Node node_;
-  std::string path_;
-  int key_line_;
-  int line_;
-};
-
-// ---------------------------------------------------------------------------------------------
-// MapReader: a YAML map at a field path, with a fixed set of allowed keys
-
-class MapReader {
- public:
-  /// Checks that `self` is a map whose keys are all in `allowed`, each at most once.
-  MapReader(const Field& self, std::initializer_list<const char*> allowed) : self_(self) {
-    for (const char* k : allowed) allowed_.emplace_back(k);
-    const YAML::Node& node = self_.yaml();
-    if (!node.IsMap())
-      self_.fail("expected a map with keys " + join(allowed_) + ", got " + self_.got());
-    for (const auto& kv : node) {
-      const int key_line = kv.first.Mark().line >= 0 ? kv.first.Mark().line + 1 : self_.line();
-      if (!kv.first.IsScalar()) {
-        throw InputError(self_.file(), key_line, self_.path(),
-                         "expected a key name, got a complex key; allowed keys: " + join(allowed_));
-      }
-      const std::string key = kv.first.Scalar();
-      const std::string path = child_path(self_.path(), key);
-      if (std::find(allowed_.begin(), allowed_.end(), key) == allowed_.end()) {
-        throw InputError(self_.file(), key_line, path,
-                         "unknown key '" + key + "'; " + did_you_mean(key, allowed_) +
-                             "allowed keys: " + join(allowed_));
-      }
-      for (const auto& [seen, field] : entries_) {
-        if (seen == key) {
-          throw InputError(self_.file(), key_line, path,
-                           "duplicate key '" + key + "' (first given at line " +
-                               std::to_string(field.key_line()) + ")");
-        }
-      }
-      entries_.emplace_back(key, self_.child(kv.second, path, key_line));
-    }
-  }
-
-  const std::string& file() const { return self_.file(); }
-  const std::string& path() const { return self_.path(); }
-  /// Line of the map: the line of the key that introduced it, or of the list item.
-  int line() const { return self_.key_line(); }
-  SourceLocation location() const { return self_.location(); }
-  [[noreturn]] void fail(const std::string& message) const { self_.fail_at(line(), message); }
-
-  std::optional<Field> opt(const std::string& key) const {
-    for (const auto& [k, f] : entries_)
-      if (k == key) return f;
-    return std::nullopt;
-  }
-
-  Field req(const std::string& key) const {
-    if (auto f = opt(key)) return *f;
-    throw InputError(self_.file(), line(), child_path(path(), key),
-                     "missing required field '" + key + "'");
-  }
-
-  /// Stores the converted value of `key` into `out` if the key is present (else `out` keeps its
-  /// default). Extra arguments are passed to the conversion (a Range, a Choices table).
-  template <class T, class... A>
-  bool read(const std::string& key, T& out, const A&... args) const {
-    const auto f = opt(key);
-    if (!f) return false;
-    f->get(out, args...);
-    return true;
-  }
-
-  /// Same, but the key must be present.
-  template <class T, class... A>
-  void require(const std::string& key, T& out, const A&... args) const {
-    req(key).get(out, args...);
-  }
-
-  /// Items of the list at `key` (empty when the key is absent).
-  std::vector<Field> list(const std::string& key) const {
-    const auto f = opt(key);
-    return f ? f->list() : std::vector<Field>{};
-  }
-
- private:
-  Field self_;
-  std::vector<std::string> allowed_;
-  std::vector<std::pair<std::string, Field>> entries_;  ///< in file order
-};
-
-MapReader Field::map(std::initializer_list<const char*> allowed) const {
-  return MapReader(*this, allowed);
-}
-
-// ---------------------------------------------------------------------------------------------
 // Section parsers
 
 struct Context {
@@ -480,6 +84,11 @@ std::string resolve_path(const std::string& p, const std::string& base_dir) {
   return (fs::path(base_dir) / path).lexically_normal().string();
 }
 
+/// Where a section or value is, for errors raised after parsing (compile): the line of the key
+/// that introduced it, or of the list item, so that a section points at its heading.
+SourceLocation location_of(const Field& f) { return {f.file(), f.key_line()}; }
+SourceLocation location_of(const MapReader& m) { return {m.file(), m.line()}; }
+
 // Each parser takes the Field of its section and declares the section's allowed keys.
 
 const Choices<bool> kCapPolicies = {{"substep", true}, {"continue", false}};
@@ -489,8 +98,8 @@ SolverSpec parse_solver(const Field& f) {
                              "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap",
                              "newton_iterations", "newton_tolerance"});
   SolverSpec s;
-  s.where = m.location();
-  if (auto i = m.opt("integrator")) s.integrator_where = i->location();
+  s.where = location_of(m);
+  if (auto i = m.opt("integrator")) s.integrator_where = location_of(*i);
   m.read("integrator", s.integrator, kIntegrators);
   m.read("linear_solver", s.linear_solver, kLinearSolvers);
   m.read("preconditioner", s.preconditioner, kPreconditioners);
@@ -517,7 +126,7 @@ MaterialSpec parse_material(const Field& f) {
   const MapReader m = f.map({"model", "rotation", "young_modulus", "poisson_ratio", "density",
                              "rayleigh_mass", "rayleigh_stiffness", "damage"});
   MaterialSpec mat;
-  mat.where = m.location();
+  mat.where = location_of(m);
   Range nu = open_interval(-1, 0.5);
   nu.note_hi = "0.5 is incompressible; use 0.49 or lower";
   m.read("model", mat.model, kElementModels);
@@ -566,7 +175,7 @@ BoxSpec parse_box(const Field& f) {
 /// The selection part of a `fixed:` or `loads:` entry: exactly one of `box` / `nodes`.
 NodeSelection parse_selection(const MapReader& m) {
   NodeSelection sel;
-  sel.where = m.location();
+  sel.where = location_of(m);
   const auto box = m.opt("box");
   const auto nodes = m.opt("nodes");
   if (box && nodes) {
@@ -614,11 +223,11 @@ NodalLoadSpec parse_load(const Field& f) {
 
 BodySpec parse_body(const MapReader& m, const Context& ctx) {
   BodySpec b;
-  b.where = m.location();
+  b.where = location_of(m);
   m.require("name", b.name);
   std::string mesh;
   m.require("mesh", mesh);
-  b.mesh_where = m.req("mesh").location();
+  b.mesh_where = location_of(m.req("mesh"));
   b.mesh_path = resolve_path(mesh, ctx.base_dir);
   m.read("scale", b.scale, greater_than(0));
   m.read("translate", b.translate);
@@ -631,11 +240,11 @@ BodySpec parse_body(const MapReader& m, const Context& ctx) {
     std::string path;
     if (f->is_scalar()) {
       path = f->string();
-      v.where = f->location();
+      v.where = location_of(*f);
     } else {
       const MapReader vm = f->map({"mesh", "max_distance"});
       vm.require("mesh", path);
-      v.where = vm.req("mesh").location();
+      v.where = location_of(vm.req("mesh"));
       vm.read("max_distance", v.max_distance, at_least(0));
     }
     v.mesh_path = resolve_path(path, ctx.base_dir);
@@ -702,7 +311,7 @@ RenderSpec parse_render(const Field& f) {
 
 ProbeSpec parse_probe(const MapReader& m) {
   ProbeSpec p;
-  p.where = m.location();
+  p.where = location_of(m);
   m.require("name", p.name);
   m.require("body", p.body);
   m.require("point", p.point);
@@ -725,7 +334,7 @@ RunSpec parse_run(const Field& f) {
 
 BodyContactSpec parse_body_contact(const Field& f) {
   BodyContactSpec c;
-  c.where = f.location();
+  c.where = location_of(f);
   if (f.is_null()) return c;  // `body_contact:` alone: automatic settings
   const MapReader m = f.map({"stiffness", "max_depth"});
   m.read("stiffness", c.stiffness, at_least(0));
@@ -751,7 +360,7 @@ const Choices<ToolShape> kToolShapes = {{"sphere", ToolShape::Sphere},
 
 ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   ToolEntry t;
-  t.where = m.location();
+  t.where = location_of(m);
   m.require("name", t.spec.name);
   std::string script;
   if (m.read("script", script)) t.script = resolve_path(script, ctx.base_dir);

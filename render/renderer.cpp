@@ -323,6 +323,154 @@ struct Renderer::Impl {
       }
     return lo.x() > hi.x() ? 1.0f : 0.5f * (hi - lo).norm();
   }
+  /// Camera matrices and light directions of one frame.
+  struct View {
+    Vector3f eye, key, fill, up;
+    Matrix4f view_proj;
+  };
+
+  /// Near/far planes from the scene's extent around the target; the key light is the scene's
+  /// direction, or above-left-behind the camera so the visible side is lit.
+  View view() const {
+    View v;
+    v.eye = v3(camera.position);
+    const Vector3f target = v3(camera.target);
+    const float dist = (target - v.eye).norm();
+    const float r = std::max(scene_radius(), 1e-6f);
+    const float znear = std::max(1e-4f * dist, dist - 4.0f * r), zfar = dist + 4.0f * r;
+    const Matrix4f view = look_at(v.eye, target, v3(camera.up));
+    const Matrix4f proj =
+        perspective(camera.fov_deg, static_cast<float>(width) / static_cast<float>(height), std::max(znear, 1e-6f), zfar);
+    v.view_proj = proj * view;
+    const Vector3f right(view(0, 0), view(0, 1), view(0, 2)), fwd = (target - v.eye).normalized();
+    v.up = Vector3f(view(1, 0), view(1, 1), view(1, 2));
+    v.key = v3(look.light_direction);
+    if (v.key.norm() == 0) v.key = 0.45f * right - 0.75f * v.up + 0.5f * fwd;
+    v.key.normalize();
+    v.fill = (-0.6f * right - 0.2f * v.up + 0.75f * fwd).normalized();
+    return v;
+  }
+
+  /// Background: a vertical gradient, one full-screen triangle, no depth.
+  void draw_background() {
+    glDisable(GL_DEPTH_TEST);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glUseProgram(prog_background);
+    const Vector3f bt = v3(look.background_top), bb = v3(look.background_bottom);
+    glUniform3f(glGetUniformLocation(prog_background, "u_top"), bt.x(), bt.y(), bt.z());
+    glUniform3f(glGetUniformLocation(prog_background, "u_bottom"), bb.x(), bb.y(), bb.z());
+    glBindVertexArray(empty_vao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+  }
+
+  /// The colour field's range. Automatic stress range: 0 to the largest 98th percentile of the
+  /// per-vertex stress seen so far — not the maximum, which sits at a few stress-concentrating
+  /// vertices (fixed nodes) and would leave the rest of the body one colour; never shrinking,
+  /// so colours mean the same from frame to frame.
+  std::pair<float, float> field_range() {
+    if (look.field != ColorField::Stress || look.field_max > look.field_min) return {look.field_min, look.field_max};
+    stress_scratch.clear();
+    for (const Body& b : bodies) stress_scratch.insert(stress_scratch.end(), b.stress.begin(), b.stress.end());
+    if (!stress_scratch.empty()) {
+      const size_t k = stress_scratch.size() * 98 / 100;
+      std::nth_element(stress_scratch.begin(), stress_scratch.begin() + static_cast<long>(k), stress_scratch.end());
+      stress_max_seen = std::max(stress_max_seen, stress_scratch[k]);
+    }
+    return {0.0f, std::max(stress_max_seen, 1e-12f)};
+  }
+
+  /// The bodies (with the colour field, and their edges when wireframe), then the tools in
+  /// polished steel, all with the mesh program's Blinn–Phong lighting.
+  void draw_tissue_and_tools(const View& v) {
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glUseProgram(prog_mesh);
+    auto loc = [&](const char* n) { return glGetUniformLocation(prog_mesh, n); };
+    glUniformMatrix4fv(loc("u_view_proj"), 1, GL_FALSE, v.view_proj.data());
+    glUniform3f(loc("u_eye"), v.eye.x(), v.eye.y(), v.eye.z());
+    glUniform3f(loc("u_key_dir"), v.key.x(), v.key.y(), v.key.z());
+    glUniform3f(loc("u_fill_dir"), v.fill.x(), v.fill.y(), v.fill.z());
+    glUniform3f(loc("u_sky"), v.up.x(), v.up.y(), v.up.z());
+    const auto [smin, smax] = field_range();
+    const Vector3f tissue = linear(look.tissue);
+    glUniform3f(loc("u_base"), tissue.x(), tissue.y(), tissue.z());
+    glUniform1i(loc("u_field"), static_cast<int>(look.field));
+    glUniform2f(loc("u_range"), smin, smax);
+    glUniform1f(loc("u_shininess"), 48.0f);
+    glUniform1f(loc("u_specular"), 0.35f);
+    glUniform1i(loc("u_wire"), 0);
+    last_triangles = 0;
+    if (look.wireframe) {
+      glEnable(GL_POLYGON_OFFSET_FILL);
+      glPolygonOffset(1.0f, 1.0f);
+    }
+    for (const Body& b : bodies) {
+      glBindVertexArray(b.gpu.vao);
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(b.gpu.indices), GL_UNSIGNED_INT, nullptr);
+      last_triangles += b.gpu.indices / 3;
+    }
+    if (look.wireframe) {
+      glDisable(GL_POLYGON_OFFSET_FILL);
+      glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+      glUniform1i(loc("u_wire"), 1);
+      for (const Body& b : bodies) {
+        glBindVertexArray(b.gpu.vao);
+        glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(b.gpu.indices), GL_UNSIGNED_INT, nullptr);
+      }
+      glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+      glUniform1i(loc("u_wire"), 0);
+    }
+    if (tool_mesh.indices > 0) {
+      const Vector3f tool = linear(look.tool);
+      glUniform3f(loc("u_base"), tool.x(), tool.y(), tool.z());
+      glUniform1i(loc("u_field"), 0);
+      glUniform1f(loc("u_shininess"), 80.0f);
+      glUniform1f(loc("u_specular"), 0.9f);
+      glBindVertexArray(tool_mesh.vao);
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(tool_mesh.indices), GL_UNSIGNED_INT, nullptr);
+      last_triangles += tool_mesh.indices / 3;
+    }
+  }
+
+  /// Contact markers: round points drawn over the surface they sit on.
+  void draw_markers(const View& v) {
+    if (markers.empty()) return;
+    glUseProgram(prog_marker);
+    glUniformMatrix4fv(glGetUniformLocation(prog_marker, "u_view_proj"), 1, GL_FALSE, v.view_proj.data());
+    const Vector3f mc = v3(look.marker);
+    glUniform3f(glGetUniformLocation(prog_marker, "u_color"), mc.x(), mc.y(), mc.z());
+    glUniform1f(glGetUniformLocation(prog_marker, "u_size"), std::max(3.0f, 5.0f * static_cast<float>(height) / 480.0f));
+    glEnable(GL_PROGRAM_POINT_SIZE);
+    glDepthFunc(GL_LEQUAL);
+    glBindVertexArray(marker_vao);
+    glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(markers.size() / 3));
+    glDepthFunc(GL_LESS);
+  }
+
+  /// Resolves the samples, reads back and flips to top-down RGB.
+  void read_back(Image& out) {
+    if (samples > 0) {
+      glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_ms);
+      glBindFramebuffer(GL_DRAW_FRAMEBUFFER, fbo);
+      glBlitFramebuffer(0, 0, width, height, 0, 0, width, height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    out.width = width;
+    out.height = height;
+    out.channels = 3;
+    out.pixels.resize(static_cast<size_t>(width) * height * 3);
+    for (int y = 0; y < height; ++y) {
+      const uint8_t* src = rgba.data() + static_cast<size_t>(height - 1 - y) * width * 4;
+      uint8_t* dst = out.pixels.data() + static_cast<size_t>(y) * width * 3;
+      for (int x = 0; x < width; ++x) {
+        dst[3 * x] = src[4 * x];
+        dst[3 * x + 1] = src[4 * x + 1];
+        dst[3 * x + 2] = src[4 * x + 2];
+      }
+    }
+  }
 };
 
 Renderer::Renderer(int width, int height, const Look& look) : impl_(std::make_unique<Impl>()) {
@@ -474,143 +622,18 @@ void Renderer::warm_up() {
 
 void Renderer::render(Image& out) {
   Impl& s = *impl_;
-  const Look& L = s.look;
   for (Body& b : s.bodies)
     if (b.dirty) s.upload_body(b);
   s.build_tools();
   s.build_markers();
-
-  // Camera: near/far planes from the scene's extent around the target.
-  const Vector3f eye = v3(s.camera.position), target = v3(s.camera.target);
-  const float dist = (target - eye).norm();
-  const float r = std::max(s.scene_radius(), 1e-6f);
-  const float znear = std::max(1e-4f * dist, dist - 4.0f * r), zfar = dist + 4.0f * r;
-  const Matrix4f view = look_at(eye, target, v3(s.camera.up));
-  const Matrix4f proj = perspective(s.camera.fov_deg, static_cast<float>(s.width) / static_cast<float>(s.height),
-                                    std::max(znear, 1e-6f), zfar);
-  const Matrix4f view_proj = proj * view;
-  // Key light: the scene's direction, or above-left-behind the camera so the visible side is lit.
-  Vector3f key = v3(L.light_direction);
-  const Vector3f right(view(0, 0), view(0, 1), view(0, 2)), upv(view(1, 0), view(1, 1), view(1, 2)),
-      fwd = (target - eye).normalized();
-  if (key.norm() == 0) key = 0.45f * right - 0.75f * upv + 0.5f * fwd;
-  key.normalize();
-  const Vector3f fill = (-0.6f * right - 0.2f * upv + 0.75f * fwd).normalized();
-
+  const Impl::View v = s.view();
   glBindFramebuffer(GL_FRAMEBUFFER, s.samples > 0 ? s.fbo_ms : s.fbo);
   glViewport(0, 0, s.width, s.height);
-  glDisable(GL_DEPTH_TEST);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  // Background: a vertical gradient, one full-screen triangle.
-  glUseProgram(s.prog_background);
-  const Vector3f bt = v3(L.background_top), bb = v3(L.background_bottom);
-  glUniform3f(glGetUniformLocation(s.prog_background, "u_top"), bt.x(), bt.y(), bt.z());
-  glUniform3f(glGetUniformLocation(s.prog_background, "u_bottom"), bb.x(), bb.y(), bb.z());
-  glBindVertexArray(s.empty_vao);
-  glDrawArrays(GL_TRIANGLES, 0, 3);
-
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
-  glUseProgram(s.prog_mesh);
-  auto loc = [&](const char* n) { return glGetUniformLocation(s.prog_mesh, n); };
-  glUniformMatrix4fv(loc("u_view_proj"), 1, GL_FALSE, view_proj.data());
-  glUniform3f(loc("u_eye"), eye.x(), eye.y(), eye.z());
-  glUniform3f(loc("u_key_dir"), key.x(), key.y(), key.z());
-  glUniform3f(loc("u_fill_dir"), fill.x(), fill.y(), fill.z());
-  glUniform3f(loc("u_sky"), upv.x(), upv.y(), upv.z());
-
-  // Tissue. Automatic stress range: 0 to the largest 98th percentile of the per-vertex stress
-  // seen so far — not the maximum, which sits at a few stress-concentrating vertices (fixed
-  // nodes) and would leave the rest of the body one colour; never shrinking, so colours mean the
-  // same from frame to frame.
-  float smin = L.field_min, smax = L.field_max;
-  if (L.field == ColorField::Stress && smax <= smin) {
-    s.stress_scratch.clear();
-    for (const Body& b : s.bodies) s.stress_scratch.insert(s.stress_scratch.end(), b.stress.begin(), b.stress.end());
-    if (!s.stress_scratch.empty()) {
-      const size_t k = s.stress_scratch.size() * 98 / 100;
-      std::nth_element(s.stress_scratch.begin(), s.stress_scratch.begin() + static_cast<long>(k), s.stress_scratch.end());
-      s.stress_max_seen = std::max(s.stress_max_seen, s.stress_scratch[k]);
-    }
-    smin = 0;
-    smax = std::max(s.stress_max_seen, 1e-12f);
-  }
-  const Vector3f tissue = linear(L.tissue);
-  glUniform3f(loc("u_base"), tissue.x(), tissue.y(), tissue.z());
-  glUniform1i(loc("u_field"), static_cast<int>(L.field));
-  glUniform2f(loc("u_range"), smin, smax);
-  glUniform1f(loc("u_shininess"), 48.0f);
-  glUniform1f(loc("u_specular"), 0.35f);
-  glUniform1i(loc("u_wire"), 0);
-  s.last_triangles = 0;
-  if (L.wireframe) {
-    glEnable(GL_POLYGON_OFFSET_FILL);
-    glPolygonOffset(1.0f, 1.0f);
-  }
-  for (const Body& b : s.bodies) {
-    glBindVertexArray(b.gpu.vao);
-    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(b.gpu.indices), GL_UNSIGNED_INT, nullptr);
-    s.last_triangles += b.gpu.indices / 3;
-  }
-  if (L.wireframe) {
-    glDisable(GL_POLYGON_OFFSET_FILL);
-    glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
-    glUniform1i(loc("u_wire"), 1);
-    for (const Body& b : s.bodies) {
-      glBindVertexArray(b.gpu.vao);
-      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(b.gpu.indices), GL_UNSIGNED_INT, nullptr);
-    }
-    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
-    glUniform1i(loc("u_wire"), 0);
-  }
-  // Tools: polished steel.
-  if (s.tool_mesh.indices > 0) {
-    const Vector3f tool = linear(L.tool);
-    glUniform3f(loc("u_base"), tool.x(), tool.y(), tool.z());
-    glUniform1i(loc("u_field"), 0);
-    glUniform1f(loc("u_shininess"), 80.0f);
-    glUniform1f(loc("u_specular"), 0.9f);
-    glBindVertexArray(s.tool_mesh.vao);
-    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(s.tool_mesh.indices), GL_UNSIGNED_INT, nullptr);
-    s.last_triangles += s.tool_mesh.indices / 3;
-  }
-  // Contact markers: round points drawn over the surface they sit on.
-  if (!s.markers.empty()) {
-    glUseProgram(s.prog_marker);
-    glUniformMatrix4fv(glGetUniformLocation(s.prog_marker, "u_view_proj"), 1, GL_FALSE, view_proj.data());
-    const Vector3f mc = v3(L.marker);
-    glUniform3f(glGetUniformLocation(s.prog_marker, "u_color"), mc.x(), mc.y(), mc.z());
-    glUniform1f(glGetUniformLocation(s.prog_marker, "u_size"), std::max(3.0f, 5.0f * static_cast<float>(s.height) / 480.0f));
-    glEnable(GL_PROGRAM_POINT_SIZE);
-    glDepthFunc(GL_LEQUAL);
-    glBindVertexArray(s.marker_vao);
-    glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(s.markers.size() / 3));
-    glDepthFunc(GL_LESS);
-  }
+  s.draw_background();
+  s.draw_tissue_and_tools(v);
+  s.draw_markers(v);
   glBindVertexArray(0);
-
-  // Resolve the samples, read back, flip to top-down RGB.
-  if (s.samples > 0) {
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, s.fbo_ms);
-    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, s.fbo);
-    glBlitFramebuffer(0, 0, s.width, s.height, 0, 0, s.width, s.height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
-  }
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, s.fbo);
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, s.width, s.height, GL_RGBA, GL_UNSIGNED_BYTE, s.rgba.data());
-  out.width = s.width;
-  out.height = s.height;
-  out.channels = 3;
-  out.pixels.resize(static_cast<size_t>(s.width) * s.height * 3);
-  for (int y = 0; y < s.height; ++y) {
-    const uint8_t* src = s.rgba.data() + static_cast<size_t>(s.height - 1 - y) * s.width * 4;
-    uint8_t* dst = out.pixels.data() + static_cast<size_t>(y) * s.width * 3;
-    for (int x = 0; x < s.width; ++x) {
-      dst[3 * x] = src[4 * x];
-      dst[3 * x + 1] = src[4 * x + 1];
-      dst[3 * x + 2] = src[4 * x + 2];
-    }
-  }
+  s.read_back(out);
   const GLenum err = glGetError();
   if (err != GL_NO_ERROR) throw std::runtime_error(fmt::format("OpenGL error 0x{:x} while rendering", err));
 }

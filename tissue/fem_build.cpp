@@ -8,6 +8,107 @@
 
 namespace stroma {
 
+namespace {
+
+/// Appends one body's nodes, elements (Dm⁻¹, volume, Lamé, β, QR rest frame), lumped masses,
+/// Rayleigh α, gravity, constraints and loads; `all_tets` gets its tetrahedra (global ids).
+void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_qr, int32_t node_off,
+              std::vector<Tet>& all_tets) {
+  const TetMesh& mesh = b.mesh->mesh;
+  const Lame lame = lame_from_young_poisson(b.young_modulus, b.poisson_ratio);
+  BodyRange br;
+  br.name = b.name;
+  br.node_begin = node_off;
+  br.node_end = node_off + static_cast<int32_t>(mesh.nodes.size());
+  br.element_begin = static_cast<int32_t>(m.elements.size());
+  for (size_t i = 0; i < mesh.nodes.size(); ++i)
+    for (int k = 0; k < 3; ++k) m.rest[3 * (node_off + i) + k] = mesh.nodes[i][k];
+  for (const Tet& t : mesh.tets) {
+    ElementParams ep{};
+    for (int k = 0; k < 4; ++k) ep.node[k] = t[k] + node_off;
+    const Vec3& x0 = mesh.nodes[t[0]];
+    double Dm[9];  // columns: rest edges X1−X0, X2−X0, X3−X0
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) Dm[3 * r + c] = mesh.nodes[t[c + 1]][r] - x0[r];
+    const double det = m3::inverse(Dm, ep.g);
+    ep.volume = det / 6.0;
+    ep.lambda = lame.lambda;
+    ep.mu = lame.mu;
+    ep.beta = b.rayleigh_stiffness;
+    if (any_qr) {
+      const double e1[3] = {Dm[0], Dm[3], Dm[6]};
+      const double e2[3] = {Dm[1], Dm[4], Dm[7]};
+      edge_frame(e1, e2, m.rest_frame[m.elements.size()].data());
+    }
+    const double mq = b.density * ep.volume / 4.0;
+    for (int k = 0; k < 4; ++k) m.mass[ep.node[k]] += mq;
+    m.elements.push_back(ep);
+    all_tets.push_back({ep.node[0], ep.node[1], ep.node[2], ep.node[3]});
+  }
+  br.element_end = static_cast<int32_t>(m.elements.size());
+  ElementRange range{br.element_begin, br.element_end, ElementKernel::CorotationalPolar};
+  if (b.model == ElementModel::Linear) range.kernel = ElementKernel::Linear;
+  else if (b.model == ElementModel::StableNeoHookean) range.kernel = ElementKernel::StableNeoHookean;
+  else if (b.rotation == RotationMethod::QR) range.kernel = ElementKernel::CorotationalQR;
+  m.ranges.push_back(range);
+  for (const Tri& f : b.mesh->boundary) br.boundary.push_back({f[0] + node_off, f[1] + node_off, f[2] + node_off});
+  for (int32_t i = br.node_begin; i < br.node_end; ++i) {
+    m.alpha[i] = b.rayleigh_mass;
+    for (int k = 0; k < 3; ++k) m.f_ext[3 * i + k] += m.mass[i] * gravity[k];
+  }
+  for (const auto& [i, mask] : b.fixed) m.constrained[i + node_off] |= mask;
+  for (int32_t i : b.mesh->unused_nodes) m.constrained[i + node_off] = 7;
+  m.ranges.back().fixed = std::all_of(m.constrained.begin() + br.node_begin, m.constrained.begin() + br.node_end,
+                                      [](uint8_t c) { return c == 7; });
+  for (const auto& [i, f] : b.nodal_forces)
+    for (int k = 0; k < 3; ++k) m.f_ext[3 * (i + node_off) + k] += f[k];
+  m.bodies.push_back(std::move(br));
+}
+
+/// The BSR pattern and every element's 16 slots. Elements of fully fixed bodies stay out of the
+/// pattern: the elastic pass skips them and their nodes' rows are the constraint projection's
+/// identity, so their blocks would only ever hold zeros — which every CG product would still
+/// walk (a fixed 1,205-node block under a 191-node bar: ~85 % of each SpMV). Their slots point at
+/// their own nodes' diagonal blocks.
+void build_pattern(FemModel& m, const std::vector<Tet>& all_tets) {
+  std::vector<Tet> moving_tets;
+  for (const ElementRange& r : m.ranges)
+    if (!r.fixed) moving_tets.insert(moving_tets.end(), all_tets.begin() + r.begin, all_tets.begin() + r.end);
+  std::vector<ElementSlots> moving_slots;
+  m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots);
+  m.slots.resize(all_tets.size());
+  size_t next = 0;
+  for (const ElementRange& r : m.ranges)
+    for (int32_t e = r.begin; e < r.end; ++e) {
+      if (!r.fixed) {
+        m.slots[e] = moving_slots[next++];
+        continue;
+      }
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b) m.slots[e][4 * a + b] = m.pattern.diag[all_tets[e][a]];
+    }
+  for (int32_t i = 0; i < m.num_nodes; ++i)
+    for (int32_t s = m.pattern.row_ptr[i]; s < m.pattern.row_ptr[i + 1]; ++s) {
+      const int32_t j = m.pattern.col[s];
+      if (i != j && (m.constrained[i] || m.constrained[j])) m.constrained_offdiag.push_back({s, i, j});
+    }
+}
+
+/// Node → element lists (CSR, elements in increasing order).
+void build_node_elements(FemModel& m) {
+  const int32_t nn = m.num_nodes;
+  m.node_element_ptr.assign(nn + 1, 0);
+  for (const ElementParams& ep : m.elements)
+    for (int32_t n : ep.node) ++m.node_element_ptr[n + 1];
+  for (int32_t i = 0; i < nn; ++i) m.node_element_ptr[i + 1] += m.node_element_ptr[i];
+  m.node_element.resize(m.node_element_ptr.back());
+  std::vector<int32_t> fill(m.node_element_ptr.begin(), m.node_element_ptr.end() - 1);
+  for (size_t e = 0; e < m.elements.size(); ++e)
+    for (int32_t n : m.elements[e].node) m.node_element[fill[n]++] = static_cast<int32_t>(e);
+}
+
+}  // namespace
+
 FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity) {
   FemModel m;
   int32_t nn = 0, ne = 0;
@@ -27,104 +128,22 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
     return b.model == ElementModel::Corotational && b.rotation == RotationMethod::QR;
   });
   if (any_qr) m.rest_frame.resize(ne);
-
   std::vector<Tet> all_tets;
   all_tets.reserve(ne);
   int32_t node_off = 0;
   for (const auto& b : bodies) {
-    const TetMesh& mesh = b.mesh->mesh;
-    const Lame lame = lame_from_young_poisson(b.young_modulus, b.poisson_ratio);
-    BodyRange br;
-    br.name = b.name;
-    br.node_begin = node_off;
-    br.node_end = node_off + static_cast<int32_t>(mesh.nodes.size());
-    br.element_begin = static_cast<int32_t>(m.elements.size());
-    for (size_t i = 0; i < mesh.nodes.size(); ++i)
-      for (int k = 0; k < 3; ++k) m.rest[3 * (node_off + i) + k] = mesh.nodes[i][k];
-    for (const Tet& t : mesh.tets) {
-      ElementParams ep{};
-      for (int k = 0; k < 4; ++k) ep.node[k] = t[k] + node_off;
-      const Vec3& x0 = mesh.nodes[t[0]];
-      double Dm[9];  // columns: rest edges X1−X0, X2−X0, X3−X0
-      for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r) Dm[3 * r + c] = mesh.nodes[t[c + 1]][r] - x0[r];
-      const double det = m3::inverse(Dm, ep.g);
-      ep.volume = det / 6.0;
-      ep.lambda = lame.lambda;
-      ep.mu = lame.mu;
-      ep.beta = b.rayleigh_stiffness;
-      if (any_qr) {
-        const double e1[3] = {Dm[0], Dm[3], Dm[6]};
-        const double e2[3] = {Dm[1], Dm[4], Dm[7]};
-        edge_frame(e1, e2, m.rest_frame[m.elements.size()].data());
-      }
-      const double mq = b.density * ep.volume / 4.0;
-      for (int k = 0; k < 4; ++k) m.mass[ep.node[k]] += mq;
-      m.elements.push_back(ep);
-      all_tets.push_back({ep.node[0], ep.node[1], ep.node[2], ep.node[3]});
-    }
-    br.element_end = static_cast<int32_t>(m.elements.size());
-    ElementRange range{br.element_begin, br.element_end, ElementKernel::CorotationalPolar};
-    if (b.model == ElementModel::Linear) range.kernel = ElementKernel::Linear;
-    else if (b.model == ElementModel::StableNeoHookean) range.kernel = ElementKernel::StableNeoHookean;
-    else if (b.rotation == RotationMethod::QR) range.kernel = ElementKernel::CorotationalQR;
-    m.ranges.push_back(range);
-    for (const Tri& f : b.mesh->boundary)
-      br.boundary.push_back({f[0] + node_off, f[1] + node_off, f[2] + node_off});
-    for (int32_t i = br.node_begin; i < br.node_end; ++i) {
-      m.alpha[i] = b.rayleigh_mass;
-      for (int k = 0; k < 3; ++k) m.f_ext[3 * i + k] += m.mass[i] * gravity[k];
-    }
-    for (const auto& [i, mask] : b.fixed) m.constrained[i + node_off] |= mask;
-    for (int32_t i : b.mesh->unused_nodes) m.constrained[i + node_off] = 7;
-    m.ranges.back().fixed = std::all_of(m.constrained.begin() + br.node_begin, m.constrained.begin() + br.node_end,
-                                        [](uint8_t c) { return c == 7; });
-    for (const auto& [i, f] : b.nodal_forces)
-      for (int k = 0; k < 3; ++k) m.f_ext[3 * (i + node_off) + k] += f[k];
-    m.bodies.push_back(std::move(br));
-    node_off += static_cast<int32_t>(mesh.nodes.size());
+    add_body(m, b, gravity, any_qr, node_off, all_tets);
+    node_off += static_cast<int32_t>(b.mesh->mesh.nodes.size());
   }
-
   m.inv_mass.resize(nn);
   for (int32_t i = 0; i < nn; ++i) {
     if (m.constrained[i]) m.constrained_nodes.push_back(i);
     m.inv_mass[i] = m.mass[i] <= 0 ? 0.0 : 1.0 / m.mass[i];
   }
-  // Elements of fully fixed bodies stay out of the matrix pattern: the elastic pass skips them
-  // and their nodes' rows are the constraint projection's identity, so their blocks would only
-  // ever hold zeros — which every CG product would still walk (a fixed 1,205-node block under a
-  // 191-node bar: ~85 % of each SpMV). Their slots point at their own nodes' diagonal blocks.
-  std::vector<Tet> moving_tets;
-  for (const ElementRange& r : m.ranges)
-    if (!r.fixed) moving_tets.insert(moving_tets.end(), all_tets.begin() + r.begin, all_tets.begin() + r.end);
-  std::vector<ElementSlots> moving_slots;
-  m.pattern = build_bsr_pattern(nn, moving_tets, moving_slots);
-  m.slots.resize(all_tets.size());
-  size_t next = 0;
-  for (const ElementRange& r : m.ranges)
-    for (int32_t e = r.begin; e < r.end; ++e) {
-      if (!r.fixed) {
-        m.slots[e] = moving_slots[next++];
-        continue;
-      }
-      for (int a = 0; a < 4; ++a)
-        for (int b = 0; b < 4; ++b) m.slots[e][4 * a + b] = m.pattern.diag[all_tets[e][a]];
-    }
-  m.node_element_ptr.assign(nn + 1, 0);
-  for (const ElementParams& ep : m.elements)
-    for (int32_t n : ep.node) ++m.node_element_ptr[n + 1];
-  for (int32_t i = 0; i < nn; ++i) m.node_element_ptr[i + 1] += m.node_element_ptr[i];
-  m.node_element.resize(m.node_element_ptr.back());
-  std::vector<int32_t> fill(m.node_element_ptr.begin(), m.node_element_ptr.end() - 1);
-  for (size_t e = 0; e < m.elements.size(); ++e)
-    for (int32_t n : m.elements[e].node) m.node_element[fill[n]++] = static_cast<int32_t>(e);
-  m.any_stiffness_damping = std::any_of(m.elements.begin(), m.elements.end(),
-                                        [](const ElementParams& e) { return e.beta != 0.0; });
-  for (int32_t i = 0; i < nn; ++i)
-    for (int32_t s = m.pattern.row_ptr[i]; s < m.pattern.row_ptr[i + 1]; ++s) {
-      const int32_t j = m.pattern.col[s];
-      if (i != j && (m.constrained[i] || m.constrained[j])) m.constrained_offdiag.push_back({s, i, j});
-    }
+  build_pattern(m, all_tets);
+  build_node_elements(m);
+  m.any_stiffness_damping =
+      std::any_of(m.elements.begin(), m.elements.end(), [](const ElementParams& e) { return e.beta != 0.0; });
   return m;
 }
 

@@ -248,23 +248,16 @@ void print_row(const StabilityResult& r, bool markdown) {
   std::fflush(stdout);
 }
 
-}  // namespace
-
-std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
-  const std::string src = o.source_dir;
-  const std::string good = src + "/scenarios/meshes/beam_tet4_h5p000mm.msh";
-  const fs::path tmp = fs::temp_directory_path() / fmt::format("stroma_stability_{}", ::getpid());
-  fs::create_directories(tmp);
-  double sliver_ratio = 0;
-  const std::string slivers = make_sliver_mesh(good, (tmp / "beam_slivers.vtk").string(), &sliver_ratio);
-
-  std::vector<CaseSetup> cases;
+/// The grid: time step × E × ν × mesh (good, slivers, initially inverted) with the corotational
+/// model, then its soft half (E ≤ 10 kPa, where corotational elements end inverted) again with
+/// stable Neo-Hookean, the material for that.
+void add_grid_cases(const StabilityOptions& o, const std::string& good, const std::string& slivers,
+                    std::vector<CaseSetup>& cases) {
+  const std::string& src = o.source_dir;
   const std::vector<double> dts = o.quick ? std::vector<double>{1e-3, 33e-3} : std::vector<double>{0.5e-3, 1e-3, 5e-3, 10e-3, 33e-3};
   const std::vector<double> Es = o.quick ? std::vector<double>{1e3, 1e6} : std::vector<double>{1e3, 1e4, 1e5, 1e6};
   const std::vector<double> nus = o.quick ? std::vector<double>{0.3, 0.499} : std::vector<double>{0.3, 0.45, 0.49, 0.499};
   const double T = o.quick ? 0.2 : 0.5;
-  // The grid with the corotational model (the default), then its soft half (E ≤ 10 kPa, where
-  // corotational elements end inverted) again with stable Neo-Hookean, the material for that.
   for (const bool snh : {false, true})
     for (double dt : dts)
       for (double E : Es)
@@ -282,6 +275,12 @@ std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
             if (mesh == 2) c.init = invert_free_end;
             cases.push_back(std::move(c));
           }
+}
+
+/// Extreme loads: the clamp turned 180°, random initial velocities, the tool at 5 m/s into the
+/// liver, a bar dropped onto a fixed block.
+void add_extreme_cases(const StabilityOptions& o, const std::string& good, std::vector<CaseSetup>& cases) {
+  const std::string& src = o.source_dir;
   {  // The clamped end turned 180° about the beam's axis in 0.1 s, then held.
     CaseSetup c;
     c.group = "extreme";
@@ -333,7 +332,6 @@ std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
     };
     cases.push_back(std::move(c));
   }
-
   // A soft bar dropped from 20 mm onto a fixed block (body contact): it must come to rest on
   // the block's top face, not in it or through it.
   const std::vector<double> drop_dts = o.quick ? std::vector<double>{1e-3, 10e-3} : std::vector<double>{1e-3, 10e-3, 33e-3};
@@ -361,7 +359,29 @@ std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
       };
       cases.push_back(std::move(c));
     }
+}
 
+void write_csv(const std::string& path, const std::vector<StabilityResult>& results) {
+  std::ofstream f(path);
+  f << "group,case,pass,why,ticks,finite,energy_ratio,max_cg_iterations,cg_capped,recovered,rolled_back,"
+       "min_volume_ratio,inverted_start,inverted_end,wall_seconds\n";
+  for (const auto& r : results)
+    f << fmt::format("{},\"{}\",{},\"{}\",{},{},{:.6g},{},{},{},{},{:.6g},{},{},{:.3f}\n", r.group, r.name, r.pass, r.why,
+                     r.ticks, r.finite, r.energy_ratio, r.max_cg_iterations, r.cg_capped, r.recovered, r.rolled_back,
+                     r.min_volume_ratio, r.inverted_start, r.inverted_end, r.wall_seconds);
+}
+
+}  // namespace
+
+std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
+  const std::string good = o.source_dir + "/scenarios/meshes/beam_tet4_h5p000mm.msh";
+  const fs::path tmp = fs::temp_directory_path() / fmt::format("stroma_stability_{}", ::getpid());
+  fs::create_directories(tmp);
+  double sliver_ratio = 0;
+  const std::string slivers = make_sliver_mesh(good, (tmp / "beam_slivers.vtk").string(), &sliver_ratio);
+  std::vector<CaseSetup> cases;
+  add_grid_cases(o, good, slivers, cases);
+  add_extreme_cases(o, good, cases);
   if (o.newton_iterations > 0)
     for (CaseSetup& c : cases) c.spec.solver.newton_iterations = o.newton_iterations;
   if (!o.only.empty())
@@ -378,15 +398,7 @@ std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
     results.push_back(run_case(c));
     print_row(results.back(), o.markdown);
   }
-  if (!o.csv.empty()) {
-    std::ofstream f(o.csv);
-    f << "group,case,pass,why,ticks,finite,energy_ratio,max_cg_iterations,cg_capped,recovered,rolled_back,"
-         "min_volume_ratio,inverted_start,inverted_end,wall_seconds\n";
-    for (const auto& r : results)
-      f << fmt::format("{},\"{}\",{},\"{}\",{},{},{:.6g},{},{},{},{},{:.6g},{},{},{:.3f}\n", r.group, r.name, r.pass,
-                       r.why, r.ticks, r.finite, r.energy_ratio, r.max_cg_iterations, r.cg_capped, r.recovered,
-                       r.rolled_back, r.min_volume_ratio, r.inverted_start, r.inverted_end, r.wall_seconds);
-  }
+  if (!o.csv.empty()) write_csv(o.csv, results);
   std::error_code ec;
   fs::remove_all(tmp, ec);
   return results;
