@@ -47,6 +47,7 @@ void add_bench(CLI::App& app, std::vector<Command>& out) {
   struct AccuracyArgs {
     AccuracyOptions o;
     bool peers = false;
+    std::string replot;  ///< redraw from the CSVs in this directory instead of running
   };
   auto aco = std::make_shared<AccuracyArgs>();
   aco->o.source_dir = STROMA_SOURCE_DIR;
@@ -59,11 +60,29 @@ void add_bench(CLI::App& app, std::vector<Command>& out) {
   acc->add_flag("--peers", aco->peers, "Also run the Bullet peers (build/bench/stroma_bench_bullet) on the same problems and meshes and put them on the same tables and plots (adds ~25 min; ~12 min with --quick)");
   acc->add_option("--source-dir", aco->o.source_dir, "Repository with scenarios/ (default: where stroma was built from)")
       ->check(CLI::ExistingDirectory);
+  acc->add_option("--replot", aco->replot,
+                  "Run nothing: redraw the plots from DIR/<problem>.csv or DIR/accuracy_<problem>.csv (the suite's CSV "
+                  "format) into --out (default: beside the CSVs); the gnuplot scripts and Pareto number tables go beside the CSVs")
+      ->check(CLI::ExistingDirectory)
+      ->excludes("--quick")
+      ->excludes("--peers")
+      ->excludes("--only");
   acc->footer("References: tip deflection -1.4735e-3 m (refs/a, converged C3D10), first frequency 16.100 Hz\n"
               "(refs/d), block top force 0.3049 N (refs/c), indentation force 0.019604 N at 1 mm (refs/e).\n"
-              "Writes <problem>.csv and <problem>.png per problem into --out and prints Markdown tables.");
-  out.push_back({acc, [aco] {
+              "Writes <problem>.csv, <problem>.png (only the Pareto front's points labelled, numbered in time order) and\n"
+              "<problem>_pareto.md (the numbers' configurations) per problem into --out and prints Markdown tables.");
+  out.push_back({acc, [aco, acc] {
                    AccuracyOptions o = aco->o;
+                   if (!aco->replot.empty()) {
+                     const std::string png_dir = acc->get_option("--out")->count() > 0 ? o.out_dir : aco->replot;
+                     ensure_writable_dir(png_dir);
+                     const auto points = replot_accuracy_csvs(aco->replot, png_dir);
+                     if (points.empty())
+                       throw InputError("", 0, "--replot",
+                                        fmt::format("no <problem>.csv or accuracy_<problem>.csv in {}", aco->replot));
+                     fmt::print("{} points redrawn; plots in {}/\n", points.size(), png_dir);
+                     return 0;
+                   }
                    ensure_writable_dir(o.out_dir);
                    if (aco->peers) {
                      const fs::path peer = fs::canonical("/proc/self/exe").parent_path() / "bench" / "stroma_bench_bullet";

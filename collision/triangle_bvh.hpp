@@ -17,6 +17,10 @@
 
 namespace stroma {
 
+/// An AABB tree over a fixed list of triangles. Invariants: after build(), the topology never
+/// changes (no allocation in refit or queries); every node's box contains its children's (after
+/// refit() with the positions the queries use); a query visits at most 96 pending nodes (the
+/// tree's depth is bounded by the median split: ample for 10⁷ triangles).
 class TriangleBvh {
  public:
   using Triangle = std::array<int32_t, 3>;

@@ -15,6 +15,7 @@ inline int64_t steady_now_ns() {
       .count();
 }
 
+/// Adds the wall time of its lifetime to stage `s` of report `r` and marks the stage as run.
 class StageTimer {
  public:
   StageTimer(TickReport& r, Stage s) : r_(r), s_(static_cast<int>(s)), t0_(steady_now_ns()) {}

@@ -10,7 +10,8 @@
 namespace stroma {
 
 /// f = force on the tissue at the contact point; ∂f/∂x ≈ −K, ∂f/∂v ≈ −C (symmetric PSD,
-/// row-major), both for the contact point.
+/// row-major), both for the contact point. Invariants: w sums to 1 (w ≥ 0); slot[3a + b] is the
+/// BSR block (node[a], node[b]) (or a harmless diagonal block for nodes that never move).
 struct ContactSpring {
   int32_t node[3] = {0, 0, 0};
   double w[3] = {1, 0, 0};

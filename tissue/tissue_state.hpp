@@ -9,7 +9,10 @@
 namespace stroma {
 
 /// Positions, velocities and the solver's warm start. Everything else is either in the
-/// immutable FemModel or scratch space that need not survive a tick.
+/// immutable FemModel or scratch space that need not survive a tick. Invariants: the four
+/// arrays have 3·num_nodes entries; fixed DOFs keep their rest (or driven) position and zero
+/// velocity; after any tick every entry is finite (a tick that cannot keep them so is rolled
+/// back).
 struct TissueState {
   std::vector<double> x;   ///< 3n positions (m)
   std::vector<double> v;   ///< 3n velocities (m/s)

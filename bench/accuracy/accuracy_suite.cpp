@@ -9,6 +9,8 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -451,6 +453,7 @@ void mark_pareto(std::vector<AccuracyPoint>& pts) {
   }
 }
 
+
 void write_csv(const std::string& path, const std::vector<AccuracyPoint>& pts) {
   std::ofstream f(path);
   f << "problem,sweep,label,nodes,value,reference,error,ms_per_tick,s_per_sim_s,pareto,ok,time_error\n";
@@ -460,140 +463,53 @@ void write_csv(const std::string& path, const std::vector<AccuracyPoint>& pts) {
                      p.ok ? 1 : 0, p.time_error);
 }
 
-/// A log–log plot of run time against error with gnuplot (skipped, with a note, without it).
-void plot(const std::string& csv, const std::string& png, const std::string& title, const std::string& xlabel,
-          const std::vector<std::string>& sweeps) {
-  const std::string gp = png.substr(0, png.size() - 4) + ".gp";
-  std::ofstream f(gp);
-  f << "set terminal pngcairo size 1200,800 font 'DejaVu Sans,10'\n";
-  f << fmt::format("set output '{}'\n", png);
-  f << "set datafile separator ','\nset logscale xy\nset grid\nset key top right\n";
-  f << fmt::format("set title \"{}\"\nset xlabel \"{}\"\nset ylabel 'relative error against the reference'\n", title, xlabel);
-  f << "set format y '%.0e'\n";
-  f << "plot ";
-  // gnuplot splits quoted fields right but its strcol() stops at a comma even inside quotes:
-  // a sweep is matched by its name up to the first comma.
-  for (size_t i = 0; i < sweeps.size(); ++i)
-    f << fmt::format("'{}' skip 1 using (strcol(2) eq '{}' && $11 == 1 ? $9 : NaN):7 with points pt {} ps 1.4 title '{}', \\\n",
-                     csv, sweeps[i].substr(0, sweeps[i].find(',')), 5 + 2 * static_cast<int>(i), sweeps[i]);
-  // The front in time order: gnuplot sorts it (smooth unique); a shell sort on comma fields
-  // would split the quoted labels.
-  f << fmt::format("'< (head -1 {0}; grep \",1,1,[^,]*$\" {0})' skip 1 using 9:7 smooth unique with lines lw 2 lc rgb '#444444' title 'Pareto front', \\\n", csv);
-  f << fmt::format("'{}' skip 1 using ($11 == 1 ? $9 : NaN):7:3 with labels font ',7' offset 0.6,0.4 left notitle\n", csv);
-  f.close();
-  const int rc = std::system(fmt::format("gnuplot '{}' 2>/dev/null", gp).c_str());
-  if (rc != 0) fmt::print("(gnuplot not found or failed: {} not drawn; scripts/setup.sh installs gnuplot-nox)\n", png);
+// ---------------------------------------------------------------------------------------------
+// Running: one function per problem, each returning its points (the peers' join in reporting).
+
+/// Keeps a finished configuration's point and reports it on stderr (with progress on).
+void record(std::vector<AccuracyPoint>& pts, AccuracyPoint p, const AccuracyOptions& o) {
+  pts.push_back(std::move(p));
+  const AccuracyPoint& q = pts.back();
+  if (o.progress)
+    fmt::print(stderr, "  {} | {}: {} error {:.3g}, {:.4g} s per sim. s\n", q.problem, q.label,
+               q.ok ? "" : "FAILED (" + q.failure + ")", q.error, q.s_per_sim_s);
 }
 
-void print_table(const std::vector<AccuracyPoint>& pts, bool dynamic) {
-  if (dynamic) {
-    fmt::print("| sweep | configuration | nodes | f1 (Hz) | error | time-step share | ms/tick | s per sim. s | Pareto |\n|---|---|---|---|---|---|---|---|---|\n");
-    for (const auto& p : pts)
-      fmt::print("| {} | {} | {} | {} | {} | {} | {:.3f} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
-                 p.ok ? fmt::format("{:.3f}", p.value) : "—", p.ok ? fmt::format("{:.2f} %", 100 * p.error) : "failed: " + p.failure,
-                 p.time_error >= 0 ? fmt::format("{:.2f} %", 100 * p.time_error) : "",
-                 p.ms_per_tick, p.s_per_sim_s, p.pareto ? "●" : "");
-  } else {
-    fmt::print("| sweep | configuration | nodes | tip u_y (mm) | error | solve s | Pareto |\n|---|---|---|---|---|---|---|\n");
-    for (const auto& p : pts)
-      fmt::print("| {} | {} | {} | {:.5f} | {:.2f} % | {:.4f} | {} |\n", p.sweep, p.label, p.nodes, 1e3 * p.value,
-                 100 * p.error, p.s_per_sim_s, p.pareto ? "●" : "");
-  }
-  std::fflush(stdout);
-}
-
-}  // namespace
-
-/// The last steps every problem shares: the peers' points join the engine's, the Pareto front is
-/// marked, the CSV written (out_dir/<name>.csv) and the plot drawn beside it. Returns the CSV path.
-std::string finish_problem(const std::string& out_dir, const std::string& name, std::vector<AccuracyPoint>& pts,
-                           const std::vector<AccuracyPoint>& peer_points, const std::string& title,
-                           const std::string& xlabel, const std::vector<std::string>& sweeps) {
-  pts.insert(pts.end(), peer_points.begin(), peer_points.end());
-  mark_pareto(pts);
-  const std::string csv = (fs::path(out_dir) / (name + ".csv")).string();
-  write_csv(csv, pts);
-  plot(csv, (fs::path(out_dir) / (name + ".png")).string(), title, xlabel, sweeps);
-  return csv;
-}
-
-std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
+/// Sphere indentation: mesh grading at the contact, penalty stiffness, element model.
+std::vector<AccuracyPoint> run_indentation_problem(const AccuracyOptions& o, int runs) {
   const std::string& src = o.source_dir;
-  fs::create_directories(o.out_dir);
-  const int runs = std::max(1, o.runs);
-  auto note = [&](const AccuracyPoint& p) {
-    if (o.progress)
-      fmt::print(stderr, "  {} | {}: {} error {:.3g}, {:.4g} s per sim. s\n", p.problem, p.label,
-                 p.ok ? "" : "FAILED (" + p.failure + ")", p.error, p.s_per_sim_s);
-  };
+  std::vector<AccuracyPoint> in;
+  for (double h0 : o.quick ? std::vector<double>{4e-4, 2e-4} : std::vector<double>{8e-4, 4e-4, 2e-4, 1e-4})
+    record(in, run_indentation(src, o.out_dir, {h0, 1e9, true, "mesh grading (linear, penalty 1e9)"}, runs), o);
+  for (double k : o.quick ? std::vector<double>{1e8} : std::vector<double>{1e8, 1e10})
+    record(in, run_indentation(src, o.out_dir, {2e-4, k, true, "penalty stiffness (first cell 0.2 mm)"}, runs), o);
+  record(in, run_indentation(src, o.out_dir, {2e-4, 1e9, false, "element model (first cell 0.2 mm)"}, runs), o);
+  return in;
+}
 
-  auto wanted = [&](const char* problem) { return o.only.empty() || o.only == problem; };
-  std::vector<AccuracyPoint> all;
-  // The peers run first: their points join each problem's table, CSV and plot.
-  const PeerPoints peers = o.peer_program.empty() ? PeerPoints{} : run_peers(o);
-  const std::string to_answer = "wall time to the answer (s): static solve; peers: the run to rest";
-
-  // Sphere indentation: mesh grading at the contact, penalty stiffness, element model.
-  if (wanted("indentation")) {
-    std::vector<AccuracyPoint> in;
-    for (double h0 : o.quick ? std::vector<double>{4e-4, 2e-4} : std::vector<double>{8e-4, 4e-4, 2e-4, 1e-4}) {
-      in.push_back(run_indentation(src, o.out_dir, {h0, 1e9, true, "mesh grading (linear, penalty 1e9)"}, runs));
-      note(in.back());
-    }
-    for (double k : o.quick ? std::vector<double>{1e8} : std::vector<double>{1e8, 1e10}) {
-      in.push_back(run_indentation(src, o.out_dir, {2e-4, k, true, "penalty stiffness (first cell 0.2 mm)"}, runs));
-      note(in.back());
-    }
-    in.push_back(run_indentation(src, o.out_dir, {2e-4, 1e9, false, "element model (first cell 0.2 mm)"}, runs));
-    note(in.back());
-    const std::string csv = finish_problem(
-        o.out_dir, "indentation", in, peers.indentation, "Sphere indentation (refs/e): force at 1 mm vs 0.019604 N",
-        to_answer, {"mesh grading (linear, penalty 1e9)", "penalty stiffness (first cell 0.2 mm)",
-                    "element model (first cell 0.2 mm)", "Bullet FEM (peer)"});
-    fmt::print("\n### indentation ({})\n\n| sweep | configuration | nodes | force (N) | error | s to answer | Pareto |\n|---|---|---|---|---|---|---|\n", csv);
-    for (const auto& p : in)
-      fmt::print("| {} | {} | {} | {} | {} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
-                 p.ok ? fmt::format("{:.6f}", p.value) : "—",
-                 p.ok ? fmt::format("{:+.2f} %", 100 * (p.value / p.reference - 1)) : "failed: " + p.failure,
-                 p.s_per_sim_s, p.pareto ? "●" : "");
-    all.insert(all.end(), in.begin(), in.end());
-    if (!o.only.empty()) return all;
+/// Bonded block, nu = 0.49: mesh × element × linear solver, then the CG tolerance inside Newton.
+std::vector<AccuracyPoint> run_block_compression_problem(const AccuracyOptions& o, int runs) {
+  const std::string& src = o.source_dir;
+  std::vector<AccuracyPoint> bl;
+  for (const std::string& mesh : o.quick ? std::vector<std::string>{"6p250", "5p000", "3p333"}
+                                         : std::vector<std::string>{"8p333", "6p250", "5p000", "3p333", "2p500"})
+    for (bool linear : {false, true})
+      for (bool cholmod : {true, false}) {
+        if (o.quick && !cholmod) continue;
+        record(bl, run_block(src, {mesh, cholmod ? "mesh x element (CHOLMOD)" : "mesh x element (CG 1e-8)", linear, cholmod}, runs), o);
+      }
+  // CG tolerance inside Newton (corotational, warped-Cholesky PCG): the Newton test (1e-10)
+  // decides the answer; a loose inner tolerance costs Newton iterations instead.
+  for (double tol : o.quick ? std::vector<double>{1e-2, 1e-4} : std::vector<double>{1e-2, 1e-4, 1e-6}) {
+    BlockConfig c{"3p333", "CG tolerance (warped Cholesky PCG, h 3.333 mm)", false, false, tol};
+    record(bl, run_block(src, c, runs), o);
   }
+  return bl;
+}
 
-  // Bonded block, nu = 0.49: mesh × element × linear solver.
-  if (wanted("block_compression")) {
-    std::vector<AccuracyPoint> bl;
-    for (const std::string& mesh : o.quick ? std::vector<std::string>{"6p250", "5p000", "3p333"}
-                                           : std::vector<std::string>{"8p333", "6p250", "5p000", "3p333", "2p500"})
-      for (bool linear : {false, true})
-        for (bool cholmod : {true, false}) {
-          if (o.quick && !cholmod) continue;
-          bl.push_back(run_block(src, {mesh, cholmod ? "mesh x element (CHOLMOD)" : "mesh x element (CG 1e-8)", linear, cholmod}, runs));
-          note(bl.back());
-        }
-    // CG tolerance inside Newton (corotational, warped-Cholesky PCG): the Newton test (1e-10)
-    // decides the answer; a loose inner tolerance costs Newton iterations instead.
-    for (double tol : o.quick ? std::vector<double>{1e-2, 1e-4} : std::vector<double>{1e-2, 1e-4, 1e-6}) {
-      BlockConfig c{"3p333", "CG tolerance (warped Cholesky PCG, h 3.333 mm)", false, false, tol};
-      bl.push_back(run_block(src, c, runs));
-      note(bl.back());
-    }
-    const std::string bl_csv = finish_problem(
-        o.out_dir, "block_compression", bl, peers.block, "Bonded block, nu 0.49, pressed 1 % (refs/c): top force vs 0.3049 N",
-        to_answer, {"mesh x element (CHOLMOD)", "mesh x element (CG 1e-8)", "CG tolerance (warped Cholesky PCG, h 3.333 mm)",
-                    "Bullet FEM (peer)"});
-    fmt::print("\n### block_compression ({})\n\n", bl_csv);
-    fmt::print("| sweep | configuration | nodes | top force (N) | error | C3D4 same mesh (N) | engine vs C3D4 | s to answer | Pareto |\n|---|---|---|---|---|---|---|---|---|\n");
-    for (const auto& p : bl)
-      fmt::print("| {} | {} | {} | {} | {} | {:.5f} | {} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
-                 p.ok ? fmt::format("{:.5f}", p.value) : "—", p.ok ? fmt::format("{:.2f} %", 100 * p.error) : "failed: " + p.failure,
-                 p.time_error, p.ok && p.time_error > 0 ? fmt::format("{:+.3f} %", 100 * (p.value / p.time_error - 1)) : "",
-                 p.s_per_sim_s, p.pareto ? "●" : "");
-    all.insert(all.end(), bl.begin(), bl.end());
-    if (!o.only.empty()) return all;
-  }
-
-  // Static deflection.
+/// Static deflection: mesh × element model (CHOLMOD), and warped-Cholesky PCG tolerances.
+std::vector<AccuracyPoint> run_cantilever_static_problem(const AccuracyOptions& o, int runs) {
+  const std::string& src = o.source_dir;
   std::vector<AccuracyPoint> st;
   const std::vector<std::string> static_meshes = o.quick ? std::vector<std::string>{"5p000", "3p333", "2p500", "2p000"}
                                                          : std::vector<std::string>{"5p000", "3p333", "2p500", "2p000", "1p667"};
@@ -602,16 +518,18 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     for (ElementModel model : {ElementModel::Corotational, ElementModel::Linear, ElementModel::StableNeoHookean}) {
       if (o.quick && model != ElementModel::Corotational && mesh != "5p000" && mesh != "2p000") continue;
       const bool nh = model == ElementModel::StableNeoHookean;
-      st.push_back(run_static(src, {mesh, nh ? "stable neo-Hookean (CHOLMOD)" : "mesh x element (CHOLMOD)", "cholmod", model, 0}, runs));
-      note(st.back());
+      record(st, run_static(src, {mesh, nh ? "stable neo-Hookean (CHOLMOD)" : "mesh x element (CHOLMOD)", "cholmod", model, 0}, runs), o);
     }
-    for (double tol : o.quick ? std::vector<double>{1e-4} : std::vector<double>{1e-3, 1e-4, 1e-6}) {
-      st.push_back(run_static(src, {mesh, "CG tolerance (warped Cholesky PCG)", "cg", ElementModel::Corotational, tol}, runs));
-      note(st.back());
-    }
+    for (double tol : o.quick ? std::vector<double>{1e-4} : std::vector<double>{1e-3, 1e-4, 1e-6})
+      record(st, run_static(src, {mesh, "CG tolerance (warped Cholesky PCG)", "cg", ElementModel::Corotational, tol}, runs), o);
   }
+  return st;
+}
 
-  // Dynamic: first frequency.
+/// Dynamic, first frequency: mesh × dt (with the time step's share of the error), CG tolerance,
+/// CG iteration cap, warm start, element model, symplectic Euler at its largest stable step.
+std::vector<AccuracyPoint> run_cantilever_dynamic_problem(const AccuracyOptions& o, int runs) {
+  const std::string& src = o.source_dir;
   std::vector<AccuracyPoint> dy;
   const double T = 0.3;
   const std::vector<std::string> meshes = o.quick ? std::vector<std::string>{"5p000", "3p333"}
@@ -625,8 +543,7 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
       c.dt = dt;
       c.sweep = "mesh x dt (implicit Euler)";
       c.label = fmt::format("h {} mm, dt {:g} ms", tag_mm(mesh), dt * 1e3);
-      dy.push_back(run_dynamic(src, c, runs, T));
-      note(dy.back());
+      record(dy, run_dynamic(src, c, runs, T), o);
     }
   // The time integrator's own error: against the same mesh at the smallest step (the mesh's
   // error and backward Euler's period elongation have opposite signs and can cancel).
@@ -643,8 +560,7 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     c.tolerance = tol;
     c.sweep = "CG tolerance (Jacobi)";
     c.label = fmt::format("Jacobi CG {:.0e}", tol);
-    dy.push_back(run_dynamic(src, c, runs, T));
-    note(dy.back());
+    record(dy, run_dynamic(src, c, runs, T), o);
   }
   for (int cap : o.quick ? std::vector<int>{5, 50} : std::vector<int>{5, 20, 50, 100, 400}) {
     DynamicConfig c;
@@ -654,8 +570,7 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     c.substep_on_cap = false;
     c.sweep = "CG iteration cap (Jacobi)";
     c.label = fmt::format("Jacobi cap {}", cap);
-    dy.push_back(run_dynamic(src, c, runs, T));
-    note(dy.back());
+    record(dy, run_dynamic(src, c, runs, T), o);
   }
   for (WarmStart ws : {WarmStart::Off, WarmStart::Previous, WarmStart::Extrapolate}) {
     if (o.quick && ws == WarmStart::Previous) continue;
@@ -666,16 +581,14 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     c.warm = ws;
     c.sweep = "warm start (Jacobi CG 1e-6)";
     c.label = fmt::format("warm start {}", ws == WarmStart::Off ? "off" : ws == WarmStart::Previous ? "previous" : "extrapolate");
-    dy.push_back(run_dynamic(src, c, runs, T));
-    note(dy.back());
+    record(dy, run_dynamic(src, c, runs, T), o);
   }
   for (ElementModel model : {ElementModel::Linear, ElementModel::StableNeoHookean}) {
     DynamicConfig c;
     c.model = model;
     c.sweep = "element model";
     c.label = fmt::format("{} elements, h 3.333 mm, dt 1 ms", model == ElementModel::Linear ? "linear" : "stable neo-Hookean");
-    dy.push_back(run_dynamic(src, c, runs, T));
-    note(dy.back());
+    record(dy, run_dynamic(src, c, runs, T), o);
   }
   // Symplectic Euler needs ~100x more ticks (its stable step is ~0.01 ms here): the finest mesh
   // is left out to keep the full run near ten minutes.
@@ -687,26 +600,277 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     c.dt = largest_stable_symplectic_step(src, mesh, T);
     c.sweep = "symplectic Euler (largest stable dt)";
     c.label = fmt::format("symplectic h {} mm, dt {:.2g} ms", tag_mm(mesh), c.dt * 1e3);
-    dy.push_back(run_dynamic(src, c, runs, T));
-    note(dy.back());
+    record(dy, run_dynamic(src, c, runs, T), o);
   }
-  const std::string st_csv = finish_problem(
-      o.out_dir, "cantilever_static", st, peers.cantilever_static,
-      "Cantilever (refs/a): static tip deflection vs -1.4735e-3 m", to_answer,
-      {"mesh x element (CHOLMOD)", "CG tolerance (warped Cholesky PCG)", "stable neo-Hookean (CHOLMOD)", "Bullet FEM (peer)",
-       "Bullet FEM neo-Hookean (peer)", "Bullet FEM neo-Hookean matched (peer)", "Bullet soft body (peer)"});
-  const std::string dy_csv = finish_problem(
-      o.out_dir, "cantilever_dynamic", dy, peers.cantilever_dynamic,
-      "Cantilever (refs/d): first frequency from the released tip vs 16.100 Hz", "wall seconds per simulated second",
-      {"mesh x dt (implicit Euler)", "CG tolerance (Jacobi)", "CG iteration cap (Jacobi)", "warm start (Jacobi CG 1e-6)",
-       "element model", "symplectic Euler (largest stable dt)", "Bullet FEM (peer)", "Bullet FEM neo-Hookean (peer)",
-       "Bullet FEM neo-Hookean matched (peer)"});
-  fmt::print("\n### cantilever_static ({})\n\n", st_csv);
-  print_table(st, false);
-  fmt::print("\n### cantilever_dynamic ({})\n\n", dy_csv);
-  print_table(dy, true);
-  all.insert(all.end(), st.begin(), st.end());
-  all.insert(all.end(), dy.begin(), dy.end());
+  return dy;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reporting: peers' points, Pareto front, CSV, plot, Markdown tables (nothing here runs a model).
+
+const char* const kToAnswer = "wall time to the answer (s): static solve; peers: the run to rest";
+
+/// What a problem's plot and tables show: the sweeps are the plot's series, in legend order.
+struct ProblemReport {
+  std::string name, title, xlabel;
+  std::string time_heading;  ///< the time column of the Pareto number table
+  std::vector<std::string> sweeps;
+};
+
+const ProblemReport& problem_report(const std::string& name) {
+  static const std::vector<ProblemReport> reports = {
+      {"cantilever_static", "Cantilever (refs/a): static tip deflection vs -1.4735e-3 m", kToAnswer, "s to answer",
+       {"mesh x element (CHOLMOD)", "CG tolerance (warped Cholesky PCG)", "stable neo-Hookean (CHOLMOD)", "Bullet FEM (peer)",
+        "Bullet FEM neo-Hookean (peer)", "Bullet FEM neo-Hookean matched (peer)", "Bullet soft body (peer)"}},
+      {"cantilever_dynamic", "Cantilever (refs/d): first frequency from the released tip vs 16.100 Hz",
+       "wall seconds per simulated second", "s per sim. s",
+       {"mesh x dt (implicit Euler)", "CG tolerance (Jacobi)", "CG iteration cap (Jacobi)", "warm start (Jacobi CG 1e-6)",
+        "element model", "symplectic Euler (largest stable dt)", "Bullet FEM (peer)", "Bullet FEM neo-Hookean (peer)",
+        "Bullet FEM neo-Hookean matched (peer)"}},
+      {"block_compression", "Bonded block, nu 0.49, pressed 1 % (refs/c): top force vs 0.3049 N", kToAnswer, "s to answer",
+       {"mesh x element (CHOLMOD)", "mesh x element (CG 1e-8)", "CG tolerance (warped Cholesky PCG, h 3.333 mm)",
+        "Bullet FEM (peer)"}},
+      {"indentation", "Sphere indentation (refs/e): force at 1 mm vs 0.019604 N", kToAnswer, "s to answer",
+       {"mesh grading (linear, penalty 1e9)", "penalty stiffness (first cell 0.2 mm)", "element model (first cell 0.2 mm)",
+        "Bullet FEM (peer)"}},
+  };
+  for (const ProblemReport& r : reports)
+    if (r.name == name) return r;
+  throw std::invalid_argument("accuracy suite: no problem named " + name);
+}
+
+/// A point a log–log plot can show (a time or error of 0 cannot be).
+bool drawable(const AccuracyPoint& p) { return p.ok && p.s_per_sim_s > 0 && p.error > 0; }
+
+/// The Pareto front in time order (fastest first, the less accurate first among equal times):
+/// indices into pts. The plot's labels and the number table are 1 + the position here.
+std::vector<size_t> pareto_front(const std::vector<AccuracyPoint>& pts) {
+  std::vector<size_t> front;
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (pts[i].pareto) front.push_back(i);
+  std::stable_sort(front.begin(), front.end(), [&](size_t a, size_t b) {
+    return pts[a].s_per_sim_s < pts[b].s_per_sim_s || (pts[a].s_per_sim_s == pts[b].s_per_sim_s && pts[a].error > pts[b].error);
+  });
+  return front;
+}
+
+/// The Markdown table mapping the plot's numbers to the configurations of the Pareto front.
+std::string pareto_table(const std::vector<AccuracyPoint>& pts, const std::vector<size_t>& front, const ProblemReport& r) {
+  std::string s = fmt::format("| # | sweep | configuration | nodes | error | {} |\n|---|---|---|---|---|---|\n", r.time_heading);
+  for (size_t k = 0; k < front.size(); ++k) {
+    const AccuracyPoint& p = pts[front[k]];
+    s += fmt::format("| {} | {} | {} | {} | {:.2f} % | {:.4g}{} |\n", k + 1, p.sweep, p.label, p.nodes, 100 * p.error,
+                     p.s_per_sim_s, drawable(p) ? "" : " (not drawn: 0 on a log axis)");
+  }
+  return s;
+}
+
+/// A log–log plot of run time against error with gnuplot (skipped, with a note, without it): one
+/// series per sweep (the legend), the Pareto front drawn and its points numbered in time order
+/// (the numbers' table: pareto_table; coinciding points share a label, "2, 3"); other points carry
+/// no label. The script is written to gp.
+void plot(const std::string& csv, const std::string& gp, const std::string& png, const ProblemReport& r,
+          const std::vector<AccuracyPoint>& pts, const std::vector<size_t>& front) {
+  std::ofstream f(gp);
+  f << "set terminal pngcairo size 1200,800 font 'DejaVu Sans,10'\n";
+  f << fmt::format("set output '{}'\n", png);
+  f << "set datafile separator ','\nset logscale xy\nset grid\nset key top right\n";
+  f << fmt::format("set title \"{}\"\nset xlabel \"{}\"\nset ylabel 'relative error against the reference'\n", r.title, r.xlabel);
+  f << "set format y '%.0e'\n";
+  // Whole decades, with at least 0.1 decade of room around the points: the labels, which sit
+  // below and left of their points, stay inside the frame.
+  double xlo = HUGE_VAL, xhi = 0, ylo = HUGE_VAL, yhi = 0;
+  for (const AccuracyPoint& p : pts)
+    if (drawable(p)) {
+      xlo = std::min(xlo, p.s_per_sim_s);
+      xhi = std::max(xhi, p.s_per_sim_s);
+      ylo = std::min(ylo, p.error);
+      yhi = std::max(yhi, p.error);
+    }
+  auto below = [](double v) { return std::pow(10.0, std::floor(std::log10(v / 1.25))); };
+  auto above = [](double v) { return std::pow(10.0, std::ceil(std::log10(v * 1.25))); };
+  if (xlo <= xhi)
+    f << fmt::format("set xrange [{:g}:{:g}]\nset yrange [{:g}:{:g}]\n", below(xlo), above(xhi), below(ylo), above(yhi));
+  f << "set style textbox opaque noborder margins 1,1\n";
+  // The front in time order: time, error, label. Points that would be drawn on top of each other
+  // (within 0.03 decades on both axes of the group's first point) share one label, "2, 3".
+  std::vector<std::pair<size_t, std::string>> rows;  // (index into pts, label: "" when it joins the one before)
+  size_t group = 0;
+  for (size_t k = 0; k < front.size(); ++k) {
+    const AccuracyPoint& p = pts[front[k]];
+    if (!drawable(p)) continue;
+    const bool joins = !rows.empty() && std::abs(std::log10(p.s_per_sim_s / pts[rows[group].first].s_per_sim_s)) < 0.03 &&
+                       std::abs(std::log10(p.error / pts[rows[group].first].error)) < 0.03;
+    if (joins) {
+      rows[group].second += fmt::format(", {}", k + 1);
+      rows.emplace_back(front[k], "");
+    } else {
+      group = rows.size();
+      rows.emplace_back(front[k], fmt::format("{}", k + 1));
+    }
+  }
+  f << "$front << EOD\n";
+  for (const auto& [i, label] : rows) f << fmt::format("{:.6g},{:.6g},\"{}\"\n", pts[i].s_per_sim_s, pts[i].error, label);
+  f << "EOD\n";
+  f << "plot ";
+  // gnuplot splits quoted fields right but its strcol() stops at a comma even inside quotes:
+  // a sweep is matched by its name up to the first comma.
+  for (size_t i = 0; i < r.sweeps.size(); ++i)
+    f << fmt::format("'{}' skip 1 using (strcol(2) eq '{}' && $11 == 1 ? $9 : NaN):7 with points pt {} ps 1.4 title '{}', \\\n",
+                     csv, r.sweeps[i].substr(0, r.sweeps[i].find(',')), 5 + 2 * static_cast<int>(i), r.sweeps[i]);
+  f << "$front using 1:2 with lines lw 2 lc rgb '#444444' title 'Pareto front', \\\n";
+  // Below and left of a front point there is no other valid point (it would dominate it) and no
+  // part of the front's line: the numbers go there.
+  f << "$front using 1:2:3 with labels boxed right font ',10' offset char -0.7,-0.9 notitle\n";
+  f.close();
+  const int rc = std::system(fmt::format("gnuplot '{}' 2>/dev/null", gp).c_str());
+  if (rc != 0) fmt::print("(gnuplot not found or failed: {} not drawn; scripts/setup.sh installs gnuplot-nox)\n", png);
+}
+
+std::string replace_extension(const std::string& path, const std::string& ext) {
+  return fs::path(path).replace_extension(ext).string();
+}
+
+/// The outputs that depend on the points alone: beside the CSV the Pareto number table
+/// (<stem>_pareto.md) and the gnuplot script (<stem>.gp), and the plot png. Returns the table.
+std::string draw_problem(const std::string& csv, const std::string& png, const std::vector<AccuracyPoint>& pts,
+                         const ProblemReport& r) {
+  const std::vector<size_t> front = pareto_front(pts);
+  const std::string table = pareto_table(pts, front, r);
+  const fs::path md = fs::path(csv).parent_path() / (fs::path(csv).stem().string() + "_pareto.md");
+  std::ofstream(md) << fmt::format("# {}: Pareto front\n\nThe numbers on the plot {}, in time order along the front "
+                                   "(fastest first); every point is in {}.\n\n{}",
+                                   r.name, fs::path(png).filename().string(), fs::path(csv).filename().string(), table);
+  plot(csv, replace_extension(csv, ".gp"), png, r, pts, front);
+  return table;
+}
+
+void print_problem_table(const std::string& name, const std::vector<AccuracyPoint>& pts) {
+  if (name == "cantilever_dynamic") {
+    fmt::print("| sweep | configuration | nodes | f1 (Hz) | error | time-step share | ms/tick | s per sim. s | Pareto |\n|---|---|---|---|---|---|---|---|---|\n");
+    for (const auto& p : pts)
+      fmt::print("| {} | {} | {} | {} | {} | {} | {:.3f} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
+                 p.ok ? fmt::format("{:.3f}", p.value) : "—", p.ok ? fmt::format("{:.2f} %", 100 * p.error) : "failed: " + p.failure,
+                 p.time_error >= 0 ? fmt::format("{:.2f} %", 100 * p.time_error) : "",
+                 p.ms_per_tick, p.s_per_sim_s, p.pareto ? "●" : "");
+  } else if (name == "cantilever_static") {
+    fmt::print("| sweep | configuration | nodes | tip u_y (mm) | error | solve s | Pareto |\n|---|---|---|---|---|---|---|\n");
+    for (const auto& p : pts)
+      fmt::print("| {} | {} | {} | {:.5f} | {:.2f} % | {:.4f} | {} |\n", p.sweep, p.label, p.nodes, 1e3 * p.value,
+                 100 * p.error, p.s_per_sim_s, p.pareto ? "●" : "");
+  } else if (name == "block_compression") {
+    fmt::print("| sweep | configuration | nodes | top force (N) | error | C3D4 same mesh (N) | engine vs C3D4 | s to answer | Pareto |\n|---|---|---|---|---|---|---|---|---|\n");
+    for (const auto& p : pts)
+      fmt::print("| {} | {} | {} | {} | {} | {:.5f} | {} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
+                 p.ok ? fmt::format("{:.5f}", p.value) : "—", p.ok ? fmt::format("{:.2f} %", 100 * p.error) : "failed: " + p.failure,
+                 p.time_error, p.ok && p.time_error > 0 ? fmt::format("{:+.3f} %", 100 * (p.value / p.time_error - 1)) : "",
+                 p.s_per_sim_s, p.pareto ? "●" : "");
+  } else {  // indentation
+    fmt::print("| sweep | configuration | nodes | force (N) | error | s to answer | Pareto |\n|---|---|---|---|---|---|---|\n");
+    for (const auto& p : pts)
+      fmt::print("| {} | {} | {} | {} | {} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
+                 p.ok ? fmt::format("{:.6f}", p.value) : "—",
+                 p.ok ? fmt::format("{:+.2f} %", 100 * (p.value / p.reference - 1)) : "failed: " + p.failure,
+                 p.s_per_sim_s, p.pareto ? "●" : "");
+  }
+}
+
+void print_pareto_table(const std::string& table, const std::string& md) {
+  fmt::print("\nPareto front: the numbers on the plot, in time order ({}):\n\n{}", md, table);
+  std::fflush(stdout);
+}
+
+/// The last steps every problem shares: the peers' points join the engine's, the Pareto front is
+/// marked, the CSV written (out_dir/<name>.csv), the plot drawn and the Pareto number table
+/// written beside it, and the Markdown tables printed.
+void finish_problem(const std::string& out_dir, const std::string& name, std::vector<AccuracyPoint>& pts,
+                    const std::vector<AccuracyPoint>& peer_points) {
+  const ProblemReport& r = problem_report(name);
+  pts.insert(pts.end(), peer_points.begin(), peer_points.end());
+  mark_pareto(pts);
+  const std::string csv = (fs::path(out_dir) / (name + ".csv")).string();
+  write_csv(csv, pts);
+  const std::string table = draw_problem(csv, (fs::path(out_dir) / (name + ".png")).string(), pts, r);
+  fmt::print("\n### {} ({})\n\n", name, csv);
+  print_problem_table(name, pts);
+  print_pareto_table(table, (fs::path(out_dir) / (name + "_pareto.md")).string());
+}
+
+/// Reads a CSV of write_csv's format back (empty numeric fields read as 0).
+std::vector<AccuracyPoint> read_csv(const std::string& path) {
+  std::vector<AccuracyPoint> pts;
+  std::ifstream f(path);
+  std::string line;
+  std::getline(f, line);  // header
+  auto num = [](const std::string& s) { return s.empty() ? 0.0 : std::stod(s); };
+  while (std::getline(f, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    const auto c = csv_fields(line);
+    if (c.size() < 12) throw std::runtime_error(fmt::format("{}: expected 12 columns: {}", path, line));
+    AccuracyPoint p;
+    p.problem = c[0];
+    p.sweep = c[1];
+    p.label = c[2];
+    p.nodes = static_cast<int>(num(c[3]));
+    p.value = num(c[4]);
+    p.reference = num(c[5]);
+    p.error = num(c[6]);
+    p.ms_per_tick = num(c[7]);
+    p.s_per_sim_s = num(c[8]);
+    p.pareto = c[9] == "1";
+    p.ok = c[10] == "1";
+    p.time_error = c[11].empty() ? -1 : num(c[11]);
+    pts.push_back(p);
+  }
+  return pts;
+}
+
+}  // namespace
+
+std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
+  fs::create_directories(o.out_dir);
+  const int runs = std::max(1, o.runs);
+  auto wanted = [&](const char* problem) { return o.only.empty() || o.only == problem; };
+  std::vector<AccuracyPoint> all;
+  auto keep = [&all](const std::vector<AccuracyPoint>& pts) { all.insert(all.end(), pts.begin(), pts.end()); };
+  // The peers run first: their points join each problem's table, CSV and plot.
+  const PeerPoints peers = o.peer_program.empty() ? PeerPoints{} : run_peers(o);
+
+  if (wanted("indentation")) {
+    std::vector<AccuracyPoint> in = run_indentation_problem(o, runs);
+    finish_problem(o.out_dir, "indentation", in, peers.indentation);
+    keep(in);
+    if (!o.only.empty()) return all;
+  }
+  if (wanted("block_compression")) {
+    std::vector<AccuracyPoint> bl = run_block_compression_problem(o, runs);
+    finish_problem(o.out_dir, "block_compression", bl, peers.block);
+    keep(bl);
+    if (!o.only.empty()) return all;
+  }
+  std::vector<AccuracyPoint> st = run_cantilever_static_problem(o, runs);
+  std::vector<AccuracyPoint> dy = run_cantilever_dynamic_problem(o, runs);
+  finish_problem(o.out_dir, "cantilever_static", st, peers.cantilever_static);
+  finish_problem(o.out_dir, "cantilever_dynamic", dy, peers.cantilever_dynamic);
+  keep(st);
+  keep(dy);
+  return all;
+}
+
+std::vector<AccuracyPoint> replot_accuracy_csvs(const std::string& csv_dir, const std::string& png_dir) {
+  std::vector<AccuracyPoint> all;
+  for (const char* name : {"cantilever_static", "cantilever_dynamic", "block_compression", "indentation"}) {
+    for (const std::string& stem : {std::string(name), "accuracy_" + std::string(name)}) {
+      const fs::path csv = fs::path(csv_dir) / (stem + ".csv");
+      if (!fs::exists(csv)) continue;
+      const std::vector<AccuracyPoint> pts = read_csv(csv.string());
+      const std::string table = draw_problem(csv.string(), (fs::path(png_dir) / (stem + ".png")).string(), pts, problem_report(name));
+      fmt::print("\n### {} ({})\n", name, csv.string());
+      print_pareto_table(table, (fs::path(csv_dir) / (stem + "_pareto.md")).string());
+      all.insert(all.end(), pts.begin(), pts.end());
+    }
+  }
   return all;
 }
 

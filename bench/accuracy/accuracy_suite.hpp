@@ -13,7 +13,9 @@
 ///    iteration cap, warm start, element model, and symplectic Euler at its largest stable step.
 /// Each configuration: error, wall time per tick and per simulated second (median of runs).
 /// Output: a CSV per problem (Pareto-optimal points marked), a log–log PNG plot per problem
-/// (gnuplot, when installed) and Markdown tables.
+/// (gnuplot, when installed: one series per sweep; only the Pareto front's points are labelled,
+/// numbered 1, 2, … in time order), the numbers' table (<problem>_pareto.md beside the CSV) and
+/// Markdown tables.
 
 #include <string>
 #include <vector>
@@ -58,7 +60,15 @@ struct AccuracyOptions {
   std::string only;
 };
 
-/// Runs both problems; writes CSVs, plots and prints tables; returns every point.
+/// Runs the problems (all, or options.only); writes CSVs, plots and Pareto number tables and
+/// prints Markdown tables; returns every point.
 std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& options);
+
+/// `stroma bench accuracy --replot DIR`: redraws the plots from CSVs in the suite's format without
+/// running anything. For every problem with a csv_dir/<problem>.csv or csv_dir/accuracy_<problem>.csv
+/// (the Pareto column as it stands), writes the gnuplot script <stem>.gp and the Pareto number
+/// table <stem>_pareto.md beside the CSV and the plot to png_dir/<stem>.png, and prints the number
+/// tables. Returns the points read.
+std::vector<AccuracyPoint> replot_accuracy_csvs(const std::string& csv_dir, const std::string& png_dir);
 
 }  // namespace stroma
