@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
     t.reserve(steps);
     double cg = 0, as = 0, so = 0;
     for (long k = 0; k < steps; ++k) {
-      const TickReport rep = tick(*m, s, w);
+      const TickReport& rep = tick(*m, s, w);
       t.push_back(static_cast<double>(rep.total_ns) * 1e-6);
       cg += rep.solve.iterations;
       cg_max = std::max(cg_max, rep.solve.iterations);
