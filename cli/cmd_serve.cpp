@@ -31,6 +31,10 @@ void add_serve(CLI::App& app, std::vector<Command>& out) {
       ->check(CLI::Range(0, 900));
   serve->add_option("--record", srv->record_file, "Log every accepted tool command and control with its tick (replay: stroma run --replay)");
   serve->add_option("--final-state", srv->final_state_file, "Write the final state (node,x,y,z CSV) at exit");
+  serve->add_option("--budget-margin-ms", srv->budget_margin_ms,
+                    "Each tick's engine work must end this long before the next deadline: its time budget is the "
+                    "period minus this (or solver.time_budget if smaller); what does not fit degrades stably")
+      ->capture_default_str();
   serve->footer(
       "Network: by default every DDS participant is on the loopback interface only, without multicast\n"
       "(secure by default). To serve on a LAN, copy server/cyclonedds-loopback.xml, replace \"lo\" by\n"

@@ -385,6 +385,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
                                    resolved_newton_iterations(s.newton_iterations, spec.time_step),
                                    s.newton_tolerance};
   model->substep_on_cg_cap = s.substep_on_cg_cap;
+  model->time_budget = s.time_budget;
 
   const std::vector<PreparedMesh> meshes = load_meshes(spec, out.notes);
   model->fem = build_fem_model(body_inputs(spec, meshes), spec.gravity);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
 
 #include <fmt/format.h>
@@ -64,6 +65,7 @@ class MetricsWriter {
     for (const ToolSpec& t : m.tools)
       buf_ += fmt::format(",{0}_fx,{0}_fy,{0}_fz,{0}_contacts,{0}_feedback_fx,{0}_feedback_fy,{0}_feedback_fz", t.name);
     if (m.has_damage) buf_ += ",elements_warned,elements_damaged,elements_ruptured";
+    buf_ += ",over_budget,degradation,error_energy,error_position,energy_removed";
     buf_ += '\n';
   }
   ~MetricsWriter() {
@@ -88,6 +90,8 @@ class MetricsWriter {
       fmt::format_to(out, ",{:.9e},{:.9e},{:.9e},{},{:.9e},{:.9e},{:.9e}", t.force[0], t.force[1], t.force[2], t.contacts,
                      t.feedback.force[0], t.feedback.force[1], t.feedback.force[2]);
     if (m_.has_damage) fmt::format_to(out, ",{},{},{}", s.damage_count[1], s.damage_count[2], s.damage_count[3]);
+    fmt::format_to(out, ",{},{},{:.3e},{:.3e},{:.3e}", r.over_budget ? 1 : 0, degradation_name(r.degradation),
+                   r.solve.error_energy, r.solve.error_position, r.energy_removed);
     buf_ += '\n';
     if (buf_.size() > (1 << 20)) flush();
   }
@@ -179,6 +183,13 @@ void RunOutputs::finish(RunResult& res) {
   j["ticks_non_finite"] = res.ticks_non_finite;
   j["ticks_recovered"] = res.ticks_recovered;
   j["max_substeps"] = res.max_substeps;
+  j["time_budget"] = m.time_budget > 0 ? nlohmann::ordered_json(m.time_budget) : nlohmann::ordered_json("none");
+  j["ticks_over_budget"] = res.ticks_over_budget;
+  j["ticks_degraded"] = res.ticks_degraded;
+  j["energy_guard"] = {{"ticks_limited", res.ticks_energy_limited}, {"energy_removed", res.energy_removed}};
+  j["solve_error"] = {{"residual_max", res.residual_max},
+                      {"energy_max", res.error_energy_max},
+                      {"position_max", res.error_position_max}};
   if (m.stepper.integrator == Integrator::Static)
     j["static"] = {{"newton_iterations", res.newton_iterations},
                    {"relative_residual", res.static_residual},
@@ -300,7 +311,9 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
   out.frame(s, 0);
   for (long k = 0; k < steps; ++k) {
     inputs.clear();
+    Deadline deadline;  // none given: the scenario's time_budget, if any
     if (!o.replay.empty()) {
+      deadline.expire_at_check = std::numeric_limits<int64_t>::max();  // the live ticks' cuts only
       for (; next_event < replay.size() && replay[next_event].tick == k; ++next_event) {
         const SessionEvent& e = replay[next_event];
         if (e.kind == SessionEvent::Reset) {
@@ -308,6 +321,8 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
           inputs.clear();  // commands before a reset in the same tick were overwritten
         } else if (e.kind == SessionEvent::Tool) {
           inputs.push_back(e.input);
+        } else if (e.kind == SessionEvent::Deadline) {
+          deadline.expire_at_check = e.deadline_check;
         }
       }
     } else {
@@ -316,7 +331,7 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
           inputs.push_back(ToolInput{static_cast<int32_t>(t), static_cast<uint64_t>(k + 1), 0,
                                      sc.tool_scripts[t].sample(s.time)});
     }
-    const TickReport& r = tick(m, s, w, inputs.data(), static_cast<int>(inputs.size()));
+    const TickReport& r = tick(m, s, w, inputs.data(), static_cast<int>(inputs.size()), deadline);
     const double ms = static_cast<double>(r.total_ns) * 1e-6;
     log.step_ms.push_back(ms);
     log.add_stages(r);
@@ -325,6 +340,13 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
     if (r.status == TickStatus::SolverNotConverged) ++res.ticks_not_converged;
     if (r.status == TickStatus::Recovered) ++res.ticks_recovered;
     res.max_substeps = std::max(res.max_substeps, r.substeps);
+    res.ticks_over_budget += r.over_budget;
+    res.ticks_degraded += r.degradation != Degradation::None;
+    res.residual_max = std::max(res.residual_max, r.solve.relative_residual);
+    res.error_energy_max = std::max(res.error_energy_max, r.solve.error_energy);
+    res.error_position_max = std::max(res.error_position_max, r.solve.error_position);
+    res.ticks_energy_limited += r.energy_limit != EnergyLimit::None;
+    res.energy_removed += r.energy_removed;
     if (r.status == TickStatus::NonFinite) {
       ++res.ticks_non_finite;
       res.ok = false;

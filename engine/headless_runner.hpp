@@ -52,6 +52,13 @@ struct RunResult {
   long ticks_non_finite = 0;
   long ticks_recovered = 0;  ///< ticks redone in sub-steps after a failed step (TickStatus::Recovered)
   int max_substeps = 1;       ///< most sub-steps any tick needed
+  long ticks_over_budget = 0;  ///< ticks that ended past solver.time_budget
+  long ticks_degraded = 0;     ///< ticks the budget cut short (TickReport::degradation)
+  double residual_max = 0;     ///< worst relative residual of a tick's linear solve
+  double error_energy_max = 0;   ///< J: worst energy-norm error bound of a tick's solve
+  double error_position_max = 0; ///< m: worst mass-weighted RMS position error bound
+  long ticks_energy_limited = 0; ///< inexact ticks whose energy gain the guard took out
+  double energy_removed = 0;     ///< J, by the energy guard over the run
   std::map<std::string, double> stage_ms_total;  ///< per stage, summed over the run
   double io_ms_total = 0;                        ///< metrics, VTU and summary writing
   /// Static runs: Newton iterations (all equilibria), final relative residual, load increments.

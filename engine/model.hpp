@@ -47,6 +47,9 @@ struct Model {
   /// solver.on_cg_cap: a tick whose CG hits its cap is redone in sub-steps (true, the default)
   /// or kept (false).
   bool substep_on_cg_cap = true;
+  /// solver.time_budget: wall time one tick may take (s); 0: none (headless default). The
+  /// real-time loop passes its own deadline (the period minus a margin, or this if smaller).
+  double time_budget = 0;
   /// Largest node displacement one step (or sub-step) may make before it counts as diverged
   /// (half the scene's rest bounding-box diagonal).
   double max_step_displacement = 0;

@@ -118,6 +118,17 @@ void PhysicsLoop::account_tick(const TickReport& r, RunState& rs, StatusWindow& 
   }
   if (r.status == TickStatus::SolverNotConverged) ++stats_.not_converged;
   if (r.status == TickStatus::Recovered) ++stats_.recovered;
+  if (r.over_budget) {
+    ++stats_.over_budget;
+    ++win.over_budget;
+  }
+  if (r.degradation != Degradation::None) {
+    ++stats_.degraded;
+    ++win.degraded;
+  }
+  win.residual_max = std::max(win.residual_max, r.solve.relative_residual);
+  win.error_energy_max = std::max(win.error_energy_max, r.solve.error_energy);
+  win.error_position_max = std::max(win.error_position_max, r.solve.error_position);
   if (r.status == TickStatus::NonFinite) {
     ++stats_.non_finite;
     rs = RunState::Fault;  // state kept finite (not advanced); clients see FAULT
@@ -143,6 +154,14 @@ void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow
   status->missed_window = stats_.missed_deadlines - win.missed_at_start;
   status->elastic_energy = win.elastic_energy;
   status->recent = win.recent;
+  status->budget_ms = static_cast<double>(stats_.budget_ns) * 1e-6;
+  status->over_budget = stats_.over_budget;
+  status->degraded = stats_.degraded;
+  status->over_budget_window = win.over_budget;
+  status->degraded_window = win.degraded;
+  status->residual_max = win.residual_max;
+  status->error_energy_max = win.error_energy_max;
+  status->error_position_max = win.error_position_max;
   status_out.publish();
   outputs_published.fetch_add(1, std::memory_order_release);
   outputs_published.notify_one();
@@ -171,6 +190,9 @@ int PhysicsLoop::take_inputs(std::array<ToolInput, kMaxTools>& inputs) {
 void PhysicsLoop::run(const std::atomic<bool>& stop) {
   const Model& m = *model_;
   const int64_t period = static_cast<int64_t>(m.time_step * 1e9 + 0.5);
+  int64_t budget = period - static_cast<int64_t>(opt_.budget_margin * 1e9);
+  if (m.time_budget > 0) budget = std::min(budget, static_cast<int64_t>(m.time_budget * 1e9));
+  stats_.budget_ns = std::max<int64_t>(budget, 1);
   RunState rs = opt_.start_paused ? RunState::Paused : RunState::Running;
   uint32_t steps_pending = 0;
   bool shutdown = false;
@@ -202,7 +224,18 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       if (rs != RunState::Running) --steps_pending;
       // The newest accepted command of each tool (validated by the DDS thread).
       const int n_in = take_inputs(inputs);
-      const TickReport& r = tick(m, state_, work_, inputs.data(), n_in);
+      // The engine's work must end a margin before the next deadline, counted from this tick's
+      // scheduled start (a late wake-up eats into it).
+      Deadline budget;
+      budget.at_ns = opt_.budget ? deadline + stats_.budget_ns : 0;
+      const TickReport& r = tick(m, state_, work_, inputs.data(), n_in, budget);
+      if (r.deadline_check >= 0) {  // the cut this tick made, so that a replay makes it too
+        SessionEvent se;
+        se.tick = static_cast<int64_t>(stats_.ticks);
+        se.kind = SessionEvent::Deadline;
+        se.deadline_check = r.deadline_check;
+        log(se);
+      }
       account_tick(r, rs, win);
       // Hand-off to the server's threads, timed under the hand_off stage.
       const int64_t h0 = now_ns();

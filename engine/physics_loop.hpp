@@ -67,6 +67,12 @@ struct StatusFrame {
   double cg_iterations_mean = 0;  ///< over the last status period
   std::array<double, kStageCount> stage_ms{};  ///< mean per tick over the last status period
   uint64_t missed_window = 0;                  ///< missed deadlines in the last status period
+  double budget_ms = 0;                        ///< the per-tick budget
+  uint64_t over_budget = 0, degraded = 0;      ///< cumulative
+  uint64_t over_budget_window = 0, degraded_window = 0;
+  double residual_max = 0;                     ///< worst relative residual in the period
+  double error_energy_max = 0;                 ///< J, worst energy-norm error bound in the period
+  double error_position_max = 0;               ///< m, worst position error bound in the period
   double kinetic_energy = 0, elastic_energy = 0;
   int recent = 0;                               ///< valid entries below
   std::array<float, kRecentTicks> tick_us{};    ///< tick compute times (µs), recent window
@@ -88,6 +94,11 @@ struct PhysicsLoopOptions {
   /// Wake this many µs before each deadline and spin to it: trades a little CPU for wake-up
   /// latency (the kernel's timer slack and wake-up path cost tens of µs here).
   int spin_us = 0;
+  /// The tick's engine work must end this long before the next deadline (s): the budget is the
+  /// period minus this (or Model::time_budget if smaller), counted from the scheduled start.
+  double budget_margin = 0.15e-3;
+  /// Budget the ticks at all (tests that compare served and headless ticks turn it off).
+  bool budget = true;
 };
 
 /// Final statistics after run() returns (read by the main thread after join).
@@ -96,6 +107,9 @@ struct PhysicsLoopStats {
   LatencyHistogram tick;        ///< tick compute time
   uint64_t ticks = 0, loops = 0, missed_deadlines = 0, not_converged = 0, non_finite = 0;
   uint64_t recovered = 0;  ///< ticks redone in sub-steps after a failed step
+  uint64_t over_budget = 0;  ///< ticks whose engine work ended past the budget
+  uint64_t degraded = 0;     ///< ticks the budget cut short (TickReport::degradation)
+  int64_t budget_ns = 0;     ///< the per-tick budget used
   uint64_t cg_iterations_total = 0;
   uint64_t record_dropped = 0;  ///< session-log events lost because the recorder fell behind
   int cg_iterations_max = 0;
@@ -136,6 +150,8 @@ class PhysicsLoop {
     std::array<int64_t, kStageCount> stage_ns{};
     double elastic_energy = 0;
     int recent = 0;  ///< entries of the recent tick/wake-up arrays filled
+    uint64_t over_budget = 0, degraded = 0;
+    double residual_max = 0, error_energy_max = 0, error_position_max = 0;
   };
   void handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown);
   /// The newest command of each tool (logged for replay); returns how many.

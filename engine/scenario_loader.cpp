@@ -96,7 +96,7 @@ const Choices<bool> kCapPolicies = {{"substep", true}, {"continue", false}};
 SolverSpec parse_solver(const Field& f) {
   const MapReader m = f.map({"integrator", "linear_solver", "preconditioner", "max_iterations",
                              "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap",
-                             "newton_iterations", "newton_tolerance"});
+                             "newton_iterations", "newton_tolerance", "time_budget"});
   SolverSpec s;
   s.where = location_of(m);
   if (auto i = m.opt("integrator")) s.integrator_where = location_of(*i);
@@ -119,6 +119,13 @@ SolverSpec parse_solver(const Field& f) {
       f->get(s.newton_iterations, greater_than(0));
   }
   m.read("newton_tolerance", s.newton_tolerance, open_interval(0, 1));
+  if (const auto f = m.opt("time_budget")) {  // seconds > 0, or none (stored as 0)
+    s.time_budget_where = location_of(*f);
+    if (f->yaml().IsScalar() && f->yaml().Scalar() == "none")
+      s.time_budget = 0;
+    else
+      f->get(s.time_budget, greater_than(0));
+  }
   return s;
 }
 

@@ -46,6 +46,12 @@ struct SolverSpec {
   /// (see resolved_newton_iterations; docs/STABILITY.md has the data behind the choice).
   int newton_iterations = 0;
   double newton_tolerance = 1.0e-3;
+  /// Wall-time budget of one tick in seconds (0 = `none`, the default headless): the linear
+  /// solve, Newton iterations, contact-release passes and the sub-step ladder all stop at it and
+  /// the tick degrades stably (engine/step_with_recovery.hpp). `stroma serve` budgets every tick
+  /// with the period minus --budget-margin-ms, or with this when it is smaller.
+  double time_budget = 0;
+  SourceLocation time_budget_where;  ///< the `time_budget:` key (file only when absent)
   SourceLocation where;             ///< the `solver:` section (file only when absent)
   SourceLocation integrator_where;  ///< the `integrator:` key (file only when absent)
 };

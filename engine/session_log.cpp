@@ -10,11 +10,11 @@
 namespace stroma {
 
 const char* const kSessionLogHeader =
-    "# stroma session log v1\n"
+    "# stroma session log v2 (v1 + deadline events)\n"
     "tick,event,tool,seq,client_time_ns,x,y,z,qw,qx,qy,qz,jaw,buttons,steps\n";
 
 namespace {
-const char* const kNames[] = {"tool", "pause", "resume", "reset", "step", "shutdown", "end"};
+const char* const kNames[] = {"tool", "pause", "resume", "reset", "step", "shutdown", "end", "deadline"};
 }
 
 std::string format_session_event(const SessionEvent& e) {
@@ -26,6 +26,7 @@ std::string format_session_event(const SessionEvent& e) {
                        p.position[2], p.orientation[0], p.orientation[1], p.orientation[2],
                        p.orientation[3], p.jaw, p.buttons);
   }
+  if (e.kind == SessionEvent::Deadline) return fmt::format("{},deadline,,,,,,,,,,,,,{}\n", e.tick, e.deadline_check);
   return fmt::format("{},{},,,,,,,,,,,,,{}\n", e.tick, kNames[e.kind], e.steps);
 }
 
@@ -47,7 +48,7 @@ std::vector<SessionEvent> read_session_log(const std::string& path) {
     while (c.size() < 15) c.emplace_back();
     SessionEvent e;
     int kind = -1;
-    for (int k = 0; k < 7; ++k)
+    for (int k = 0; k < 8; ++k)
       if (c[1] == kNames[k]) kind = k;
     if (kind < 0) throw InputError(path, ln, "event", fmt::format("unknown event '{}'", c[1]));
     e.kind = static_cast<SessionEvent::Kind>(kind);
@@ -65,6 +66,9 @@ std::vector<SessionEvent> read_session_log(const std::string& path) {
         e.input.pose.buttons = static_cast<uint32_t>(std::stoul(c[13]));
       } else if (e.kind == SessionEvent::Step) {
         e.steps = static_cast<uint32_t>(std::stoul(c[14]));
+      } else if (e.kind == SessionEvent::Deadline) {
+        e.deadline_check = std::stoll(c[14]);
+        if (e.deadline_check < 0) throw std::invalid_argument("deadline");
       }
     } catch (const std::exception&) {
       throw InputError(path, ln, "", fmt::format("malformed line '{}'", line));

@@ -16,10 +16,13 @@ namespace stroma {
 
 /// One recorded event.
 struct SessionEvent {
-  enum Kind : uint8_t { Tool, Pause, Resume, Reset, Step, Shutdown, End } kind = Tool;
+  enum Kind : uint8_t { Tool, Pause, Resume, Reset, Step, Shutdown, End, Deadline } kind = Tool;
   int64_t tick = 0;    ///< ticks executed before it took effect
   ToolInput input;     ///< Tool events
   uint32_t steps = 0;  ///< Step events
+  /// Deadline events: the tick `tick` ran out of its time budget at this deadline check
+  /// (tissue/deadline.hpp); the replay expires that tick's deadline at the same check.
+  int64_t deadline_check = -1;
 };
 
 /// First lines of a session log (format version and column names).

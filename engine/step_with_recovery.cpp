@@ -34,10 +34,16 @@ bool sane_step(const TissueState& t, double h, double limit) {
   return ok && all_finite(t.x);
 }
 
+/// Records the worst degradation of the tick.
+void degrade(TickReport& r, Degradation d) {
+  if (static_cast<int>(d) > static_cast<int>(r.degradation)) r.degradation = d;
+}
+
 /// assemble → solve → integrate over h. False (state possibly half-updated: the caller rolls
 /// back) if the solve is non-finite, capped while `cap_fails`, or the result is not sane.
 /// `first` says whether this is the tick's full step (its elastic energy is reported).
-bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, bool first, bool cap_fails) {
+bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, bool first, bool cap_fails,
+          Deadline& deadline) {
   TimeStepper& stepper = w.stepper();
   TissueState& t = s.tissue;
   {
@@ -47,18 +53,22 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
   }
   {
     StageTimer st(r, Stage::Solve);
-    r.solve = stepper.solve(t);
+    r.solve = stepper.solve(t, &deadline);
   }
+  if (r.solve.budget_stopped) degrade(r, Degradation::SolveTruncated);
   // A capped CG is usable (its residual may exceed ‖b‖ — CG minimises the error's energy norm,
   // not the residual) but on a badly conditioned step it can add energy: by default the tick is
   // redone in sub-steps, whose systems are better conditioned (solver.on_cg_cap). A diverging
   // solve shows up as NaN/Inf or as an absurd displacement below.
   if (!std::isfinite(r.solve.relative_residual) || !all_finite(t.dv)) return false;
-  if (cap_fails && !r.solve.converged) return false;
+  // A capped solve redoes the tick in sub-steps (solver.on_cg_cap); one stopped by the budget is
+  // kept when sane — there is no time for sub-steps.
+  if (cap_fails && !r.solve.converged && !r.solve.budget_stopped) return false;
   if (stepper.settings().newton_iterations > 1) {
     // Newton iterations: their element passes count under Assemble, their solves under Solve.
     const int64_t t0 = steady_now_ns();
-    r.newton = stepper.newton(t, h);
+    r.newton = stepper.newton(t, h, &deadline);
+    if (r.newton.budget_stopped) degrade(r, Degradation::NewtonStopped);
     const int64_t total = steady_now_ns() - t0;
     r.stage_ns[static_cast<int>(Stage::Assemble)] += r.newton.element_pass_ns;
     r.stage_ns[static_cast<int>(Stage::Solve)] += total - r.newton.element_pass_ns;
@@ -67,43 +77,78 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
   {
     StageTimer st(r, Stage::Integrate);
     stepper.integrate(t, h);
+    // An inexact solve is kept only if the step did not gain energy (implicit Euler's exact
+    // step never does): the guard takes out what it added.
+    if (!r.solve.converged && stepper.settings().integrator == Integrator::ImplicitEuler) {
+      double removed = 0;
+      const EnergyLimit e = stepper.energy_guard(t, h, &removed);
+      if (e != EnergyLimit::None) {
+        r.energy_limit = e;
+        r.energy_removed += removed;
+      }
+    }
   }
   return sane_step(t, h, m.max_step_displacement);
 }
 
 }  // namespace
 
-void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& r) {
+void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& r, Deadline& deadline) {
   const double h = m.time_step;
   // Rollback point: the tissue's positions and velocities (two copies of 3n doubles).
   std::copy(s.tissue.x.begin(), s.tissue.x.end(), w.backup_x.begin());
   std::copy(s.tissue.v.begin(), s.tissue.v.end(), w.backup_v.begin());
   const bool cap_fails = m.substep_on_cg_cap;
-  bool ok = step(m, s, w, h, r, true, cap_fails);
+  bool ok = step(m, s, w, h, r, true, cap_fails, deadline);
   // Speculative body contacts whose vertex never reached its face would pull it in: release them
   // and redo the step (only ticks where something is about to touch pay for this).
   while (ok && m.body_contact && r.contact_releases < kMaxContactReleases &&
          release_pulling_contacts(s.tissue.x.data(), w.body_pairs, w.springs) > 0) {
+    if (deadline.past()) {  // keep the step as solved, pulling contacts and all
+      degrade(r, Degradation::ReleasesSkipped);
+      break;
+    }
     ++r.contact_releases;
     restore(s.tissue, w);
-    ok = step(m, s, w, h, r, false, cap_fails);
+    ok = step(m, s, w, h, r, false, cap_fails, deadline);
   }
   if (ok) return;
   // The engine defends itself: roll back and redo the tick in 2, 4, … sub-steps (a smaller step
   // is both more stable and better conditioned), warm start cleared.
+  int done = 0;  // sane sub-steps of the current level
   for (int k = 2; k <= kMaxSubsteps && !ok; k *= 2) {
+    if (deadline.past()) break;
     restore(s.tissue, w);
     ok = true;
+    done = 0;
     // From kKeepCappedSubsteps on a capped solve is kept: a finite, advanced state beats none.
-    for (int i = 0; i < k && ok; ++i) ok = step(m, s, w, h / k, r, false, cap_fails && k < kKeepCappedSubsteps);
+    for (int i = 0; i < k && ok; ++i) {
+      if (deadline.past()) break;
+      ok = step(m, s, w, h / k, r, false, cap_fails && k < kKeepCappedSubsteps, deadline);
+      done += ok;
+    }
     r.substeps = k;
+    if (ok && done < k) {  // out of time part-way: keep the sane sub-steps done
+      degrade(r, Degradation::LadderStopped);
+      break;
+    }
+    if (!ok && done > 0 && deadline.past()) {  // the last sub-step failed and time is up
+      // Its state is not sane: nothing of this level can be kept.
+      break;
+    }
   }
   if (ok) {
     r.status = TickStatus::Recovered;
-  } else {
-    restore(s.tissue, w);
-    r.status = TickStatus::NonFinite;
+    return;
   }
+  restore(s.tissue, w);
+  if (deadline.past()) {  // out of time with no sane step: hold still for this tick
+    std::fill(s.tissue.v.begin(), s.tissue.v.end(), 0.0);
+    degrade(r, Degradation::Held);
+    r.status = TickStatus::Recovered;
+    return;
+  }
+  r.status = TickStatus::NonFinite;
 }
 
 }  // namespace stroma

@@ -11,6 +11,18 @@
 
 namespace stroma {
 
+std::string_view degradation_name(Degradation d) {
+  switch (d) {
+    case Degradation::None: return "none";
+    case Degradation::ReleasesSkipped: return "releases_skipped";
+    case Degradation::NewtonStopped: return "newton_stopped";
+    case Degradation::SolveTruncated: return "solve_truncated";
+    case Degradation::LadderStopped: return "ladder_stopped";
+    case Degradation::Held: return "held";
+  }
+  return "?";
+}
+
 std::string_view stage_name(Stage s) {
   switch (s) {
     case Stage::ReadInputs: return "read_inputs";
@@ -47,6 +59,7 @@ StepInputs step_inputs(const Model& m, const State& s, const TickWorkspace& w) {
   in.spring_count = static_cast<int>(w.springs.size());
   in.damage = m.has_damage ? s.damage.data() : nullptr;
   in.node_mass = m.has_damage ? s.node_mass.data() : nullptr;
+  in.contact_origin = w.springs.empty() ? nullptr : w.backup_x.data();
   return in;
 }
 
@@ -113,9 +126,15 @@ void hand_off(const Model& m, State& s, TickWorkspace& w) {
 
 }  // namespace
 
-const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs, int input_count) {
+const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs, int input_count,
+                       Deadline deadline) {
   TickReport& r = w.report;
   const int64_t t0 = steady_now_ns();
+  if (!deadline.active() && m.time_budget > 0) deadline.at_ns = t0 + static_cast<int64_t>(m.time_budget * 1e9);
+  r.budget_ns = deadline.at_ns > 0 ? deadline.at_ns - t0 : 0;
+  r.degradation = Degradation::None;
+  r.energy_limit = EnergyLimit::None;
+  r.energy_removed = 0;
   r.status = TickStatus::Ok;
   r.solve = SolveStats{};
   r.newton = NewtonStats{};
@@ -135,9 +154,11 @@ const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInp
     StageTimer t(r, Stage::Collide);
     collide(m, s, w);
   }
-  step_with_recovery(m, s, w, r);  // times assemble, solve and integrate itself
+  step_with_recovery(m, s, w, r, deadline);  // times assemble, solve and integrate itself
+  r.deadline_check = deadline.expired_at;
   if (r.status == TickStatus::NonFinite) {  // rolled back, not advanced: nothing to report on
     r.total_ns = steady_now_ns() - t0;
+    r.over_budget = deadline.at_ns > 0 && t0 + r.total_ns > deadline.at_ns;
     return r;
   }
   s.time = static_cast<double>(s.step + 1) * m.time_step;
@@ -152,6 +173,7 @@ const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInp
   }
   if (r.status == TickStatus::Ok && !r.solve.converged) r.status = TickStatus::SolverNotConverged;
   r.total_ns = steady_now_ns() - t0;
+  r.over_budget = deadline.at_ns > 0 && t0 + r.total_ns > deadline.at_ns;
   return r;
 }
 

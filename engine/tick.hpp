@@ -18,6 +18,7 @@
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "haptics/tool.hpp"
+#include "tissue/deadline.hpp"
 #include "tissue/time_stepper.hpp"
 
 namespace stroma {
@@ -37,7 +38,8 @@ enum class TickStatus : uint8_t {
   SolverNotConverged,  ///< the linear solve hit its cap (state is still finite and advanced)
   Recovered,           ///< the full step failed (NaN/Inf in the solve or the state, or a node moving
                        ///< more than half the scene's size in one step); it was rolled back and
-                       ///< redone in `substeps` sub-steps
+                       ///< redone in `substeps` sub-steps (or, out of budget, partly redone or
+                       ///< held still: see TickReport::degradation)
   NonFinite            ///< no sub-step division gave a sane step either: the state was rolled
                        ///< back and not advanced (never a NaN in the state)
 };
@@ -53,6 +55,19 @@ inline constexpr int kKeepCappedSubsteps = 16;
 /// Most times a tick is re-solved after releasing speculative body contacts that ended pulling.
 inline constexpr int kMaxContactReleases = 2;
 
+/// What the engine cut short because the tick's time budget ran out (the worst, if several).
+/// Each is a stable way to finish the tick (engine/step_with_recovery.hpp).
+enum class Degradation : uint8_t {
+  None,
+  ReleasesSkipped,  ///< pulling speculative body contacts kept for this tick (a slight stickiness)
+  NewtonStopped,    ///< Newton iterations stopped at the last accepted iterate (each lowered Φ)
+  SolveTruncated,   ///< CG stopped at the deadline: its iterate is kept (never worse than no
+                    ///< correction: see CgSolver::solve's safe start), warm start not extrapolated
+  LadderStopped,    ///< sub-steps stopped early: the tissue advanced only part of the tick
+  Held              ///< no sane step in time: rolled back and held still (velocities zeroed)
+};
+std::string_view degradation_name(Degradation d);
+
 /// Everything one tick produces besides the new state, in one place. It lives in the
 /// TickWorkspace (its arrays sized at load) and is overwritten by the next tick: copy what you
 /// keep (a copy allocates — never copy it in a real-time loop).
@@ -66,6 +81,17 @@ struct TickReport {
   int substeps = 1;  ///< sub-steps the tick finally used (> 1: it was retried, see Recovered)
   int contact_releases = 0;  ///< re-solves after releasing pulling speculative body contacts
   int64_t total_ns = 0;
+  int64_t budget_ns = 0;     ///< this tick's time budget (0: none)
+  /// The deadline check at which the tick ran out of time (−1: it did not): what a session log
+  /// records so that a replay makes the same cuts.
+  int64_t deadline_check = -1;
+  bool over_budget = false;  ///< total_ns > budget_ns (the budget was not kept)
+  Degradation degradation = Degradation::None;  ///< what the budget cut short
+  /// A step whose linear solve did not converge (capped or truncated) is kept only without an
+  /// energy gain: what the guard did (the last step or sub-step it acted on) and the energy it
+  /// took out over the tick (J). See TimeStepper::energy_guard.
+  EnergyLimit energy_limit = EnergyLimit::None;
+  double energy_removed = 0;
   std::vector<ToolOutput> tools;    ///< per scenario tool: contact, end-of-step force, feedback
   BodyContactOutput body_contact;   ///< body–body contacts (zero without `body_contact:`)
   int damage_events = 0;            ///< elements reaching a new damage level this tick
@@ -107,9 +133,11 @@ void collide(const Model& m, State& s, TickWorkspace& w);
 StepInputs step_inputs(const Model& m, const State& s, const TickWorkspace& w);
 
 /// Advances `s` by one time step of the model. `inputs` are tool commands that take effect at
-/// the start of this tick (read_inputs stage; skipped when the scene has no tools). Returns
-/// w.report.
+/// the start of this tick (read_inputs stage; skipped when the scene has no tools).
+/// `deadline`: when the engine's own work must stop (tissue/deadline.hpp) — a steady-clock
+/// time, or (replay) the check at which the recorded tick ran out of time; none given = the
+/// model's time_budget from the tick's start (none if that is 0). Returns w.report.
 const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs = nullptr,
-                       int input_count = 0);
+                       int input_count = 0, Deadline deadline = {});
 
 }  // namespace stroma

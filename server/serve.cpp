@@ -188,6 +188,14 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
       msg.controls_received = in.controls.load();
       msg.commands_accepted = in.accepted.load();
       msg.commands_rejected = in.rejected.load();
+      msg.budget_ms = st.budget_ms;
+      msg.ticks_over_budget = st.over_budget;
+      msg.ticks_degraded = st.degraded;
+      msg.ticks_over_budget_window = st.over_budget_window;
+      msg.ticks_degraded_window = st.degraded_window;
+      msg.residual_max = st.residual_max;
+      msg.error_energy_max = st.error_energy_max;
+      msg.error_position_max = st.error_position_max;
       if (dds_write(ep.status_writer, &msg) >= 0) status_sent.fetch_add(1);
     }
   }
@@ -335,7 +343,8 @@ nlohmann::ordered_json histogram_json(const LatencyHistogram& h) {
 }
 
 /// Loads and compiles the scenario to serve; a static scenario is refused (file:line:field).
-CompiledScenario load_servable(const std::string& path) {
+CompiledScenario load_servable(const ServeOptions& o) {
+  const std::string& path = o.scenario;
   const ScenarioSpec spec = load_scenario(path);
   if (spec.solver.integrator == Integrator::Static) {
     // A static scenario solves equilibria, not time steps: there is nothing to tick at 1 kHz.
@@ -345,6 +354,19 @@ CompiledScenario load_servable(const std::string& path) {
                      "implicit_euler (or symplectic_euler) to serve this scenario, or `stroma run` for its static "
                      "equilibrium");
   }
+  // The budget must fit in the period: a longer one could never be kept at the tick rate.
+  if (spec.solver.time_budget > spec.time_step) {
+    const SourceLocation& at = spec.solver.time_budget_where;
+    throw InputError(at.file.empty() ? spec.file : at.file, at.line, "solver.time_budget",
+                     fmt::format("time_budget {:g} s is longer than the period (time_step {:g} s): a served tick "
+                                 "must fit in one period; use at most {:g} s, or none (the period minus "
+                                 "--budget-margin-ms)",
+                                 spec.solver.time_budget, spec.time_step, spec.time_step));
+  }
+  if (o.budget_margin_ms < 0 || o.budget_margin_ms * 1e-3 >= spec.time_step)
+    throw InputError("", 0, "--budget-margin-ms",
+                     fmt::format("{:g} ms leaves no budget: it must be >= 0 and below the period ({:g} ms)",
+                                 o.budget_margin_ms, spec.time_step * 1e3));
   CompiledScenario sc = compile_scenario(spec);
   for (const auto& n : sc.notes) spdlog::warn("{}", n);
   if (sc.model->tools.size() > static_cast<size_t>(kMaxTools))
@@ -424,6 +446,9 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
   j["ticks_not_converged"] = st.not_converged;
   j["ticks_non_finite"] = st.non_finite;
   j["ticks_recovered"] = st.recovered;
+  j["budget_ms"] = static_cast<double>(st.budget_ns) * 1e-6;
+  j["ticks_over_budget"] = st.over_budget;
+  j["ticks_degraded"] = st.degraded;
   j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
   j["tool_commands"] = {{"accepted", counters.accepted.load()}, {"clamped", counters.clamped.load()},
                         {"rejected", counters.rejected.load()}};
@@ -440,7 +465,7 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
 }  // namespace
 
 int run_serve(const ServeOptions& o) {
-  const CompiledScenario scenario = load_servable(o.scenario);
+  const CompiledScenario scenario = load_servable(o);
   const std::shared_ptr<const Model>& model = scenario.model;
   const RealtimeMode rt_mode = o.realtime == "fifo" ? RealtimeMode::Fifo
                                : o.realtime == "off" ? RealtimeMode::Off
@@ -469,6 +494,7 @@ int run_serve(const ServeOptions& o) {
     lo.start_paused = o.start_paused;
     lo.record = !o.record_file.empty();
     lo.spin_us = o.spin_us;
+    lo.budget_margin = o.budget_margin_ms * 1e-3;
     std::FILE* record = open_record(o);
     PhysicsLoop loop(model, lo);
     std::atomic<bool> stop{false};
@@ -522,10 +548,12 @@ int run_serve(const ServeOptions& o) {
     if (rt_failed) exit_code = 1;
 
     const PhysicsLoopStats& st = loop.stats();
-    spdlog::info("{} ticks in {:.2f} s wall; missed deadlines {} ({:.3f} %); wake p99 {:.0f} us; tick p99 {:.3f} ms; lag {:.4f} s",
+    spdlog::info("{} ticks in {:.2f} s wall; missed deadlines {} ({:.3f} %); wake p99 {:.0f} us; tick p99 {:.3f} ms; lag {:.4f} s; "
+                 "budget {:.3f} ms: {} ticks over it, {} degraded",
                  st.ticks, st.wall_time, st.missed_deadlines,
                  st.loops ? 100.0 * static_cast<double>(st.missed_deadlines) / static_cast<double>(st.loops) : 0.0,
-                 st.wake.percentile_us(0.99), st.tick.percentile_us(0.99) * 1e-3, st.lag);
+                 st.wake.percentile_us(0.99), st.tick.percentile_us(0.99) * 1e-3, st.lag,
+                 static_cast<double>(st.budget_ns) * 1e-6, st.over_budget, st.degraded);
     if (!o.stats_file.empty()) {
       std::ofstream f(o.stats_file);
       f << stats_json(o, *model, loop, rt, pp, counters, status_sent.load()).dump(2) << '\n';

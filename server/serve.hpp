@@ -20,6 +20,9 @@ struct ServeOptions {
   int spin_us = 100;           ///< spin this long before each deadline (0: pure sleep)
   std::string record_file;     ///< session log of accepted commands and controls (replayable)
   std::string final_state_file;  ///< final state CSV written at exit (compare with a replay)
+  /// Each tick's engine work ends this long before the next deadline (ms): its budget is the
+  /// period minus this, or solver.time_budget when smaller. Must be ≥ 0 and < the period.
+  double budget_margin_ms = 0.15;
 };
 
 /// Runs the server; returns the process exit code (0 clean, 1 runtime fault, 2 bad input).

@@ -29,13 +29,21 @@ TEST(SessionLog, RoundTripsExactlyAndRejectsInterruptedLogs) {
   b.kind = SessionEvent::Step;
   b.tick = 12;
   b.steps = 7;
+  SessionEvent cutoff;  // tick 12 ran out of its budget at its 37th deadline check
+  cutoff.kind = SessionEvent::Deadline;
+  cutoff.tick = 12;
+  cutoff.deadline_check = 37;
   SessionEvent end;
   end.kind = SessionEvent::End;
   end.tick = 40;
-  const std::string path = write_temp("stroma_session.log", std::string(kSessionLogHeader) + format_session_event(a) +
-                                                                 format_session_event(b) + format_session_event(end));
-  const auto ev = read_session_log(path);
-  ASSERT_EQ(ev.size(), 3u);
+  const std::string path =
+      write_temp("stroma_session.log", std::string(kSessionLogHeader) + format_session_event(a) + format_session_event(b) +
+                                           format_session_event(cutoff) + format_session_event(end));
+  auto ev = read_session_log(path);
+  ASSERT_EQ(ev.size(), 4u);
+  EXPECT_EQ(ev[2].kind, SessionEvent::Deadline);
+  EXPECT_EQ(ev[2].deadline_check, 37);
+  ev.erase(ev.begin() + 2);
   EXPECT_EQ(ev[0].input.pose.position, a.input.pose.position);  // bit-exact doubles
   EXPECT_EQ(ev[0].input.pose.orientation, a.input.pose.orientation);
   EXPECT_EQ(ev[0].input.seq, 99u);

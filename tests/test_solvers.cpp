@@ -382,5 +382,76 @@ TEST(Cholmod, FactorFailsForIndefiniteMatrix) {
   EXPECT_LE(true_relative_residual(*s, x), 1e-10);
 }
 
+// A deadline stops CG at once; the iterate it returns is kept and reported as stopped.
+TEST(Cg, DeadlineStopsTheSolveAndSaysSo) {
+  auto s = make_system();
+  CgSolver cg(s->model.num_nodes);
+  std::vector<double> x(s->n3(), 0.0);
+  Deadline past;
+  past.at_ns = 1;  // long gone on the steady clock
+  const SolveStats st = cg.solve(s->pattern(), s->A.data(), s->b.data(), x.data(), Preconditioner::Jacobi, 1000,
+                                 1e-12, nullptr, &past);
+  EXPECT_TRUE(st.budget_stopped);
+  EXPECT_FALSE(st.converged);
+  EXPECT_EQ(st.iterations, 1);  // the clock is read after each iteration
+  // The one iteration done is kept: it lowered ½xᵀAx − bᵀx below its value at x = 0 (CG lowers
+  // that quadratic, not necessarily the residual).
+  const Eigen::Map<const Eigen::VectorXd> xv(x.data(), s->n3());
+  EXPECT_LT(0.5 * xv.dot(s->Ad * xv) - s->b.dot(xv), 0.0);
+}
+
+// Safe start: an initial guess worse than zero in the quadratic ½xᵀAx − bᵀx is dropped, so a
+// truncated solve is never worse than no correction; a good guess is kept.
+TEST(Cg, SafeStartDropsAGuessWorseThanZero) {
+  auto s = make_system();
+  CgSolver cg(s->model.num_nodes);
+  auto phi = [&](const std::vector<double>& x) {
+    const Eigen::Map<const Eigen::VectorXd> xv(x.data(), s->n3());
+    return 0.5 * xv.dot(s->Ad * xv) - s->b.dot(xv);
+  };
+  std::vector<double> bad(s->n3());
+  for (int i = 0; i < s->n3(); ++i) bad[i] = -3.0 * s->xref(i);  // Φ(−3x*) = 7.5·|Φ(x*)| > 0
+  ASSERT_GT(phi(bad), 0.0);
+  std::vector<double> x = bad;
+  SolveStats st = cg.solve(s->pattern(), s->A.data(), s->b.data(), x.data(), Preconditioner::Jacobi, 1, 1e-12,
+                           nullptr, nullptr, true);
+  EXPECT_TRUE(st.started_from_zero);
+  EXPECT_LE(phi(x), 0.0) << "one iteration from zero lowers Φ below Φ(0) = 0";
+  x = bad;
+  cg.solve(s->pattern(), s->A.data(), s->b.data(), x.data(), Preconditioner::Jacobi, 1, 1e-12);
+  EXPECT_GT(phi(x), 0.0) << "without the safe start one iteration from the bad guess stays above zero";
+  std::vector<double> good(s->n3());
+  for (int i = 0; i < s->n3(); ++i) good[i] = 0.9 * s->xref(i);
+  x = good;
+  st = cg.solve(s->pattern(), s->A.data(), s->b.data(), x.data(), Preconditioner::Jacobi, 1, 1e-12, nullptr, nullptr, true);
+  EXPECT_FALSE(st.started_from_zero);
+}
+
+// The energy-norm error bound the time stepper reports: ½‖x − x*‖²_A ≤ ½ rᵀM⁻¹r for A = M + h²K
+// (K PSD; r = A e, so the ratio lies in [1, λmax(M⁻¹A)]), for solves stopped after 1…20 iterations.
+TEST(Cg, ResidualGivesAnEnergyNormErrorBound) {
+  auto s = make_system();
+  Eigen::VectorXd inv_sqrt_m(s->n3());
+  for (int32_t i = 0; i < s->model.num_nodes; ++i)
+    for (int k = 0; k < 3; ++k) inv_sqrt_m(3 * i + k) = 1.0 / std::sqrt(s->model.mass[i]);
+  const Eigen::MatrixXd scaled = inv_sqrt_m.asDiagonal() * s->Ad * inv_sqrt_m.asDiagonal();
+  const double lambda_max = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(scaled).eigenvalues().maxCoeff();
+  CgSolver cg(s->model.num_nodes);
+  for (int cap : {1, 2, 5, 10, 20}) {
+    std::vector<double> x(s->n3(), 0.0);
+    cg.solve(s->pattern(), s->A.data(), s->b.data(), x.data(), Preconditioner::Jacobi, cap, 1e-14);
+    const double* r = cg.residual();
+    double bound = 0;
+    for (int32_t i = 0; i < s->model.num_nodes; ++i)
+      for (int k = 0; k < 3; ++k) bound += 0.5 * r[3 * i + k] * r[3 * i + k] / s->model.mass[i];
+    const Eigen::Map<const Eigen::VectorXd> xv(x.data(), s->n3());
+    const Eigen::VectorXd e = xv - s->xref;
+    const double actual = 0.5 * e.dot(s->Ad * e);
+    EXPECT_LE(actual, bound * (1 + 1e-9)) << "cap " << cap;
+    EXPECT_GE(actual, bound / lambda_max * (1 - 1e-9)) << "cap " << cap << ": no looser than M⁻¹A allows";
+    EXPECT_GT(actual, 0.0);
+  }
+}
+
 }  // namespace
 }  // namespace stroma

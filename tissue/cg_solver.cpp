@@ -58,7 +58,7 @@ void CgSolver::apply_preconditioner(Preconditioner prec, const double* r, double
 
 SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double* b, double* x,
                            Preconditioner prec, int max_iterations, double tolerance,
-                           const ExternalPreconditioner* external) {
+                           const ExternalPreconditioner* external, Deadline* deadline, bool safe_start) {
   external_ = external;
   const int32_t m = 3 * n_;
   SolveStats st;
@@ -79,6 +79,18 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
   double* q = q_.data();
   bsr_spmv(pat, A, x, q);
   for (int32_t i = 0; i < m; ++i) r[i] = b[i] - q[i];
+  if (safe_start) {
+    // ½x₀ᵀAx₀ − bᵀx₀ = −½x₀ᵀ(b + r₀): positive means x₀ is worse than x = 0.
+    double phi = 0;
+    for (int32_t i = 0; i < m; ++i) phi -= 0.5 * x[i] * (b[i] + r[i]);
+    if (phi > 0) {
+      for (int32_t i = 0; i < m; ++i) {
+        x[i] = 0.0;
+        r[i] = b[i];
+      }
+      st.started_from_zero = true;
+    }
+  }
   apply_preconditioner(prec, r, z);
   for (int32_t i = 0; i < m; ++i) p[i] = z[i];
   double rz = dotn(r, z, m);
@@ -105,6 +117,10 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
     rnorm = std::sqrt(dotn(r, r, m));
     if (rnorm <= target) {
       st.converged = true;
+      break;
+    }
+    if (deadline && deadline->past()) {
+      st.budget_stopped = true;
       break;
     }
     apply_preconditioner(prec, r, z);

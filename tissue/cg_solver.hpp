@@ -6,9 +6,11 @@
 /// on small-valued SI systems. Zero iterations happen only when the warm start already meets
 /// the relative test (or b = 0).
 
+#include <cstdint>
 #include <vector>
 
 #include "tissue/bsr_matrix.hpp"
+#include "tissue/deadline.hpp"
 #include "tissue/options.hpp"
 
 namespace stroma {
@@ -17,7 +19,16 @@ namespace stroma {
 struct SolveStats {
   int iterations = 0;             ///< CG iterations (Newton iterations summed for static)
   double relative_residual = 0;   ///< ‖b − A x‖ / ‖b‖ at exit (0 when b = 0)
-  bool converged = true;          ///< false: hit the iteration cap or broke down
+  bool converged = true;          ///< false: hit the iteration cap, the deadline, or broke down
+  bool budget_stopped = false;    ///< stopped by the deadline (converged is then false)
+  bool started_from_zero = false; ///< the initial guess was worse than zero and was dropped
+  /// Bound on the solve's error in the system's energy norm: ½‖x − x*‖²_A ≤ ½ rᵀM⁻¹r with M
+  /// the mass part of A (A ≥ M: stiffness, damping and contact terms are PSD). It is exactly
+  /// how far the step's quadratic incremental potential is above its minimum (J). Filled by
+  /// the time stepper (0 for direct solves).
+  double error_energy = 0;
+  /// Mass-weighted RMS bound on the position error of the step it implies (m): h·√(rᵀM⁻¹r / Σm).
+  double error_position = 0;
 };
 
 /// A preconditioner supplied by the caller (used for Preconditioner::WarpedCholesky):
@@ -34,9 +45,16 @@ class CgSolver {
   explicit CgSolver(int32_t n = 0) { resize(n); }
   void resize(int32_t n);
   /// Solves A x = b; `x` holds the initial guess on entry (warm start) and the solution on exit.
+  /// `deadline` (null: none) is checked after every iteration: iterations stop once it has
+  /// passed (the iterate is kept: CG's iterates lower the quadratic ½xᵀAx − bᵀx monotonically). `safe_start`: if the
+  /// initial guess is worse than zero in that quadratic (−½x₀ᵀ(b + r₀) > 0, free from r₀), start
+  /// from zero instead — so a truncated solve is never worse than no correction at all.
   SolveStats solve(const BsrPattern& p, const double* A, const double* b, double* x,
                    Preconditioner prec, int max_iterations, double tolerance,
-                   const ExternalPreconditioner* external = nullptr);
+                   const ExternalPreconditioner* external = nullptr, Deadline* deadline = nullptr,
+                   bool safe_start = false);
+  /// The residual b − A x of the last solve (3n).
+  const double* residual() const { return r_.data(); }
 
  private:
   void build_preconditioner(const BsrPattern& p, const double* A, Preconditioner prec);

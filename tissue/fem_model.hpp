@@ -85,4 +85,16 @@ struct FemModel {
   int32_t dofs() const { return 3 * num_nodes; }
 };
 
+/// Adds the implicit step's mass term (1 + h·α_i)·m_i to each node's diagonal block of the BSR
+/// values A. `mass`: the lumped masses to use (the model's, or the current ones after damage).
+inline void add_mass_diagonal(const FemModel& m, double* A, double h, const double* mass) {
+  for (int32_t i = 0; i < m.num_nodes; ++i) {
+    double* D = A + 9 * m.pattern.diag[i];
+    const double md = (1.0 + h * m.alpha[i]) * mass[i];
+    D[0] += md;
+    D[4] += md;
+    D[8] += md;
+  }
+}
+
 }  // namespace stroma

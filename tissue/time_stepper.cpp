@@ -41,13 +41,7 @@ void TimeStepper::project_constraints(double* A, double diag_scale) {
 }
 
 void TimeStepper::add_mass_diagonal(double* A, double h) const {
-  for (int32_t i = 0; i < m_.num_nodes; ++i) {
-    double* D = A + 9 * m_.pattern.diag[i];
-    const double md = (1.0 + h * m_.alpha[i]) * mass(i);
-    D[0] += md;
-    D[4] += md;
-    D[8] += md;
-  }
+  stroma::add_mass_diagonal(m_, A, h, in_.node_mass ? in_.node_mass : m_.mass.data());
 }
 
 void TimeStepper::scatter_springs(double* force, double* A, double k_scale, double c_scale, const double* v) const {
@@ -74,6 +68,7 @@ void TimeStepper::scatter_springs(double* force, double* A, double k_scale, doub
 
 double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& inputs) {
   in_ = inputs;
+  h_ = h;
   std::fill(force_.begin(), force_.end(), 0.0);
   ElasticPass p;
   p.x = s.x.data();
@@ -97,6 +92,7 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
     p.kv_const = 0.0;
   }
   const double energy = elastic_pass(m_, p);
+  u_start_ = energy;
   // Contact: forces join the elastic ones; stiffness and damping join the system matrix, so
   // the SpMV below also forms their −h(hK + C)v terms of the right-hand side.
   if (implicit) scatter_springs(force_.data(), A_.data(), h * h, h);
@@ -136,7 +132,21 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
   return energy;
 }
 
-SolveStats TimeStepper::solve(TissueState& s) {
+void TimeStepper::error_bounds(const double* r, double h, SolveStats& st) const {
+  double rmr = 0, total_mass = 0;
+  for (int32_t i = 0; i < m_.num_nodes; ++i) {
+    const double mi = mass(i);
+    if (mi <= 0) continue;
+    total_mass += mi;
+    const double meff = (1.0 + h * m_.alpha[i]) * mi;
+    for (int k = 0; k < 3; ++k)
+      if (!dof_constrained(m_, i, k)) rmr += r[3 * i + k] * r[3 * i + k] / meff;
+  }
+  st.error_energy = 0.5 * rmr;
+  st.error_position = total_mass > 0 ? h * std::sqrt(rmr / total_mass) : 0.0;
+}
+
+SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
   SolveStats st;
   double* dv = s.dv.data();
   const size_t n3 = rhs_.size();
@@ -147,11 +157,16 @@ SolveStats TimeStepper::solve(TissueState& s) {
   // Initial guess. Δv changes smoothly from tick to tick, so a linear extrapolation of the last
   // two cuts CG iterations 2–3× against the previous value alone (liver: 22 → 9).
   double* prev = s.dv_prev.data();
-  switch (cfg_.warm_start) {
+  // After a capped or truncated solve its increment is no trend to extrapolate: start from it
+  // (CG then drops it if it is worse than zero).
+  const WarmStart warm = converged_in_a_row_ >= 2 || cfg_.warm_start != WarmStart::Extrapolate ? cfg_.warm_start
+                                                                                           : WarmStart::Previous;
+  switch (warm) {
     case WarmStart::Off:
       std::fill(dv, dv + n3, 0.0);
       break;
     case WarmStart::Previous:
+      std::copy(dv, dv + n3, prev);  // the history extrapolation will use
       break;
     case WarmStart::Extrapolate:
       for (size_t i = 0; i < n3; ++i) {
@@ -170,8 +185,11 @@ SolveStats TimeStepper::solve(TissueState& s) {
     st.iterations = 0;
     return st;
   }
-  return cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, cfg_.max_iterations, cfg_.tolerance,
-                   external());
+  st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, cfg_.max_iterations, cfg_.tolerance,
+                 external(), deadline, converged_in_a_row_ == 0);
+  converged_in_a_row_ = st.converged ? converged_in_a_row_ + 1 : 0;
+  error_bounds(cg_.residual(), h_, st);
+  return st;
 }
 
 double TimeStepper::implicit_residual(const TissueState& s, double h, const double* dv, bool matrix, double* R,
@@ -262,7 +280,7 @@ double TimeStepper::timed_residual(NewtonStats& st, const TissueState& s, double
   return r;
 }
 
-NewtonStats TimeStepper::newton(TissueState& s, double h) {
+NewtonStats TimeStepper::newton(TissueState& s, double h, Deadline* deadline) {
   NewtonStats st;
   if (cfg_.newton_iterations <= 1 || cfg_.integrator != Integrator::ImplicitEuler) return st;
   const size_t n3 = rhs_.size();
@@ -297,6 +315,10 @@ NewtonStats TimeStepper::newton(TissueState& s, double h) {
   }
   bool a_current = false;  // A_ assembled at the current iterate?
   while (st.iterations < cfg_.newton_iterations && rn > cfg_.newton_tolerance * scale && std::isfinite(rn)) {
+    if (deadline && deadline->past()) {  // keep the last accepted iterate: each one lowered Φ
+      st.budget_stopped = true;
+      break;
+    }
     if (!a_current) rn = timed_residual(st, s, h, dv, true, newton_r_.data(), &phi);
     a_current = true;  // (line-search trials assemble at the point they try)
     std::fill(newton_delta_.begin(), newton_delta_.end(), 0.0);
@@ -305,7 +327,7 @@ NewtonStats TimeStepper::newton(TissueState& s, double h) {
       cholmod_->solve(newton_r_.data(), newton_delta_.data());
     } else {
       const SolveStats cs = cg_.solve(m_.pattern, A_.data(), newton_r_.data(), newton_delta_.data(), cfg_.preconditioner,
-                                      cfg_.max_iterations, cfg_.tolerance, external());
+                                      cfg_.max_iterations, cfg_.tolerance, external(), deadline);
       st.linear_iterations += cs.iterations;
     }
     ++st.iterations;
@@ -340,6 +362,79 @@ NewtonStats TimeStepper::newton(TissueState& s, double h) {
   }
   st.relative_residual = rn / scale;
   return st;
+}
+
+double TimeStepper::potential_terms(const double* x) const {
+  double e = 0;
+  for (int32_t i = 0; i < m_.num_nodes; ++i) {
+    const double dm = mass(i) - m_.mass[i];
+    for (int k = 0; k < 3; ++k) {
+      const int32_t d = 3 * i + k;
+      e -= (m_.f_ext[d] + dm * m_.gravity[k]) * (x[d] - m_.rest[d]);
+    }
+  }
+  if (!in_.contact_origin) return e;
+  for (int c = 0; c < in_.spring_count; ++c) {
+    const ContactSpring& sp = in_.springs[c];
+    double p0[3], p1[3];
+    spring_point(sp, in_.contact_origin, p0);
+    spring_point(sp, x, p1);
+    const double dp[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+    for (int k = 0; k < 3; ++k)
+      e += -sp.force[k] * dp[k] + 0.5 * dp[k] * (sp.K[3 * k] * dp[0] + sp.K[3 * k + 1] * dp[1] + sp.K[3 * k + 2] * dp[2]);
+  }
+  return e;
+}
+
+EnergyLimit TimeStepper::energy_guard(TissueState& s, double h, double* removed) {
+  *removed = 0;
+  const size_t n3 = s.x.size();
+  // The start of the step: v₀ = v − Δv, x₀ = x − h·v (constrained DOFs did not move).
+  std::vector<double>& x0 = tmp_;
+  double ke0 = 0, ke1 = 0;
+  for (int32_t i = 0; i < m_.num_nodes; ++i) {
+    const double mi = mass(i);
+    for (int k = 0; k < 3; ++k) {
+      const int32_t d = 3 * i + k;
+      const bool fixed = dof_constrained(m_, i, k);
+      const double v0 = fixed ? 0.0 : s.v[d] - s.dv[d];
+      x0[d] = fixed ? s.x[d] : s.x[d] - h * s.v[d];
+      ke0 += 0.5 * mi * v0 * v0;
+      ke1 += 0.5 * mi * s.v[d] * s.v[d];
+    }
+  }
+  const double e0 = ke0 + u_start_ + potential_terms(x0.data());
+  const double v1 = elastic_energy(s) + potential_terms(s.x.data());
+  const double tol = 1e-12 * (std::abs(e0) + ke1 + std::abs(v1)) + 1e-300;
+  if (ke1 + v1 <= e0 + tol) return EnergyLimit::None;
+  auto scale_velocities = [&](double available, double ke) {
+    const double f = ke > 0 ? std::sqrt(std::max(0.0, available) / ke) : 0.0;
+    if (f < 1.0)
+      for (double& v : s.v) v *= f;
+  };
+  if (v1 <= e0) {  // the kinetic energy is what grew: damp this tick's velocities
+    scale_velocities(e0 - v1, ke1);
+    *removed = ke1 + v1 - e0;
+    return EnergyLimit::VelocityScaled;
+  }
+  // The positions alone hold more than the start energy: pull them back along the step.
+  std::vector<double>& x1 = kv_;  // free scratch after integrate()
+  std::copy(s.x.begin(), s.x.end(), x1.begin());
+  for (double theta = 0.5; theta >= 1.0 / 64; theta *= 0.5) {
+    for (size_t d = 0; d < n3; ++d) s.x[d] = x0[d] + theta * (x1[d] - x0[d]);
+    const double vt = elastic_energy(s) + potential_terms(s.x.data());
+    if (vt <= e0) {
+      const double ke = theta * theta * ke1;
+      for (double& v : s.v) v *= theta;
+      scale_velocities(e0 - vt, ke);
+      *removed = ke1 + v1 - e0;
+      return EnergyLimit::PositionsPulled;
+    }
+  }
+  std::copy(x0.begin(), x0.end(), s.x.begin());
+  std::fill(s.v.begin(), s.v.end(), 0.0);
+  *removed = ke1 + v1 - e0;
+  return EnergyLimit::Held;
 }
 
 void TimeStepper::integrate(TissueState& s, double h) {

@@ -48,6 +48,7 @@ struct NewtonStats {
   double relative_residual = 0;    ///< ‖R(Δv)‖ / scale at exit (0: not measured, iterations = 1)
   int line_search_halvings = 0;    ///< step halvings the line search needed, summed
   int64_t element_pass_ns = 0;     ///< wall time of its element passes (residuals, assemblies)
+  bool budget_stopped = false;     ///< stopped by the deadline before converging
 };
 
 /// What a step is solved against besides the state: the collide stage's contact springs and
@@ -58,6 +59,16 @@ struct StepInputs {
   int spring_count = 0;
   const float* damage = nullptr;       ///< per element d ∈ [0, 1]: stiffness × (1 − d)
   const double* node_mass = nullptr;   ///< current lumped masses (gravity follows them)
+  /// Positions the springs were found at (their linearisation point); null: no contact energy.
+  const double* contact_origin = nullptr;
+};
+
+/// What energy_guard() did to a step.
+enum class EnergyLimit : uint8_t {
+  None,            ///< the step did not gain energy
+  VelocityScaled,  ///< the velocities were scaled down to the energy the step started with
+  PositionsPulled, ///< the positions were pulled back along the step (then velocities scaled)
+  Held             ///< back to the start positions, velocities zero
 };
 
 /// Result of a static solve.
@@ -86,15 +97,31 @@ class TimeStepper {
   /// Stage "assemble": element pass at the current state and the step's right-hand side, with
   /// this step's inputs (kept for the rest of the step). Returns the elastic energy at s.x.
   double assemble(const TissueState& s, double h, const StepInputs& inputs);
-  /// Stage "solve": Δv (implicit Euler) into s.dv. No-op for symplectic Euler.
-  SolveStats solve(TissueState& s);
+  /// Stage "solve": Δv (implicit Euler) into s.dv. No-op for symplectic Euler. CG stops at
+  /// `deadline` (null: none). The warm start extrapolates the last two increments
+  /// only when the last solve converged; after a capped or truncated one it starts from that
+  /// increment, or from zero if that is worse (no extrapolation from unconverged increments).
+  /// Fills the error bounds of SolveStats.
+  SolveStats solve(TissueState& s, Deadline* deadline = nullptr);
   /// Newton iterations on the implicit-Euler equations after solve() (StepperSettings::
   /// newton_iterations > 1; no-op otherwise): R(Δv) = h(f_ext + f(x) + f_c − αMv − βK(x)v)
   /// − M Δv with v = v₀ + Δv and x = x₀ + h v (contacts as linearised at x₀, the same springs).
   /// Refines s.dv in place; s.x and s.v are not touched (integrate() applies the result).
-  NewtonStats newton(TissueState& s, double h);
+  /// Stops iterating at `deadline` (null: none), keeping the last accepted iterate.
+  NewtonStats newton(TissueState& s, double h, Deadline* deadline = nullptr);
   /// Stage "integrate": update v and x; constrained nodes keep v = 0.
   void integrate(TissueState& s, double h);
+
+  /// After integrate() of an implicit-Euler step whose linear solve did not converge (capped or
+  /// truncated): makes sure the step did not gain mechanical energy. The energy E = ½vᵀMv +
+  /// U(x) − f_ext·(x − X) + the contact springs' potential (linear as the step used them; with
+  /// the tool fixed during the step it does no work) is compared before and after the step
+  /// (the start state is recovered as v − Δv, x − h·v). If it grew, the velocities are scaled
+  /// down so that it did not; if the positions alone hold more than the start energy, they are
+  /// pulled back along the step (halving, up to 6 times; then the start positions, at rest).
+  /// Costs one elastic-energy element pass, only when called. Returns what it did; `removed`
+  /// gets the energy taken out (J).
+  EnergyLimit energy_guard(TissueState& s, double h, double* removed);
 
   /// Newton iterations to static equilibrium of load_factor·f_ext + f(x) + f_c(x) = 0 from s.x
   /// (velocities zeroed; tissue/static_solve.cpp). `inputs_at`, if given, returns the inputs
@@ -149,6 +176,16 @@ class TimeStepper {
   const FemModel& m_;
   StepperSettings cfg_;
   StepInputs in_;  ///< the inputs of the last assemble()
+  /// Solves converged in a row (the initial rest state counts as two): the warm start
+  /// extrapolates only from two converged increments, and CG guards its start after a failure.
+  int converged_in_a_row_ = 2;
+  double h_ = 0;  ///< the step of the last assemble()
+  double u_start_ = 0;  ///< elastic energy at the last assemble()'s positions
+  /// −f_ext·(x − X) (gravity following the current masses) plus the contact springs' potential
+  /// relative to their origin, at positions x.
+  double potential_terms(const double* x) const;
+  /// ½ rᵀM_eff⁻¹r and the position bound for SolveStats (r: the CG residual; M_eff = (1 + hα)M).
+  void error_bounds(const double* r, double h, SolveStats& st) const;
   double mass(int32_t i) const { return in_.node_mass ? in_.node_mass[i] : m_.mass[i]; }
   std::vector<double> force_, kv_, rhs_, A_, rot_, tmp_;
   std::vector<double> newton_x_, newton_v_, newton_r_, newton_trial_r_, newton_delta_, newton_dv_;  // Newton scratch

@@ -27,13 +27,7 @@ void WarpedPreconditioner::factor(double h_mass, double k_beta, double k_const) 
   p.k_beta = k_beta;
   p.k_const = k_const;
   elastic_pass(m_, p);
-  for (int32_t i = 0; i < m_.num_nodes; ++i) {
-    double* D = A0.data() + 9 * m_.pattern.diag[i];
-    const double md = h_mass < 0 ? 0.0 : (1.0 + h_mass * m_.alpha[i]) * m_.mass[i];
-    D[0] += md;
-    D[4] += md;
-    D[8] += md;
-  }
+  if (h_mass >= 0) add_mass_diagonal(m_, A0.data(), h_mass, m_.mass.data());
   project_constraints(m_, A0.data(), 1.0, false);
   if (!factor_) factor_ = std::make_unique<CholmodSolver>(m_.pattern);
   factor_->factor(A0.data());

@@ -139,6 +139,10 @@ TEST(Serve, StatusPublishedAndControlPauseStepResumeShutdown) {
   EXPECT_GT(s.stage_ms[3], 0.0) << "solve stage time published live";
   EXPECT_GE(s.tick_ms_p999, s.tick_ms_p99);
   EXPECT_GE(s.tick_ms_max, s.tick_ms_p999);
+  EXPECT_DOUBLE_EQ(s.budget_ms, 1.0 - 0.15) << "the period minus the default margin";
+  EXPECT_GT(s.residual_max, 0.0) << "the solve's accuracy is published live";
+  EXPECT_GT(s.error_energy_max, 0.0);
+  EXPECT_GE(s.ticks_over_budget, s.ticks_over_budget_window);
 
   client.control(stroma_PAUSE);
   ASSERT_TRUE(client.wait_status(5, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }, &s));
@@ -171,6 +175,8 @@ TEST(Serve, StatusPublishedAndControlPauseStepResumeShutdown) {
   EXPECT_EQ(j["controls"]["received"].get<int>(), 6);
   EXPECT_GT(j["wake_latency"]["count"].get<int64_t>(), 0);
   EXPECT_GE(j["tick_time"]["p99_us"].get<double>(), j["tick_time"]["p50_us"].get<double>());
+  EXPECT_DOUBLE_EQ(j["budget_ms"].get<double>(), 0.85);
+  EXPECT_TRUE(j.contains("ticks_over_budget") && j.contains("ticks_degraded"));
 }
 
 TEST(Serve, LateJoiningSubscriberReceivesTheMesh) {
