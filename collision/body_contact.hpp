@@ -30,7 +30,10 @@
 
 namespace stroma {
 
-/// Compiled body–body contact.
+/// Compiled body–body contact. Invariants: stiffness > 0; body_depth has one entry per body;
+/// vertex, vertex_area, vertex_slot are parallel and grouped by body (body_vertex_begin has
+/// bodies + 1 entries); vertex_tri_begin has vertices + 1; triangle_body parallels the
+/// collision triangles.
 struct BodyContactModel {
   double stiffness = 0;  ///< Pa/m: contact pressure per metre of penetration
   /// m, per body: deepest penetration into that body that is found (the BVH query radius for

@@ -6,18 +6,13 @@
 #include <cmath>
 
 #include "haptics/tool_shape.hpp"
+#include "tissue/clock.hpp"
 
 namespace stroma {
 
 namespace {
 
 constexpr int64_t kNs = 1000000000LL;
-
-inline int64_t now_ns() {
-  timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * kNs + ts.tv_nsec;
-}
 
 inline void sleep_until(int64_t t) {
   timespec ts{static_cast<time_t>(t / kNs), static_cast<long>(t % kNs)};
@@ -71,7 +66,7 @@ void PhysicsLoop::publish_feedback(const TickReport& r) {
     f.tool = static_cast<int32_t>(t);
     f.seq = ts.seq;
     f.client_time_ns = ts.client_time_ns;
-    f.server_time_ns = now_ns();
+    f.server_time_ns = steady_now_ns();
     f.sim_time = state_.time;
     f.active = ts.active;
     f.force = out.feedback.force;  // computed once, by the tick's hand_off (haptics/feedback.hpp)
@@ -202,17 +197,17 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
   StatusFrame* status = &status_out.write_slot();
   std::array<ToolInput, kMaxTools> inputs;
 
-  const int64_t t0 = now_ns();
+  const int64_t t0 = steady_now_ns();
   int64_t deadline = t0 + period;
   int64_t last_done = t0;
   while (!stop.load(std::memory_order_relaxed) && !shutdown) {
     if (opt_.spin_us > 0) {
       sleep_until(deadline - 1000LL * opt_.spin_us);
-      while (now_ns() < deadline) __builtin_ia32_pause();
+      while (steady_now_ns() < deadline) __builtin_ia32_pause();
     } else {
       sleep_until(deadline);
     }
-    const int64_t wake = now_ns();
+    const int64_t wake = steady_now_ns();
     stats_.wake.record(wake - deadline);
     ++stats_.loops;
 
@@ -238,16 +233,16 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       }
       account_tick(r, rs, win);
       // Hand-off to the server's threads, timed under the hand_off stage.
-      const int64_t h0 = now_ns();
+      const int64_t h0 = steady_now_ns();
       if (r.damage_events > 0) publish_damage_events(r);
       if (!state_.tools.empty()) publish_feedback(r);
       if (state_wanted.load(std::memory_order_relaxed) && state_.step % opt_.publish_every == 0)
         publish_state_frame(r, ++frame);
-      const int64_t handoff = now_ns() - h0;
+      const int64_t handoff = steady_now_ns() - h0;
       stats_.stage_ns_total[static_cast<int>(Stage::HandOff)] += handoff;
       win.stage_ns[static_cast<int>(Stage::HandOff)] += handoff;
     }
-    const int64_t done = now_ns();
+    const int64_t done = steady_now_ns();
     const int64_t busy = done - wake;
     stats_.tick.record(busy);
     if (rs == RunState::Running) running_wall += static_cast<double>(done - last_done) * 1e-9;
@@ -273,7 +268,7 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
   end.tick = static_cast<int64_t>(stats_.ticks);
   log(end);
   stats_.sim_time = state_.time;
-  stats_.wall_time = static_cast<double>(now_ns() - t0) * 1e-9;
+  stats_.wall_time = static_cast<double>(steady_now_ns() - t0) * 1e-9;
   stats_.lag = running_wall - state_.time;
   finished.store(true);
   outputs_published.fetch_add(1, std::memory_order_release);

@@ -117,7 +117,10 @@ struct PhysicsLoopStats {
   double sim_time = 0, wall_time = 0, lag = 0;
 };
 
-/// The physics thread's state and its lock-free ports.
+/// The physics thread's state and its lock-free ports. Invariants: one producer and one
+/// consumer per port (controls and tool_in: the DDS-in thread → physics; the outputs: physics →
+/// publisher / feedback / recorder threads); only run()'s thread touches the state, the
+/// workspace and stats until finished is set.
 class PhysicsLoop {
  public:
   PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions options);

@@ -202,7 +202,9 @@ struct BodyContactSpec {
   SourceLocation where;
 };
 
-/// A whole scenario.
+/// A whole scenario. Invariants after load_scenario(): time_step > 0; at least one body; names
+/// of bodies, probes and tools unique; paths resolved; every SourceLocation names the line it
+/// came from (0 when the key was absent).
 struct ScenarioSpec {
   std::string name;
   std::string file;        ///< the scenario file it was read from

@@ -3,17 +3,12 @@
 /// Times a block of the tick into a stage of its report (RAII). Adds, so a stage run several
 /// times in one tick (a retried step) reports its total.
 
-#include <chrono>
 #include <cstdint>
 
 #include "engine/tick.hpp"
+#include "tissue/clock.hpp"
 
 namespace stroma {
-
-inline int64_t steady_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 /// Adds the wall time of its lifetime to stage `s` of report `r` and marks the stage as run.
 class StageTimer {

@@ -115,12 +115,11 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
   if (ok) return;
   // The engine defends itself: roll back and redo the tick in 2, 4, … sub-steps (a smaller step
   // is both more stable and better conditioned), warm start cleared.
-  int done = 0;  // sane sub-steps of the current level
   for (int k = 2; k <= kMaxSubsteps && !ok; k *= 2) {
-    if (deadline.past()) break;
+    if (deadline.past()) break;  // (a failed level that ran out of time ends here too)
     restore(s.tissue, w);
     ok = true;
-    done = 0;
+    int done = 0;  // sane sub-steps of this level
     // From kKeepCappedSubsteps on a capped solve is kept: a finite, advanced state beats none.
     for (int i = 0; i < k && ok; ++i) {
       if (deadline.past()) break;
@@ -128,12 +127,8 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
       done += ok;
     }
     r.substeps = k;
-    if (ok && done < k) {  // out of time part-way: keep the sane sub-steps done
-      degrade(r, Degradation::LadderStopped);
-      break;
-    }
-    if (!ok && done > 0 && deadline.past()) {  // the last sub-step failed and time is up
-      // Its state is not sane: nothing of this level can be kept.
+    if (ok && done < k) {  // out of time part-way: keep the sane sub-steps done (maybe none:
+      degrade(r, Degradation::LadderStopped);  // then the tissue keeps its start state for the tick)
       break;
     }
   }

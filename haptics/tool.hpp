@@ -15,7 +15,8 @@
 
 namespace stroma {
 
-/// A commanded device pose.
+/// A commanded device pose. Invariant once validated (validate_tool_command): finite values,
+/// a unit quaternion (renormalised), the position inside the tool's workspace.
 struct ToolPose {
   Vec3 position{0, 0, 0};                       ///< m
   std::array<double, 4> orientation{1, 0, 0, 0};  ///< unit quaternion (w, x, y, z)
@@ -39,7 +40,10 @@ enum class ToolShape {
            ///< along local +z opened by ±jaw/2 about the local y axis
 };
 
-/// `tools:` entry of a scenario.
+/// `tools:` entry of a scenario. Invariants (checked at load): radius > 0 when shaped,
+/// shaft_radius ≤ radius, lengths, stiffnesses, damping, friction, timeouts ≥ 0, max_force > 0,
+/// grasp_close < grasp_open, workspace_min ≤ workspace_max. In a Model every automatic value
+/// (0 stiffness) is resolved.
 struct ToolSpec {
   std::string name;
   Vec3 workspace_min{-1e3, -1e3, -1e3};

@@ -38,7 +38,8 @@ struct ExternalPreconditioner {
   void* context = nullptr;
 };
 
-/// Reusable PCG workspace for one system size.
+/// Reusable PCG workspace for one system size. Invariant: every vector holds 3n entries (9n for
+/// the block-Jacobi inverse) from resize() on; solve() allocates nothing.
 class CgSolver {
  public:
   /// Allocates work vectors for a system of `n` nodes (3n unknowns).

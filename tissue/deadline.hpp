@@ -6,14 +6,15 @@
 /// replay it expires at the recorded check instead, so a replayed tick makes exactly the cuts
 /// the live tick made — a budgeted session still replays bit for bit.
 
-#include <chrono>
 #include <cstdint>
+
+#include "tissue/clock.hpp"
 
 namespace stroma {
 
 /// Invariant: once past() has returned true it returns true for the rest of the tick.
 struct Deadline {
-  int64_t at_ns = 0;             ///< steady-clock time it expires at (0: no clock deadline)
+  int64_t at_ns = 0;             ///< steady_now_ns() time it expires at (0: no clock deadline)
   int64_t expire_at_check = -1;  ///< ≥ 0: replay — expired from this check on, whatever the clock
   int64_t checks = 0;            ///< checks made so far
   int64_t expired_at = -1;       ///< the first check that found it expired (−1: not yet)
@@ -24,13 +25,9 @@ struct Deadline {
     if (!active()) return false;
     const int64_t k = checks++;
     if (expired_at >= 0) return true;
-    const bool expired = expire_at_check >= 0 ? k >= expire_at_check : now_ns() > at_ns;
+    const bool expired = expire_at_check >= 0 ? k >= expire_at_check : steady_now_ns() > at_ns;
     if (expired) expired_at = k;
     return expired;
-  }
-  static int64_t now_ns() {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-        .count();
   }
 };
 

@@ -16,7 +16,9 @@
 
 namespace stroma {
 
-/// What one linear tetrahedron needs each tick (120 bytes, contiguous).
+/// What one linear tetrahedron needs each tick (120 bytes, contiguous). Invariants: the four
+/// nodes are distinct and positively oriented at rest (volume > 0); lambda, mu ≥ 0 (valid E, ν);
+/// beta ≥ 0.
 struct ElementParams {
   std::array<int32_t, 4> node;  ///< global node indices
   double g[9];      ///< rows: gradients of shape functions N1, N2, N3 (∇N0 = −Σ); = Dm⁻¹

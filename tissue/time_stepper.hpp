@@ -24,7 +24,9 @@
 
 namespace stroma {
 
-/// Solver settings (from the scenario's `solver:` section).
+/// Solver settings (from the scenario's `solver:` section). Invariants (the loader checks
+/// them): max_iterations, static_max_newton, newton_iterations ≥ 1 (`auto` resolved at compile);
+/// 0 < tolerance, newton_tolerance < 1; static_tolerance > 0.
 struct StepperSettings {
   Integrator integrator = Integrator::ImplicitEuler;
   LinearSolverKind linear_solver = LinearSolverKind::CG;
