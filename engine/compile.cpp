@@ -22,23 +22,46 @@ namespace {
 
 /// Local node indices selected by `sel` in `mesh`. Throws if the selection is empty or an index
 /// is out of range: a constraint that silently selects nothing is a classic scenario bug.
-std::vector<int32_t> select_nodes(const NodeSelection& sel, const TetMesh& mesh,
+std::vector<int32_t> select_nodes(const NodeSelection& sel, const PreparedMesh& pm,
                                   const std::string& field) {
+  const TetMesh& mesh = pm.mesh;
   std::vector<int32_t> out;
   const int32_t n = static_cast<int32_t>(mesh.nodes.size());
+  std::vector<char> facing;  // surface: nodes of boundary faces facing the normal
+  if (sel.surface) {
+    facing.assign(static_cast<size_t>(n), 0);
+    const double cos_max = std::cos(sel.surface->max_angle_deg * M_PI / 180.0);
+    const Vec3& d = sel.surface->normal;
+    for (const Tri& t : pm.boundary) {
+      const Vec3 &a = mesh.nodes[t[0]], &b = mesh.nodes[t[1]], &c = mesh.nodes[t[2]];
+      const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+      const Vec3 nrm{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+      const double len = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+      if (len > 0 && (nrm[0] * d[0] + nrm[1] * d[1] + nrm[2] * d[2]) >= cos_max * len)
+        for (int k = 0; k < 3; ++k) facing[static_cast<size_t>(t[k])] = 1;
+    }
+    if (!sel.box) {
+      for (int32_t i = 0; i < n; ++i)
+        if (facing[static_cast<size_t>(i)]) out.push_back(i);
+      if (out.empty())
+        throw InputError(sel.where.file, sel.where.line, field + ".surface",
+                         fmt::format("no boundary face of mesh '{}' faces [{}, {}, {}] within {} degrees", mesh.source,
+                                     d[0], d[1], d[2], sel.surface->max_angle_deg));
+    }
+  }
   if (sel.box) {
     const BoxSpec& b = *sel.box;
     for (int32_t i = 0; i < n; ++i) {
       const Vec3& p = mesh.nodes[i];
       if (p[0] >= b.min[0] && p[0] <= b.max[0] && p[1] >= b.min[1] && p[1] <= b.max[1] &&
-          p[2] >= b.min[2] && p[2] <= b.max[2])
+          p[2] >= b.min[2] && p[2] <= b.max[2] && (facing.empty() || facing[static_cast<size_t>(i)]))
         out.push_back(i);
     }
     if (out.empty())
-      throw InputError(sel.where.file, sel.where.line, field + ".box",
-                       fmt::format("box [{}, {}, {}]..[{}, {}, {}] selects no node of mesh '{}'",
+      throw InputError(sel.where.file, sel.where.line, field + (sel.surface ? "" : ".box"),
+                       fmt::format("box [{}, {}, {}]..[{}, {}, {}]{} selects no node of mesh '{}'",
                                    b.min[0], b.min[1], b.min[2], b.max[0], b.max[1], b.max[2],
-                                   mesh.source));
+                                   sel.surface ? " with the surface condition" : "", mesh.source));
   }
   for (int i : sel.nodes) {
     if (i < 0 || i >= n)
@@ -225,12 +248,12 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
     in.rayleigh_stiffness = mat.rayleigh_stiffness;
     in.mesh = &pm;
     for (size_t k = 0; k < b.fixed.size(); ++k) {
-      auto sel = select_nodes(b.fixed[k], pm.mesh, fmt::format("{}.fixed[{}]", field, k));
+      auto sel = select_nodes(b.fixed[k], pm, fmt::format("{}.fixed[{}]", field, k));
       for (int32_t i : sel) in.fixed.push_back({i, b.fixed[k].axes});
     }
     for (size_t k = 0; k < b.loads.size(); ++k) {
       const NodalLoadSpec& l = b.loads[k];
-      auto sel = select_nodes(l.select, pm.mesh, fmt::format("{}.loads[{}]", field, k));
+      auto sel = select_nodes(l.select, pm, fmt::format("{}.loads[{}]", field, k));
       const double share = l.per_node ? 1.0 : 1.0 / static_cast<double>(sel.size());
       for (int32_t i : sel) in.nodal_forces.push_back({i, {l.force[0] * share, l.force[1] * share, l.force[2] * share}});
     }
@@ -324,6 +347,12 @@ void compile_collision_faces(Model& model) {
         // A pair missing from the pattern joins two nodes of a fully fixed body (whose elements
         // are not in it): its row is projected to identity, so its diagonal block is a harmless
         // place for what contact would add there.
+        // Upper-triangle storage: the pair (a, c) with t[a] > t[c] is the transpose of (c, a),
+        // which the symmetric contact block already adds: -1, skipped.
+        if (t[a] > t[c]) {
+          sl[3 * a + c] = -1;
+          continue;
+        }
         const int32_t slot = fem.pattern.find(t[a], t[c]);
         sl[3 * a + c] = slot >= 0 ? slot : fem.pattern.diag[t[a]];
       }

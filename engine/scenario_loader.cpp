@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -179,18 +180,36 @@ BoxSpec parse_box(const Field& f) {
   return box;
 }
 
-/// The selection part of a `fixed:` or `loads:` entry: exactly one of `box` / `nodes`.
+SurfaceSelectSpec parse_surface_select(const Field& f) {
+  const MapReader m = f.map({"normal", "max_angle"});
+  SurfaceSelectSpec s;
+  const Field normal = m.req("normal");
+  const Vec3 n = normal.vec3();
+  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  if (!(len > 1e-12) || !std::isfinite(len)) normal.fail("normal must be a finite non-zero vector");
+  for (int k = 0; k < 3; ++k) s.normal[k] = n[k] / len;
+  Range angle = greater_than(0);
+  angle.hi = 180;
+  angle.hi_closed = true;
+  m.read("max_angle", s.max_angle_deg, angle);
+  return s;
+}
+
+/// The selection part of a `fixed:` or `loads:` entry: `box`, `surface` or both (their
+/// intersection), or `nodes` alone.
 NodeSelection parse_selection(const MapReader& m) {
   NodeSelection sel;
   sel.where = location_of(m);
   const auto box = m.opt("box");
+  const auto surface = m.opt("surface");
   const auto nodes = m.opt("nodes");
-  if (box && nodes) {
-    const int later = std::max(box->key_line(), nodes->key_line());
-    throw InputError(m.file(), later, m.path(), "give either 'box' or 'nodes', not both");
+  if ((box || surface) && nodes) {
+    const int later = std::max(box ? box->key_line() : surface->key_line(), nodes->key_line());
+    throw InputError(m.file(), later, m.path(), "give 'nodes' alone, or 'box' and/or 'surface', not both kinds");
   }
-  if (!box && !nodes) m.fail("a node selection needs exactly one of 'box' or 'nodes'");
+  if (!box && !surface && !nodes) m.fail("a node selection needs 'box', 'surface' (or both) or 'nodes'");
   if (box) sel.box = parse_box(*box);
+  if (surface) sel.surface = parse_surface_select(*surface);
   if (nodes) {
     const auto items = nodes->list();
     if (items.empty()) nodes->fail("empty node list: give at least one 0-based node index");
@@ -202,7 +221,7 @@ NodeSelection parse_selection(const MapReader& m) {
 }
 
 NodeSelection parse_fixed(const Field& f) {
-  const MapReader m = f.map({"box", "nodes", "axes"});
+  const MapReader m = f.map({"box", "surface", "nodes", "axes"});
   NodeSelection sel = parse_selection(m);
   if (auto a = m.opt("axes")) {
     const auto items = a->list();
@@ -220,7 +239,7 @@ NodeSelection parse_fixed(const Field& f) {
 }
 
 NodalLoadSpec parse_load(const Field& f) {
-  const MapReader m = f.map({"box", "nodes", "force", "per_node"});
+  const MapReader m = f.map({"box", "surface", "nodes", "force", "per_node"});
   NodalLoadSpec load;
   load.select = parse_selection(m);
   m.require("force", load.force);

@@ -105,9 +105,19 @@ struct BoxSpec {
   Vec3 max{0, 0, 0};
 };
 
-/// Selection of nodes: either a box (rest positions inside) or an explicit 0-based node list.
+/// `surface:` part of a node selection: the nodes of the boundary faces whose outward normal
+/// lies within `max_angle_deg` of `normal` (for example the lower face an organ rests on:
+/// normal [0, -1, 0]). Invariant: `normal` has unit length; 0 < max_angle_deg ≤ 180.
+struct SurfaceSelectSpec {
+  Vec3 normal{0, -1, 0};
+  double max_angle_deg = 45;
+};
+
+/// Selection of nodes: a box (rest positions inside), a surface (boundary nodes facing a
+/// direction), both (the nodes satisfying both), or an explicit 0-based node list (alone).
 struct NodeSelection {
   std::optional<BoxSpec> box;
+  std::optional<SurfaceSelectSpec> surface;
   std::vector<int> nodes;
   uint8_t axes = 7;  ///< `fixed:` only: constrained axes (bit 0 x, 1 y, 2 z), default all
   SourceLocation where;

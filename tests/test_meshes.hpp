@@ -99,7 +99,10 @@ inline Eigen::MatrixXd bsr_to_dense(const BsrPattern& p, const double* vals) {
     for (int32_t s = p.row_ptr[i]; s < p.row_ptr[i + 1]; ++s) {
       const int32_t j = p.col[s];
       for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) A(3 * i + r, 3 * j + c) += vals[9 * s + 3 * r + c];
+        for (int c = 0; c < 3; ++c) {
+          A(3 * i + r, 3 * j + c) += vals[9 * s + 3 * r + c];
+          if (j != i) A(3 * j + c, 3 * i + r) += vals[9 * s + 3 * r + c];  // the unstored transpose
+        }
     }
   return A;
 }

@@ -55,7 +55,11 @@ Eigen::MatrixXd dense_stiffness(const FemModel& fem, const std::vector<double>& 
   for (int i = 0; i < n; ++i)
     for (int s = fem.pattern.row_ptr[i]; s < fem.pattern.row_ptr[i + 1]; ++s)
       for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) K(3 * i + a, 3 * fem.pattern.col[s] + b) = vals[9 * s + 3 * a + b];
+        for (int b = 0; b < 3; ++b) {
+          const int j = fem.pattern.col[s];
+          K(3 * i + a, 3 * j + b) = vals[9 * s + 3 * a + b];
+          if (j != i) K(3 * j + b, 3 * i + a) = vals[9 * s + 3 * a + b];  // upper-triangle storage
+        }
   return K;
 }
 

@@ -12,8 +12,11 @@
 
 namespace stroma {
 
-/// Sparsity of a symmetric 3×3-block matrix over `n` nodes; every row has its diagonal block.
-/// Columns in each row are sorted ascending.
+/// Sparsity of a symmetric 3×3-block matrix over `n` nodes, upper triangle only: row i stores
+/// the blocks (i, j) with j ≥ i; block (j, i) is the transpose of (i, j) and is not stored.
+/// Every row has its diagonal block, first (columns in each row are sorted ascending).
+/// Why upper only: the element pass adds 10 blocks per tetrahedron instead of 16 and the SpMV
+/// reads ~0.55× the bytes (docs/PERFORMANCE.md, "Upper-triangle storage").
 struct BsrPattern {
   int32_t n = 0;                  ///< block rows (= nodes)
   std::vector<int32_t> row_ptr;   ///< n+1 offsets into `col`
@@ -21,11 +24,16 @@ struct BsrPattern {
   std::vector<int32_t> diag;      ///< slot of the diagonal block of each row
   /// Number of stored blocks.
   int32_t nnzb() const { return static_cast<int32_t>(col.size()); }
-  /// Slot of block (i, j), or -1 if not in the pattern (binary search; load time only).
+  /// Slot of block (i, j), i ≤ j, or -1 if not in the pattern (binary search; load time only).
   int32_t find(int32_t i, int32_t j) const;
+  /// Slot of the stored block holding (i, j) or its transpose: find(min, max).
+  int32_t find_upper(int32_t i, int32_t j) const { return i <= j ? find(i, j) : find(j, i); }
 };
 
-/// Scatter map of one tetrahedron: slot[4a+b] is the slot of block (node a, node b).
+/// Scatter map of one tetrahedron: slot[4a+b] is the slot of the stored block holding
+/// (node a, node b): block (node a, node b) itself when node a ≤ node b, else its transpose's.
+/// Only the pairs a ≤ b are ever added (the element's block (a, b) transposed when
+/// node a > node b); slot[4a+b] == slot[4b+a].
 using ElementSlots = std::array<int32_t, 16>;
 
 /// Builds the pattern coupling the nodes of each tetrahedron, and each element's scatter map.
@@ -33,7 +41,20 @@ using ElementSlots = std::array<int32_t, 16>;
 BsrPattern build_bsr_pattern(int32_t n, const std::vector<Tet>& tets,
                              std::vector<ElementSlots>& slots);
 
-/// y = A·x for a BSR matrix with values `vals` (9 doubles per slot, row-major blocks).
+/// y = A·x for the symmetric matrix whose upper triangle `vals` holds (9 doubles per slot,
+/// row-major blocks): each off-diagonal block is applied as (i, j) and, transposed, as (j, i).
 void bsr_spmv(const BsrPattern& p, const double* vals, const double* x, double* y);
+
+/// Adds the 3×3 block B (row-major) of pair (node a, node b) to the upper-triangle values at
+/// `slot` (the slot of find_upper(a, b)): B itself if a ≤ b, else Bᵀ.
+inline void add_block_upper(double* __restrict vals, int32_t slot, bool transposed, const double* __restrict B) {
+  double* __restrict S = vals + 9 * slot;
+  if (!transposed) {
+    for (int q = 0; q < 9; ++q) S[q] += B[q];
+  } else {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) S[3 * i + j] += B[3 * j + i];
+  }
+}
 
 }  // namespace stroma

@@ -11,11 +11,13 @@ namespace stroma {
 
 /// f = force on the tissue at the contact point; ∂f/∂x ≈ −K, ∂f/∂v ≈ −C (symmetric PSD,
 /// row-major), both for the contact point. Invariants: w sums to 1 (w ≥ 0); slot[3a + b] is the
-/// BSR block (node[a], node[b]) (or a harmless diagonal block for nodes that never move).
+/// stored (upper-triangle) BSR block (node[a], node[b]) when node[a] ≤ node[b], −1 for the
+/// lower-triangle pairs (their blocks are the transposes of (b, a)'s, and K, C are symmetric),
+/// or a harmless diagonal block for nodes that never move.
 struct ContactSpring {
   int32_t node[3] = {0, 0, 0};
   double w[3] = {1, 0, 0};
-  int32_t slot[9] = {};  ///< BSR slot of block (node[a], node[b]) at 3a+b
+  int32_t slot[9] = {};  ///< BSR slot of block (node[a], node[b]) at 3a+b; −1: lower, skipped
   double force[3] = {0, 0, 0};
   double K[9] = {};
   double C[9] = {};

@@ -230,15 +230,18 @@ double pass_range(const FemModel& m, const ElasticPass& p, int32_t begin, int32_
       for (int l = 0; l < kBatch; ++l) k_scale[l] = in.vol[l] * (p.k_beta * in.beta[l] + p.k_const);
       batch_stiffness_blocks(R, in, k_scale, B);
       for (int l = 0; l < count; ++l) {
+        // Upper-triangle storage: 10 blocks per element, each added to the stored block that
+        // holds it, transposed when its row node is the larger index.
         const ElementSlots& slot = m.slots[e0 + l];
+        const auto& node = m.elements[e0 + l].node;
         for (int k = 0; k < 10; ++k) {
           const int a = kBlockPairs[k][0], b = kBlockPairs[k][1];
-          double* __restrict Kab = p.kvals + 9 * slot[4 * a + b];
-          for (int q = 0; q < 9; ++q) Kab[q] += B[k][q][l];
-          if (a != b) {
-            double* __restrict Kba = p.kvals + 9 * slot[4 * b + a];
+          double* __restrict S = p.kvals + 9 * slot[4 * a + b];
+          if (node[a] <= node[b]) {
+            for (int q = 0; q < 9; ++q) S[q] += B[k][q][l];
+          } else {
             for (int i = 0; i < 3; ++i)
-              for (int j = 0; j < 3; ++j) Kba[3 * i + j] += B[k][3 * j + i][l];
+              for (int j = 0; j < 3; ++j) S[3 * i + j] += B[k][3 * j + i][l];
           }
         }
       }

@@ -250,10 +250,11 @@ double stable_neo_hookean_pass(const FemModel& m, const ElasticPass& p, int32_t 
       const double sc = p.k_beta * ep.beta + p.k_const;
       const ElementSlots& slot = m.slots[e];
       for (int a = 0; a < 4; ++a)
-        for (int b = 0; b < 4; ++b) {
-          double* B = p.kvals + 9 * slot[4 * a + b];
+        for (int b = a; b < 4; ++b) {  // upper-triangle storage (bsr_matrix.hpp)
+          double blk[9];
           for (int i = 0; i < 3; ++i)
-            for (int k = 0; k < 3; ++k) B[3 * i + k] += sc * K[3 * a + i][3 * b + k];
+            for (int k = 0; k < 3; ++k) blk[3 * i + k] = sc * K[3 * a + i][3 * b + k];
+          add_block_upper(p.kvals, slot[4 * a + b], ep.node[a] > ep.node[b], blk);
         }
     }
     if (p.kv) {

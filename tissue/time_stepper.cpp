@@ -59,6 +59,7 @@ void TimeStepper::scatter_springs(double* force, double* A, double k_scale, doub
     if (!A) continue;
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) {
+        if (sp.slot[3 * a + b] < 0) continue;  // lower triangle: the symmetric (b, a) adds it
         const double ww = sp.w[a] * sp.w[b];
         double* B = A + 9 * sp.slot[3 * a + b];
         for (int k = 0; k < 9; ++k) B[k] += ww * (k_scale * sp.K[k] + c_scale * sp.C[k]);
