@@ -4,7 +4,7 @@ tool pressing and sliding in each, timed and compared with a converged solve of 
 
 Scenes (scenarios/physical/, each states its units, scale and support):
   liver_16cm        SOFA's liver, 596 tets, 16 cm, rho 1060, E 5 kPa, nu 0.45, on its lower face
-  liver_fine_16cm   the same liver meshed finer by gmsh (4,0xx tets)
+  liver_fine_16cm   the same liver meshed finer by gmsh (3,876 tets)
   armadillo_0p2m    the Armadillo, 4,406 tets, 0.2 m, rho 1000, E 10 kPa, nu 0.45, on its back
   beam_k6_converged SOFA's beam k6, 6,480 tets, SI, CG to 1e-6 every tick
   beam_k6_sofa      the same beam with SOFA's settings (CG capped at 25)
@@ -40,8 +40,10 @@ def scenario_with_solver(scene, solver_override, tmp_dir):
     m = re.search(r"solver: \{([^}]*)\}", src, flags=re.S)
     if not m:
         sys.exit(f"physical.py: {path}: expected a flow-style 'solver: {{...}}' map")
+    given = {kv.split(":")[0].strip() for kv in solver_override.split(",")}
+    drop = given | {"max_iterations", "tolerance", "on_cg_cap", "time_budget"}
     keep = [kv.strip() for kv in m.group(1).replace("\n", " ").split(",")
-            if kv.strip() and kv.split(":")[0].strip() not in ("max_iterations", "tolerance", "on_cg_cap", "time_budget")]
+            if kv.strip() and kv.split(":")[0].strip() not in drop]
     src = src[:m.start()] + "solver: {" + ", ".join(keep + [solver_override]) + "}" + src[m.end():]
     tmp = os.path.join(os.path.dirname(path), f".physical_{scene}.yaml")
     with open(tmp, "w") as f:

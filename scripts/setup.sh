@@ -23,6 +23,8 @@ PACKAGES=(
   libosmesa6-dev libpng-dev ffmpeg
   # the peer in the accuracy benchmark (Bullet's soft bodies), meshes from .geo files, plots
   libbullet-dev libbullet-extras-dev gmsh gnuplot-nox
+  # surface checks when (re)building shipped meshes (scripts/meshes/)
+  tetgen
 )
 
 missing=()

@@ -119,7 +119,7 @@ double engine_bending_omega(const Model& m) {
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) {
           const int r = dof_of[3 * i + a], c = dof_of[3 * j + b];
-          if (r >= 0 && c >= 0) A(r, c) = kv[9 * sl + 3 * a + b];
+          if (r >= 0 && c >= 0) A(r, c) = A(c, r) = kv[9 * sl + 3 * a + b];  // upper-triangle storage
         }
     }
   for (int i = 0; i < m.fem.num_nodes; ++i)

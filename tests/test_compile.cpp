@@ -135,3 +135,38 @@ TEST(Compile, FullyFixedBodyKeepsOnlyDiagonalBlocks) {
     ASSERT_EQ(m->fem.pattern.row_ptr[i + 1] - m->fem.pattern.row_ptr[i], 1) << "block node " << i;
   EXPECT_EQ(m->fem.pattern.nnzb(), b->fem.pattern.nnzb() + block_nodes);
 }
+
+// `surface:` selects the nodes of the boundary faces facing a direction. On the beam (a box
+// 0.1 × 0.01 × 0.01 m) the faces facing −y within 45° are exactly its lower face: every node at
+// y = 0 and no other; with a box, the intersection; a direction no face meets is an error.
+TEST(Compile, SurfaceSelectsTheBoundaryFacesFacingTheDirection) {
+  auto fixed_nodes = [](const std::string& sel) {
+    ScenarioSpec spec = parse_scenario(beam_scenario(sel, "[0.1, 0.005, 0.005]"), "t.yaml", kMeshDir);
+    auto m = compile_model(spec);
+    std::vector<int32_t> out;
+    for (int32_t i = 0; i < m->fem.num_nodes; ++i)
+      if (m->fem.constrained[i] == 7) out.push_back(i);
+    return std::make_pair(out, m);
+  };
+  const auto [lower, m] = fixed_nodes("surface: {normal: [0, -1, 0], max_angle: 45}");
+  int on_face = 0;
+  for (int32_t i = 0; i < m->fem.num_nodes; ++i) on_face += std::abs(m->fem.rest[3 * i + 1]) < 1e-12;
+  EXPECT_EQ(static_cast<int>(lower.size()), on_face);
+  EXPECT_GT(on_face, 10);
+  for (int32_t i : lower) EXPECT_NEAR(m->fem.rest[3 * i + 1], 0.0, 1e-12) << "node " << i;
+  // The normal need not be unit length; a box restricts the selection to its inside.
+  const auto [half, m2] = fixed_nodes("{surface: {normal: [0, -5, 0], max_angle: 45}, box: {min: [-1, -1, -1], max: [0.05, 1, 1]}}");
+  EXPECT_GT(half.size(), 2u);
+  EXPECT_LT(half.size(), lower.size());
+  for (int32_t i : half) {
+    EXPECT_NEAR(m2->fem.rest[3 * i + 1], 0.0, 1e-12);
+    EXPECT_LE(m2->fem.rest[3 * i], 0.05);
+  }
+  // Beyond 90° the side faces (normals ⟂ y) join: more nodes than the lower face alone.
+  EXPECT_GT(fixed_nodes("surface: {normal: [0, -1, 0], max_angle: 91}").first.size(), lower.size());
+  expect_compile_error(beam_scenario("surface: {normal: [1, 1, 1], max_angle: 10}", "[0.1, 0.005, 0.005]"), 7,
+                       "bodies[0].fixed[0].surface", "no boundary face");
+  expect_compile_error(beam_scenario("{surface: {normal: [0, -1, 0]}, box: {min: [-1, 0.5, -1], max: [1, 1, 1]}}",
+                                     "[0.1, 0.005, 0.005]"),
+                       7, "bodies[0].fixed[0]", "with the surface condition");
+}

@@ -573,9 +573,19 @@ TEST(ScenarioLoaderErrors, BoxMinGreaterThanMax) {
 TEST(ScenarioLoaderErrors, SelectionNeedsExactlyOneOfBoxOrNodes) {
   expect_error(kMinimal + "    fixed:\n      - nodes: [1]\n        box: {min: [0, 0, 0], "
                           "max: [1, 1, 1]}\n",
-               11, "bodies[0].fixed[0]", {"either 'box' or 'nodes', not both"});
+               11, "bodies[0].fixed[0]", {"give 'nodes' alone, or 'box' and/or 'surface', not both kinds"});
+  expect_error(kMinimal + "    fixed:\n      - surface: {normal: [0, -1, 0]}\n        nodes: [1]\n", 11,
+               "bodies[0].fixed[0]", {"'nodes' alone"});
   expect_error(kMinimal + "    loads:\n      - force: [0, 0, 1]\n", 10, "bodies[0].loads[0]",
-               {"exactly one of 'box' or 'nodes'"});
+               {"needs 'box', 'surface' (or both) or 'nodes'"});
+  expect_error(kMinimal + "    fixed:\n      - surface: {normal: [0, 0, 0]}\n", 10,
+               "bodies[0].fixed[0].surface.normal", {"non-zero"});
+  expect_error(kMinimal + "    fixed:\n      - surface: {normal: [0, -1, 0], max_angle: 0}\n", 10,
+               "bodies[0].fixed[0].surface.max_angle", {"must be > 0"});
+  expect_error(kMinimal + "    fixed:\n      - surface: {normal: [0, -1, 0], max_angle: 181}\n", 10,
+               "bodies[0].fixed[0].surface.max_angle", {"<= 180"});
+  expect_error(kMinimal + "    fixed:\n      - surface: {normal: [0, -1, 0], side: 1}\n", 10,
+               "bodies[0].fixed[0].surface.side", {"unknown"});
   expect_error(kMinimal + "    fixed:\n      - nodes: []\n", 10, "bodies[0].fixed[0].nodes",
                {"empty node list"});
 }

@@ -135,6 +135,24 @@ inline void batch_stress_forces(const double (&R)[9][kBatch], const double (&G)[
   }
 }
 
+/// Energy only, per lane: V(μ ε:ε + λ/2 tr²ε) with ε = sym(RᵀF) − I (the energy guard's pass:
+/// no stress, no forces).
+inline void batch_energy(const double (&R)[9][kBatch], const double (&G)[9][kBatch], const BatchInput& in,
+                         double* energy) {
+#pragma omp simd
+  for (int l = 0; l < kBatch; ++l) {
+    double S[9];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        S[3 * i + j] = R[i][l] * G[j][l] + R[3 + i][l] * G[3 + j][l] + R[6 + i][l] * G[6 + j][l];
+    const double e00 = S[0] - 1.0, e11 = S[4] - 1.0, e22 = S[8] - 1.0;
+    const double e01 = 0.5 * (S[1] + S[3]), e02 = 0.5 * (S[2] + S[6]), e12 = 0.5 * (S[5] + S[7]);
+    const double tr = e00 + e11 + e22;
+    const double ee = e00 * e00 + e11 * e11 + e22 * e22 + 2.0 * (e01 * e01 + e02 * e02 + e12 * e12);
+    energy[l] = in.vol[l] * (in.mu[l] * ee + 0.5 * in.lambda[l] * tr * tr);
+  }
+}
+
 /// The 10 distinct 3×3 blocks (a ≤ b) of s·R·Ke·Rᵀ per lane, in the order of kBlockPairs.
 constexpr int kBlockPairs[10][2] = {{0, 0}, {0, 1}, {0, 2}, {0, 3}, {1, 1},
                                     {1, 2}, {1, 3}, {2, 2}, {2, 3}, {3, 3}};
@@ -205,6 +223,11 @@ double pass_range(const FemModel& m, const ElasticPass& p, int32_t begin, int32_
     gather(m, p.x, e0, count, in, p.damage);
     batch_gradient(in.d, in.g, F);
     batch_rotations<K>(m, e0, count, in, F, R);
+    if (!kHasKv && !kHasK && !p.force && !p.rotations) {  // energy only
+      batch_energy(R, F, in, en);
+      for (int l = 0; l < count; ++l) energy += en[l];
+      continue;
+    }
     for (int l = 0; l < kBatch; ++l) force_scale[l] = in.vol[l];
     batch_stress_forces(R, F, in, 1.0, force_scale, fo, en);
     for (int l = 0; l < count; ++l) {
