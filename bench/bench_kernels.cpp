@@ -51,6 +51,26 @@ void BM_PolarRotationBatch8(benchmark::State& st) {
 }
 BENCHMARK(BM_PolarRotationBatch8);
 
+template <int W>
+void BM_PolarRotationBatchW(benchmark::State& st) {
+  std::mt19937 g(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  double F[9][W], R[9][W];
+  for (auto& row : F)
+    for (double& v : row) v = u(g);
+  for (auto _ : st) {
+    benchmark::DoNotOptimize(F);
+    polar_rotation_batch<W>(F, R);
+    benchmark::DoNotOptimize(R);
+    benchmark::ClobberMemory();
+  }
+  st.counters["ns_per_element"] = benchmark::Counter(double(W), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_PolarRotationBatchW<16>);
+BENCHMARK(BM_PolarRotationBatchW<32>);
+
+
+
 void BM_QrRotation(benchmark::State& st) {
   std::mt19937 g(3);
   std::uniform_real_distribution<double> u(-1, 1);

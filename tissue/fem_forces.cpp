@@ -50,10 +50,14 @@ inline void rotated_stress(const double* R, const double* G, double lambda, doub
     for (int k = 0; k < 9; ++k) eps_out[k] = e[k];
 }
 
-/// Elements per batch: 8 doubles fill an AVX-512 register. Everything up to the final scatter
-/// into nodal arrays and matrix slots is computed for 8 elements at once in [entry][lane]
-/// (structure-of-arrays) form, so the compiler vectorises across elements.
-constexpr int kBatch = 8;
+/// Elements per batch. Everything up to the final scatter into nodal arrays and matrix slots is
+/// computed for 16 elements at once in [entry][lane] (structure-of-arrays) form, so the compiler
+/// vectorises across elements: two AVX-512 registers per entry. Why 16 and not 8 (one
+/// register): the rotation's Jacobi sweeps are a chain of dependent square roots and divisions,
+/// latency-bound; two independent chains per instruction stream hide it (polar rotation 52.7 →
+/// 31.6 ns per element, the whole implicit element pass 110 → 88 ns; 32 lanes gain nothing more;
+/// docs/PERFORMANCE.md).
+constexpr int kBatch = 16;
 using Lanes = double[kBatch];
 
 /// Gathered inputs of one batch. Spare lanes (past the range end) hold an undeformed unit
@@ -156,10 +160,15 @@ inline void batch_energy(const double (&R)[9][kBatch], const double (&G)[9][kBat
 /// The 10 distinct 3×3 blocks (a ≤ b) of s·R·Ke·Rᵀ per lane, in the order of kBlockPairs.
 constexpr int kBlockPairs[10][2] = {{0, 0}, {0, 1}, {0, 2}, {0, 3}, {1, 1},
                                     {1, 2}, {1, 3}, {2, 2}, {2, 3}, {3, 3}};
+/// Lanes [L0, L0 + kBlockLanes) only: the blocks of a whole batch of 16 would not stay in
+/// registers and L1 (measured: 8 lanes at a time is ~10 % faster).
+constexpr int kBlockLanes = 8;
+template <int L0>
 inline void batch_stiffness_blocks(const double (&R)[9][kBatch], const BatchInput& in,
-                                   const Lanes& scale, double (&B)[10][9][kBatch]) {
+                                   const Lanes& scale, double (&B)[10][9][kBlockLanes]) {
 #pragma omp simd
-  for (int l = 0; l < kBatch; ++l) {
+  for (int j = 0; j < kBlockLanes; ++j) {
+    const int l = L0 + j;
     double g[4][3], r[4][3];
     for (int a = 0; a < 3; ++a)
       for (int i = 0; i < 3; ++i) g[a + 1][i] = in.g[3 * a + i][l];
@@ -174,8 +183,8 @@ inline void batch_stiffness_blocks(const double (&R)[9][kBatch], const BatchInpu
       const int a = kBlockPairs[k][0], b = kBlockPairs[k][1];
       const double gg = sm * (g[a][0] * g[b][0] + g[a][1] * g[b][1] + g[a][2] * g[b][2]);
       for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          B[k][3 * i + j][l] = sl * r[a][i] * r[b][j] + sm * r[b][i] * r[a][j] + (i == j ? gg : 0.0);
+        for (int c = 0; c < 3; ++c)
+          B[k][3 * i + c][j] = sl * r[a][i] * r[b][c] + sm * r[b][i] * r[a][c] + (i == c ? gg : 0.0);
     }
   }
 }
@@ -209,6 +218,30 @@ inline void scatter_nodal(const ElementParams& ep, const double (&c)[12][kBatch]
     o[0] += c[3 * a][l];
     o[1] += c[3 * a + 1][l];
     o[2] += c[3 * a + 2][l];
+  }
+}
+
+/// The stiffness blocks of lanes [L0, L0 + kBlockLanes) of a batch, added to the matrix.
+template <int L0>
+void scatter_blocks(const FemModel& m, const ElasticPass& p, const double (&R)[9][kBatch], const BatchInput& in,
+                    const Lanes& k_scale, int32_t e0, int count) {
+  double B[10][9][kBlockLanes];
+  batch_stiffness_blocks<L0>(R, in, k_scale, B);
+  for (int j = 0; j < std::min(count - L0, kBlockLanes); ++j) {
+    // Upper-triangle storage: 10 blocks per element, each added to the stored block that
+    // holds it, transposed when its row node is the larger index.
+    const ElementSlots& slot = m.slots[e0 + L0 + j];
+    const auto& node = m.elements[e0 + L0 + j].node;
+    for (int k = 0; k < 10; ++k) {
+      const int a = kBlockPairs[k][0], b = kBlockPairs[k][1];
+      double* __restrict S = p.kvals + 9 * slot[4 * a + b];
+      if (node[a] <= node[b]) {
+        for (int q = 0; q < 9; ++q) S[q] += B[k][q][j];
+      } else {
+        for (int i = 0; i < 3; ++i)
+          for (int c = 0; c < 3; ++c) S[3 * i + c] += B[k][3 * c + i][j];
+      }
+    }
   }
 }
 
@@ -249,25 +282,9 @@ double pass_range(const FemModel& m, const ElasticPass& p, int32_t begin, int32_
       for (int l = 0; l < count; ++l) scatter_nodal(m.elements[e0 + l], kv, l, p.kv);
     }
     if constexpr (kHasK) {
-      double B[10][9][kBatch];
       for (int l = 0; l < kBatch; ++l) k_scale[l] = in.vol[l] * (p.k_beta * in.beta[l] + p.k_const);
-      batch_stiffness_blocks(R, in, k_scale, B);
-      for (int l = 0; l < count; ++l) {
-        // Upper-triangle storage: 10 blocks per element, each added to the stored block that
-        // holds it, transposed when its row node is the larger index.
-        const ElementSlots& slot = m.slots[e0 + l];
-        const auto& node = m.elements[e0 + l].node;
-        for (int k = 0; k < 10; ++k) {
-          const int a = kBlockPairs[k][0], b = kBlockPairs[k][1];
-          double* __restrict S = p.kvals + 9 * slot[4 * a + b];
-          if (node[a] <= node[b]) {
-            for (int q = 0; q < 9; ++q) S[q] += B[k][q][l];
-          } else {
-            for (int i = 0; i < 3; ++i)
-              for (int j = 0; j < 3; ++j) S[3 * i + j] += B[k][3 * j + i][l];
-          }
-        }
-      }
+      scatter_blocks<0>(m, p, R, in, k_scale, e0, count);
+      if (count > kBlockLanes) scatter_blocks<kBlockLanes>(m, p, R, in, k_scale, e0, count);
     }
   }
   return energy;
