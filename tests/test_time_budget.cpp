@@ -144,3 +144,28 @@ TEST(TimeBudget, BudgetCutsReplayBitForBit) {
   EXPECT_EQ(replay.tissue.x, live.tissue.x);
   EXPECT_EQ(replay.tissue.v, live.tissue.v);
 }
+
+// A budgeted tick keeps the energy guard's time back from its solve (TickWorkspace::guard_ns):
+// with a reserve longer than the whole budget the solve is cut at once (and the guard still
+// runs); with no reserve the same tick, with the same deadline, converges.
+TEST(TimeBudget, SolveLeavesTheEnergyGuardItsTime) {
+  auto m = compile_model(load_scenario(kDir + "liver.yaml"));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  EXPECT_GT(w.guard_ns, 0) << "implicit Euler: the guard's cost is measured at load";
+  for (int k = 0; k < 10; ++k) tick(*m, s, w);
+  auto run = [&](int64_t reserve) {
+    State a = s;
+    w.guard_ns = reserve;
+    Deadline d;
+    d.at_ns = steady_now_ns() + 1'000'000'000;  // one second: ample for a liver tick
+    const TickReport& r = tick(*m, a, w, nullptr, 0, d);
+    return std::make_pair(r.degradation, r.solve.converged);
+  };
+  const auto [cut, cut_converged] = run(2'000'000'000);
+  EXPECT_EQ(cut, Degradation::SolveTruncated);
+  EXPECT_FALSE(cut_converged);
+  const auto [free, free_converged] = run(0);
+  EXPECT_EQ(free, Degradation::None);
+  EXPECT_TRUE(free_converged);
+}
