@@ -1,8 +1,14 @@
 #!/usr/bin/env bash
-# Real-time benchmark of docs/REALTIME.md: the liver scenario served at 1 kHz for DURATION s,
-# a tool client commanding at 1 kHz, and (unless --idle) a busy loop on the other core.
+# Real-time benchmark of docs/REALTIME.md: a scenario served at 1 kHz for DURATION s, a tool
+# client commanding at 1 kHz from a script, and (unless --idle) a busy loop on the other core.
 # Everything on loopback (the server's default DDS configuration).
-# Usage: bench/realtime.sh [DURATION=60] [--idle]      (after scripts/build.sh)
+# Usage: bench/realtime.sh [DURATION=60] [--idle|--busy] [SCENARIO [TRAJECTORY]]
+#        (after scripts/build.sh; default scenarios/liver.yaml with trajectories/liver_press.yaml;
+#         the physical scenes: scenarios/physical/liver_16cm.yaml
+#         scenarios/trajectories/physical_liver_press.yaml, and so on)
+# DDS_CONFIG=FILE passes --dds-config FILE to the server and the client (e.g.
+# server/cyclonedds-loopback.xml: the loopback configuration without real-time receive threads,
+# for an A/B of that setting).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Loopback only: every DDS participant started here uses Stroma's built-in loopback config,
@@ -10,16 +16,20 @@ cd "$(dirname "$0")/.."
 unset CYCLONEDDS_URI
 dur="${1:-60}"
 idle="${2:-}"
+scenario="${3:-scenarios/liver.yaml}"
+script="${4:-scenarios/trajectories/liver_press.yaml}"
 out=$(mktemp -d /tmp/stroma_rt.XXXX)
 domain=$(( 150 + RANDOM % 50 ))
 hog=""
+dds=()
+if [ -n "${DDS_CONFIG:-}" ]; then dds=(--dds-config "$DDS_CONFIG"); fi
 if [ "$idle" != "--idle" ]; then
   timeout $((dur + 10)) sh -c 'while :; do :; done' & hog=$!
 fi
-./build/stroma serve scenarios/liver.yaml --domain "$domain" --duration "$((dur + 2))" \
+./build/stroma serve "$scenario" "${dds[@]}" --domain "$domain" --duration "$((dur + 2))" \
   --stats "$out/stats.json" > "$out/serve.log" 2>&1 & srv=$!
 sleep 1
-./build/stroma tool --name probe --script scenarios/trajectories/liver_press.yaml --rate 1000 \
+./build/stroma tool --name probe --script "$script" "${dds[@]}" --rate 1000 \
   --duration "$dur" --domain "$domain" --out "$out/tool.csv" 2> "$out/tool.log" | tee "$out/tool_summary.txt"
 wait $srv
 [ -n "$hog" ] && kill $hog 2>/dev/null || true

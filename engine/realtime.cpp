@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -41,6 +42,17 @@ RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority, s
   }
   prefault_stack(stack_bytes);
   return r;
+}
+
+bool fifo_permitted(int priority) {
+  bool ok = false;
+  std::thread probe([&] {
+    sched_param sp{};
+    sp.sched_priority = priority;
+    ok = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) == 0;
+  });
+  probe.join();
+  return ok;
 }
 
 }  // namespace stroma

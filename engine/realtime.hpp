@@ -23,4 +23,9 @@ struct RealtimeResult {
 RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority = 80,
                                      size_t stack_bytes = 512 * 1024);
 
+/// True if this process may run threads under SCHED_FIFO at `priority` (tried on a short-lived
+/// thread; nothing else changes). Used before asking a library, such as the DDS receive threads'
+/// configuration, for a real-time class it would otherwise fail to start without.
+bool fifo_permitted(int priority);
+
 }  // namespace stroma

@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "engine/realtime.hpp"
+
 namespace stroma {
 
 const char* const kLoopbackDdsConfig =
@@ -18,12 +20,28 @@ const char* const kLoopbackDdsConfig =
     "<Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery>"
     "</Domain></CycloneDDS>";
 
+std::string loopback_config_with_receive_priority(int priority) {
+  std::string xml = kLoopbackDdsConfig;
+  std::string threads = "<Threads>";
+  for (const char* name : {"recv"})
+    threads += fmt::format("<Thread Name=\"{}\"><Scheduling><Class>realtime</Class><Priority>{}</Priority>"
+                           "</Scheduling></Thread>",
+                           name, priority);
+  threads += "</Threads>";
+  // Cyclone 0.10 configures only "recv" by name; its extra unicast receive thread ("recvUC",
+  // MultipleReceiveThreads) would stay at normal priority. One receive thread serves the few
+  // loopback sockets as well, at the priority asked for.
+  threads += "<Internal><MultipleReceiveThreads>false</MultipleReceiveThreads></Internal>";
+  xml.insert(xml.find("</Domain>"), threads);
+  return xml;
+}
+
 dds_return_t dds_check(dds_return_t rc, const char* what) {
   if (rc < 0) throw std::runtime_error(fmt::format("{}: {}", what, dds_strretcode(rc)));
   return rc;
 }
 
-DdsParticipant create_participant(int domain_id, const std::string& config_file) {
+DdsParticipant create_participant(int domain_id, const std::string& config_file, int receive_priority) {
   DdsParticipant p;
   std::string xml;
   if (!config_file.empty()) {
@@ -35,9 +53,14 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file)
     p.config_source = config_file;
   } else if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri && *uri) {
     p.config_source = std::string("CYCLONEDDS_URI=") + uri;
+  } else if (receive_priority > 0 && fifo_permitted(receive_priority)) {
+    xml = loopback_config_with_receive_priority(receive_priority);
+    p.config_source = fmt::format(
+        "built-in loopback configuration (lo only, no multicast; receive thread SCHED_FIFO {})", receive_priority);
   } else {
     xml = kLoopbackDdsConfig;
     p.config_source = "built-in loopback configuration (lo only, no multicast)";
+    if (receive_priority > 0) p.config_source += "; receive thread at normal priority (SCHED_FIFO denied)";
   }
   if (!xml.empty()) {
     const dds_entity_t d = dds_create_domain(static_cast<dds_domainid_t>(domain_id), xml.c_str());

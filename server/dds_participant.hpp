@@ -23,7 +23,16 @@ struct DdsParticipant {
 /// Creates the participant on `domain_id`. `config_file` (from --dds-config) wins, then the
 /// CYCLONEDDS_URI environment variable, then the built-in loopback configuration. Throws
 /// std::runtime_error with Cyclone's message on failure (e.g. an unreadable or invalid file).
-DdsParticipant create_participant(int domain_id, const std::string& config_file);
+/// `receive_priority` > 0: with the built-in configuration, Cyclone's receive thread (one
+/// "recv" for all sockets instead of 0.10's default recv + recvUC, whose priority its
+/// configuration cannot set; it takes every sample off the socket and delivers it to the
+/// readers) runs under SCHED_FIFO at that priority, if the process may (else at normal
+/// priority, and the source says so). A command then reaches the server's input thread without waiting behind whatever
+/// else the machine runs (docs/REALTIME.md). A user's own configuration is left as it is.
+DdsParticipant create_participant(int domain_id, const std::string& config_file, int receive_priority = 0);
+
+/// The built-in loopback configuration with Cyclone's receive thread at SCHED_FIFO `priority`.
+std::string loopback_config_with_receive_priority(int priority);
 
 /// Throws std::runtime_error("what: <dds_strretcode>") if rc < 0; returns rc otherwise.
 dds_return_t dds_check(dds_return_t rc, const char* what);

@@ -478,7 +478,9 @@ int run_serve(const ServeOptions& o) {
   sigaddset(&sigs, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
 
-  const DdsParticipant pp = create_participant(o.domain, o.dds_config);
+  // Cyclone's receive threads deliver every tool command: real-time like the input thread that
+  // takes them (priority 60, below the physics thread's 80), best effort if denied.
+  const DdsParticipant pp = create_participant(o.domain, o.dds_config, rt_mode == RealtimeMode::Off ? 0 : 60);
   spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
   int exit_code = 0;
   try {

@@ -152,7 +152,9 @@ uint64_t report(const ToolClientOptions& o, const std::vector<Sent>& sent, uint6
 int run_tool_client(const ToolClientOptions& o) {
   Trajectory traj;
   if (!o.script.empty()) traj = load_trajectory(o.script);  // InputError → exit 2 in the CLI
-  const DdsParticipant pp = create_participant(o.domain, o.dds_config);
+  // The feedback arrives through Cyclone's receive threads: real-time like the client's own
+  // threads (55), unless --no-realtime.
+  const DdsParticipant pp = create_participant(o.domain, o.dds_config, o.realtime ? 55 : 0);
   spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
   const ToolEndpoints ep = open_endpoints(pp.participant);
   if (!wait_for_server(ep.writer, o.wait_server)) {

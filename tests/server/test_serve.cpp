@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <sched.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -24,6 +25,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "engine/realtime.hpp"
 #include "server/dds_participant.hpp"
 #include "tests/server/process.hpp"
 
@@ -509,4 +511,39 @@ TEST(Serve, DamageEventsAndDamageFieldArePublished) {
   EXPECT_GE(max_vertex_damage, 1.0f) << "a ruptured element shows d = 1 on its surface vertices";
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(15), 0);
+}
+
+// With a receive priority, the built-in configuration runs Cyclone's single receive thread
+// ("recv"; no "recvUC", whose priority 0.10 cannot configure) under SCHED_FIFO when the process
+// may, and says which it got; the participant works either way.
+TEST(Dds, ReceiveThreadRunsAtTheRequestedRealTimePriority) {
+  const std::string xml = loopback_config_with_receive_priority(42);
+  EXPECT_NE(xml.find("<Thread Name=\"recv\"><Scheduling><Class>realtime</Class><Priority>42</Priority>"), std::string::npos);
+  EXPECT_NE(xml.find("<MultipleReceiveThreads>false</MultipleReceiveThreads>"), std::string::npos);
+  EXPECT_NE(xml.find("<NetworkInterface name=\"lo\"/>"), std::string::npos) << "still loopback only";
+  const DdsParticipant p = create_participant(171, "", 42);
+  ASSERT_GT(p.participant, 0);
+  const bool fifo = fifo_permitted(42);
+  EXPECT_NE(p.config_source.find(fifo ? "receive thread SCHED_FIFO 42" : "SCHED_FIFO denied"), std::string::npos)
+      << p.config_source;
+  int recv = 0, recv_uc = 0;
+  for (const auto& t : std::filesystem::directory_iterator("/proc/self/task")) {
+    std::ifstream comm(t.path() / "comm");
+    std::string name;
+    std::getline(comm, name);
+    if (name == "recvUC") ++recv_uc;
+    if (name != "recv") continue;
+    ++recv;
+    const pid_t tid = static_cast<pid_t>(std::stol(t.path().filename().string()));
+    sched_param sp{};
+    const int policy = sched_getscheduler(tid);
+    sched_getparam(tid, &sp);
+    if (fifo) {
+      EXPECT_EQ(policy, SCHED_FIFO);
+      EXPECT_EQ(sp.sched_priority, 42);
+    }
+  }
+  EXPECT_EQ(recv, 1);
+  EXPECT_EQ(recv_uc, 0);
+  dds_delete(p.participant);
 }
