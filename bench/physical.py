@@ -119,7 +119,7 @@ def main():
         med = statistics.median
         print(f"| {scene} | {s['nodes']} / {s['elements']} | {med(p50):.3f} / {med(p99):.3f} / {med(mx):.3f} | "
               f"{med(cg):.1f} / {cgmax} | {100 * eu:.2f} % (of {1000 * us:.2f} mm) | "
-              f"{100 * ef:.2f} % (of {fs:.3f} N) |", flush=True)
+              (f"{100 * ef:.2f} % (of {fs:.3f} N) |" if fs > 0 else "— (no tool) |"), flush=True)
 
 
 if __name__ == "__main__":
