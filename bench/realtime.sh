@@ -6,6 +6,8 @@
 #        (after scripts/build.sh; default scenarios/liver.yaml with trajectories/liver_press.yaml;
 #         the physical scenes: scenarios/physical/liver_16cm.yaml
 #         scenarios/trajectories/physical_liver_press.yaml, and so on)
+# TOOL_ARGS="--loop" replays a trajectory that ends where it starts for the whole duration (the
+# physical trajectories do); without it the tool holds the script's last pose.
 # DDS_CONFIG=FILE passes --dds-config FILE to the server and the client (e.g.
 # server/cyclonedds-loopback.xml: the loopback configuration without real-time receive threads,
 # for an A/B of that setting).
@@ -29,7 +31,7 @@ fi
 ./build/stroma serve "$scenario" "${dds[@]}" --domain "$domain" --duration "$((dur + 2))" \
   --stats "$out/stats.json" > "$out/serve.log" 2>&1 & srv=$!
 sleep 1
-./build/stroma tool --name probe --script "$script" "${dds[@]}" --rate 1000 \
+./build/stroma tool --name probe --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
   --duration "$dur" --domain "$domain" --out "$out/tool.csv" 2> "$out/tool.log" | tee "$out/tool_summary.txt"
 wait $srv
 [ -n "$hog" ] && kill $hog 2>/dev/null || true

@@ -56,6 +56,7 @@ void add_tool(CLI::App& app, std::vector<Command>& out) {
   tool->add_option("--domain", tco->domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
   tool->add_option("--wait", tco->wait_server, "Seconds to wait for a server")->capture_default_str();
   tool->add_flag("!--no-realtime", tco->realtime, "Do not ask for SCHED_FIFO for the send/receive threads");
+  tool->add_flag("--loop", tco->loop, "Replay the script from its start each time it ends (with a longer --duration)");
   out.push_back({tool, [tco] { return run_tool_client(*tco); }});
 }
 

@@ -7,6 +7,7 @@
 /// YAML:  keyframes: [{t: 0, position: [x, y, z], orientation: [w, x, y, z], jaw: 0, buttons: 0}, ...]
 /// CSV:   header naming the columns, any order: t,x,y,z (required), qw,qx,qy,qz, jaw, buttons.
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,12 @@ class Trajectory {
   /// Pose at time t: held at the first/last keyframe outside their range; buttons are those of
   /// the keyframe at or before t.
   ToolPose sample(double t) const;
+  /// Pose at time t of the script repeated from its start every end_time() (t mod end_time; a
+  /// single keyframe, or an end at t ≤ 0, is held). A script meant to loop ends where it starts.
+  ToolPose sample_looping(double t) const {
+    const double end = end_time();
+    return end > 0 && t > end ? sample(std::fmod(t, end)) : sample(t);
+  }
   double end_time() const { return keys.empty() ? 0.0 : keys.back().t; }
 };
 

@@ -200,7 +200,8 @@ int run_tool_client(const ToolClientOptions& o) {
     while (next - t0 <= static_cast<int64_t>(duration * 1e9)) {
       timespec ts{static_cast<time_t>(next / 1000000000LL), static_cast<long>(next % 1000000000LL)};
       clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-      send(traj.sample(static_cast<double>(next - t0) * 1e-9));
+      const double t = static_cast<double>(next - t0) * 1e-9;
+      send(o.loop ? traj.sample_looping(t) : traj.sample(t));
       next += period;
       if (next - last_report > 2000000000LL) {
         last_report = next;

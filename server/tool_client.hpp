@@ -18,6 +18,9 @@ struct ToolClientOptions {
   int domain = 0;
   double wait_server = 10;   ///< s to wait for the server's command reader before starting
   bool realtime = true;      ///< try SCHED_FIFO for the send and receive threads
+  /// Script mode: replay the script from its start each time it ends (for --duration longer
+  /// than the script; a script meant to loop ends where it starts).
+  bool loop = false;
 };
 
 /// Runs the client; returns the exit code (0 ok, 1 no server / no feedback, 2 bad input).

@@ -270,8 +270,8 @@ TEST(ScenarioLoader, DefaultsWhenOmitted) {
   EXPECT_EQ(p.solver.integrator, Integrator::Static);
   EXPECT_EQ(p.solver.max_iterations, d.solver.max_iterations);
   EXPECT_EQ(p.solver.warm_start, WarmStart::Extrapolate);
-  // A capped CG keeps its step by default (guarded: it cannot gain energy); substep on request.
-  EXPECT_FALSE(s.solver.substep_on_cg_cap);
+  // A capped CG redoes the tick in sub-steps by default; continue keeps the guarded step.
+  EXPECT_TRUE(s.solver.substep_on_cg_cap);
   EXPECT_TRUE(parse(kMinimal + "solver:\n  on_cg_cap: substep\n").solver.substep_on_cg_cap);
   EXPECT_FALSE(parse(kMinimal + "solver:\n  on_cg_cap: continue\n").solver.substep_on_cg_cap);
 }

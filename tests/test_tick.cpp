@@ -150,8 +150,8 @@ TEST(Tick, ExplicitBlowUpNeverPutsANaNInTheState) {
   EXPECT_GT(recovered + rolled_back, 0) << "the blow-up was not detected at all";
 }
 
-// solver.on_cg_cap: `substep` redoes a capped tick in sub-steps (each better conditioned, so
-// fewer iterations suffice); `continue` (the default) keeps the capped step.
+// solver.on_cg_cap: `substep` (the default) redoes a capped tick in sub-steps (each better
+// conditioned, so fewer iterations suffice); `continue` keeps the capped step.
 TEST(Tick, CappedSolveIsRedoneInSubstepsWhenTold) {
   ScenarioSpec spec = load_scenario(kDir + "cantilever_dynamic.yaml");
   spec.solver.preconditioner = Preconditioner::Jacobi;

@@ -53,3 +53,16 @@ TEST(Trajectory, CsvAndErrorsWithLine) {
   expect("t,x,y,z,speed\n0,0,0,0,1\n", 1, "unknown column 'speed'");
 }
 
+
+// `stroma tool --loop`: the script repeats from its start; before its end it is the script.
+TEST(Trajectory, LoopingRepeatsTheScriptFromItsStart) {
+  Trajectory tr;
+  ToolPose a, b;
+  a.position = {0, 0, 0};
+  b.position = {2, 0, 0};
+  tr.keys = {{0.0, a}, {2.0, b}};
+  EXPECT_DOUBLE_EQ(tr.sample_looping(0.5).position[0], 0.5);
+  EXPECT_DOUBLE_EQ(tr.sample_looping(2.5).position[0], 0.5);
+  EXPECT_DOUBLE_EQ(tr.sample_looping(7.25).position[0], 1.25);
+  EXPECT_DOUBLE_EQ(tr.sample(7.25).position[0], 2.0) << "without looping the last pose is held";
+}
