@@ -101,28 +101,6 @@ inline void batch_gradient(const double (&d)[9][kBatch], const double (&g)[9][kB
         G[3 * i + j][l] = d[i][l] * g[j][l] + d[3 + i][l] * g[3 + j][l] + d[6 + i][l] * g[6 + j][l];
 }
 
-/// The corotated strain of lane l, ε = sym(RᵀG) − shift·I, as (e00, e11, e22, e01, e02, e12).
-inline void corotated_strain(const double (&R)[9][kBatch], const double (&G)[9][kBatch], int l, double shift,
-                             double* e) {
-  double S[9];
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      S[3 * i + j] = R[i][l] * G[j][l] + R[3 + i][l] * G[3 + j][l] + R[6 + i][l] * G[6 + j][l];
-  e[0] = S[0] - shift;
-  e[1] = S[4] - shift;
-  e[2] = S[8] - shift;
-  e[3] = 0.5 * (S[1] + S[3]);
-  e[4] = 0.5 * (S[2] + S[6]);
-  e[5] = 0.5 * (S[5] + S[7]);
-}
-
-/// V(μ ε:ε + λ/2 tr²ε) of strain e (corotated_strain's order).
-inline double strain_energy(const double* e, double vol, double mu, double lambda) {
-  const double tr = e[0] + e[1] + e[2];
-  const double ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + 2.0 * (e[3] * e[3] + e[4] * e[4] + e[5] * e[5]);
-  return vol * (mu * ee + 0.5 * lambda * tr * tr);
-}
-
 /// Nodal contributions out[a] = −scale·R·σ(sym(RᵀG) − shift·I)·g_a (a = 0..3, g_0 = −Σ) per lane;
 /// returns the per-lane energy density term V(μ ε:ε + λ/2 tr²ε) in `energy` when requested.
 inline void batch_stress_forces(const double (&R)[9][kBatch], const double (&G)[9][kBatch],
@@ -130,15 +108,21 @@ inline void batch_stress_forces(const double (&R)[9][kBatch], const double (&G)[
                                 double (&out)[12][kBatch], double* energy) {
 #pragma omp simd
   for (int l = 0; l < kBatch; ++l) {
-    double e[6];
-    corotated_strain(R, G, l, shift, e);
-    const double e00 = e[0], e11 = e[1], e22 = e[2], e01 = e[3], e02 = e[4], e12 = e[5];
+    double S[9];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        S[3 * i + j] = R[i][l] * G[j][l] + R[3 + i][l] * G[3 + j][l] + R[6 + i][l] * G[6 + j][l];
+    const double e00 = S[0] - shift, e11 = S[4] - shift, e22 = S[8] - shift;
+    const double e01 = 0.5 * (S[1] + S[3]), e02 = 0.5 * (S[2] + S[6]), e12 = 0.5 * (S[5] + S[7]);
     const double tr = e00 + e11 + e22;
     const double mu2 = 2.0 * in.mu[l], lt = in.lambda[l] * tr;
     const double sig[9] = {mu2 * e00 + lt, mu2 * e01, mu2 * e02,
                            mu2 * e01, mu2 * e11 + lt, mu2 * e12,
                            mu2 * e02, mu2 * e12, mu2 * e22 + lt};
-    if (energy) energy[l] = strain_energy(e, in.vol[l], in.mu[l], in.lambda[l]);
+    if (energy) {
+      const double ee = e00 * e00 + e11 * e11 + e22 * e22 + 2.0 * (e01 * e01 + e02 * e02 + e12 * e12);
+      energy[l] = in.vol[l] * (in.mu[l] * ee + 0.5 * in.lambda[l] * tr * tr);
+    }
     double P[9];
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
@@ -156,14 +140,22 @@ inline void batch_stress_forces(const double (&R)[9][kBatch], const double (&G)[
 }
 
 /// Energy only, per lane: V(μ ε:ε + λ/2 tr²ε) with ε = sym(RᵀF) − I (the energy guard's pass:
-/// no stress, no forces).
+/// no stress, no forces). The strain lines repeat batch_stress_forces' on purpose: a shared
+/// helper returning the strain through a pointer stopped GCC 12 vectorising both loops (forces
+/// 48 → 62 ns per element, measured 2026-12-02).
 inline void batch_energy(const double (&R)[9][kBatch], const double (&G)[9][kBatch], const BatchInput& in,
                          double* energy) {
 #pragma omp simd
   for (int l = 0; l < kBatch; ++l) {
-    double e[6];
-    corotated_strain(R, G, l, 1.0, e);
-    energy[l] = strain_energy(e, in.vol[l], in.mu[l], in.lambda[l]);
+    double S[9];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        S[3 * i + j] = R[i][l] * G[j][l] + R[3 + i][l] * G[3 + j][l] + R[6 + i][l] * G[6 + j][l];
+    const double e00 = S[0] - 1.0, e11 = S[4] - 1.0, e22 = S[8] - 1.0;
+    const double e01 = 0.5 * (S[1] + S[3]), e02 = 0.5 * (S[2] + S[6]), e12 = 0.5 * (S[5] + S[7]);
+    const double tr = e00 + e11 + e22;
+    const double ee = e00 * e00 + e11 * e11 + e22 * e22 + 2.0 * (e01 * e01 + e02 * e02 + e12 * e12);
+    energy[l] = in.vol[l] * (in.mu[l] * ee + 0.5 * in.lambda[l] * tr * tr);
   }
 }
 
