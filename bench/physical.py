@@ -117,9 +117,9 @@ def main():
         eu, us, ef, fs = errors(os.path.join(base, "shipped"), os.path.join(base, "converged"))
         s = json.load(open(os.path.join(base, "shipped", "summary.json")))
         med = statistics.median
+        force = f"{100 * ef:.2f} % (of {fs:.3f} N)" if fs > 0 else "— (no tool)"
         print(f"| {scene} | {s['nodes']} / {s['elements']} | {med(p50):.3f} / {med(p99):.3f} / {med(mx):.3f} | "
-              f"{med(cg):.1f} / {cgmax} | {100 * eu:.2f} % (of {1000 * us:.2f} mm) | "
-              (f"{100 * ef:.2f} % (of {fs:.3f} N) |" if fs > 0 else "— (no tool) |"), flush=True)
+              f"{med(cg):.1f} / {cgmax} | {100 * eu:.2f} % (of {1000 * us:.2f} mm) | {force} |", flush=True)
 
 
 if __name__ == "__main__":
