@@ -153,8 +153,9 @@ void eigensystem_from_svd(const double* U, const double* sig, const double* V, c
 }
 
 /// Elements per batch: the SVD and the scaling block run across elements in SIMD lanes (as the
-/// corotational pass's polar decomposition).
-constexpr int kBatch = 8;
+/// corotational pass's polar decomposition; 16 lanes, two AVX-512 registers, hide the Jacobi
+/// sweeps' latency there: tissue/fem_forces.cpp).
+constexpr int kBatch = 16;
 
 }  // namespace
 
