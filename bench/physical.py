@@ -30,7 +30,7 @@ SCENES = ["liver_16cm", "liver_fine_16cm", "armadillo_0p2m", "beam_k6_converged"
 CONVERGED = "max_iterations: 5000, tolerance: 1.0e-10"
 
 
-def scenario_with_solver(scene, solver_override, tmp_dir):
+def scenario_with_solver(scene, solver_override):
     """The scene's YAML with its solver map's settings overridden (a copy next to the original, so
     relative mesh paths still resolve)."""
     path = os.path.join(ROOT, "scenarios", "physical", scene + ".yaml")
@@ -99,7 +99,7 @@ def main():
     print("|---|---|---|---|---|---|")
     for scene in a.scenes.split(","):
         base = os.path.join(a.out, scene)
-        shipped, _ = scenario_with_solver(scene, None, None)
+        shipped, _ = scenario_with_solver(scene, None)
         p50, p99, mx, cg, cgmax = [], [], [], [], 0
         for r in range(a.runs):
             out = os.path.join(base, f"timing_{r}")
@@ -109,7 +109,7 @@ def main():
             cg.append(s["cg_iterations"]["mean"]); cgmax = max(cgmax, s["cg_iterations"]["max"])
             print(f"physical.py: {scene} timing run {r + 1}/{a.runs}", file=sys.stderr, flush=True)
         run(a.stroma, shipped, os.path.join(base, "shipped"), ["--vtu-every", str(a.every)])
-        conv, tmp = scenario_with_solver(scene, CONVERGED, None)
+        conv, tmp = scenario_with_solver(scene, CONVERGED)
         try:
             run(a.stroma, conv, os.path.join(base, "converged"), ["--vtu-every", str(a.every)])
         finally:

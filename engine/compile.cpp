@@ -11,6 +11,7 @@
 #include "tissue/bounding_box.hpp"
 #include "tissue/fem_build.hpp"
 #include "tissue/input_error.hpp"
+#include "tissue/mat3.hpp"
 #include "tissue/material.hpp"
 #include "tissue/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
@@ -34,10 +35,11 @@ std::vector<int32_t> select_nodes(const NodeSelection& sel, const PreparedMesh& 
     const Vec3& d = sel.surface->normal;
     for (const Tri& t : pm.boundary) {
       const Vec3 &a = mesh.nodes[t[0]], &b = mesh.nodes[t[1]], &c = mesh.nodes[t[2]];
-      const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-      const Vec3 nrm{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-      const double len = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
-      if (len > 0 && (nrm[0] * d[0] + nrm[1] * d[1] + nrm[2] * d[2]) >= cos_max * len)
+      const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+      double nrm[3];  // outward (boundary faces are CCW seen from outside)
+      m3::cross(u, v, nrm);
+      const double len = std::sqrt(m3::dot(nrm, nrm));
+      if (len > 0 && m3::dot(nrm, d.data()) >= cos_max * len)
         for (int k = 0; k < 3; ++k) facing[static_cast<size_t>(t[k])] = 1;
     }
     if (!sel.box) {

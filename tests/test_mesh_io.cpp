@@ -86,6 +86,7 @@ TEST_P(RealMeshes, LoadWithExactCounts) {
 INSTANTIATE_TEST_SUITE_P(ScenarioMeshes, RealMeshes,
                          ::testing::Values(RealMesh{"liver.msh", 181, 596},
                                            RealMesh{"liver2.msh", 507, 1493},
+                                           RealMesh{"liver_fine.msh", 1059, 3876},
                                            RealMesh{"cylinder_8x30x6.msh", 1446, 6750},
                                            RealMesh{"Armadillo_Tetra_4406.vtu", 1446, 4406},
                                            RealMesh{"raptorTetra_8418.vtu", 2996, 8418},
