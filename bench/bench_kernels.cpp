@@ -13,6 +13,7 @@
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "tissue/cholmod_solver.hpp"
 #include "tissue/fem_forces.hpp"
 #include "tissue/rotation.hpp"
 
@@ -20,7 +21,8 @@ using namespace stroma;
 
 namespace {
 
-const char* kScenarioNames[] = {"liver", "armadillo", "cantilever_dynamic", "physical/liver_fine_16cm"};
+const char* kScenarioNames[] = {"liver", "armadillo", "cantilever_dynamic", "physical/liver_fine_16cm",
+                              "physical/beam_k6_converged", "physical/armadillo_0p2m"};
 
 std::shared_ptr<const Model> model_for(int i, RotationMethod rot = RotationMethod::Polar) {
   ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/" + kScenarioNames[i] + ".yaml");
@@ -151,6 +153,40 @@ void BM_CgSolve(benchmark::State& st) {
   st.counters["cg_iterations"] = iters;
 }
 BENCHMARK(BM_CgSolve)->DenseRange(0, 1)->Unit(benchmark::kMicrosecond);
+
+/// CHOLMOD on a warmed-up tick's system matrix: numeric factorisation (arg1 0), one solve with
+/// that factor (1: cholmod_solve2, 2: the single-precision copy, tissue/supernodal_f32.hpp) —
+/// the costs of refreshing a Cholesky preconditioner and of applying it once.
+void BM_Cholmod(benchmark::State& st) {
+  auto m = model_for(static_cast<int>(st.range(0)));
+  TickWorkspace w(*m);
+  State s = warmed_state(*m, w, 50);
+  w.stepper().assemble(s.tissue, m->time_step, step_inputs(*m, s, w));
+  std::vector<double> K;
+  w.stepper().stiffness(s.tissue, K);
+  // A = M + h(β + h)K with the model's masses: the shape of the implicit system.
+  const double h = m->time_step;
+  for (auto& k : K) k *= h * h + h * 0.01;
+  for (int32_t i = 0; i < m->fem.num_nodes; ++i)
+    for (int32_t slot = m->fem.pattern.row_ptr[i]; slot < m->fem.pattern.row_ptr[i + 1]; ++slot)
+      if (m->fem.pattern.col[slot] == i)
+        for (int k = 0; k < 3; ++k) K[9 * slot + 4 * k] += m->fem.mass[i] > 0 ? m->fem.mass[i] : 1.0;
+  CholmodSolver chol(m->fem.pattern);
+  if (st.range(1) == 2) chol.use_float_solves();
+  if (!chol.factor(K.data())) st.SkipWithError("not positive definite");
+  std::vector<double> b(m->fem.dofs(), 1.0), x(m->fem.dofs());
+  for (auto _ : st) {
+    if (st.range(1) == 0) benchmark::DoNotOptimize(chol.factor(K.data()));
+    else chol.solve(b.data(), x.data());
+    benchmark::ClobberMemory();
+  }
+  st.SetLabel(std::string(kScenarioNames[st.range(0)]) +
+              (st.range(1) == 2 ? " solve float" : st.range(1) ? " solve" : " factor"));
+  st.counters["dofs"] = static_cast<double>(m->fem.dofs());
+  st.counters["L_entries"] = chol.factor_entries();
+  st.counters["factor_flops"] = chol.factor_flops();
+}
+BENCHMARK(BM_Cholmod)->ArgsProduct({{0, 1, 3, 4, 5}, {0, 1, 2}})->Unit(benchmark::kMicrosecond);
 
 void BM_Tick(benchmark::State& st) {
   auto m = model_for(static_cast<int>(st.range(0)));

@@ -414,7 +414,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
                                    s.max_iterations, s.tolerance,   s.warm_start,
                                    s.static_tolerance, s.static_max_newton,
                                    resolved_newton_iterations(s.newton_iterations, spec.time_step),
-                                   s.newton_tolerance};
+                                   s.newton_tolerance, s.preconditioner_refresh};
   model->substep_on_cg_cap = s.substep_on_cg_cap;
   model->time_budget = s.time_budget;
 

@@ -30,6 +30,8 @@ PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions 
       state_(State::initial(*model_)),
       initial_(state_),
       work_(*model_) {
+  // Served ticks never wait for the preconditioner's worker (TimeStepper::set_realtime).
+  work_.stepper().set_realtime(true);
   for (size_t t = 0; t < model_->tools.size(); ++t)
     tool_in.push_back(std::make_unique<TripleBuffer<ToolInput>>());
 }

@@ -97,7 +97,8 @@ const Choices<bool> kCapPolicies = {{"substep", true}, {"continue", false}};
 SolverSpec parse_solver(const Field& f) {
   const MapReader m = f.map({"integrator", "linear_solver", "preconditioner", "max_iterations",
                              "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap",
-                             "newton_iterations", "newton_tolerance", "time_budget"});
+                             "newton_iterations", "newton_tolerance", "time_budget",
+                             "preconditioner_refresh"});
   SolverSpec s;
   s.where = location_of(m);
   if (auto i = m.opt("integrator")) s.integrator_where = location_of(*i);
@@ -120,6 +121,17 @@ SolverSpec parse_solver(const Field& f) {
       f->get(s.newton_iterations, greater_than(0));
   }
   m.read("newton_tolerance", s.newton_tolerance, open_interval(0, 1));
+  if (const auto f = m.opt("preconditioner_refresh")) {  // steps >= 1, auto (-1) or off (0)
+    const std::string v = f->yaml().IsScalar() ? f->yaml().Scalar() : std::string();
+    if (v == "auto")
+      s.preconditioner_refresh = -1;
+    else if (v == "off")
+      s.preconditioner_refresh = 0;
+    else if (v.empty() || v.find_first_not_of("+-0123456789") != std::string::npos)
+      f->fail("expected a whole number of steps >= 1, auto or off, got " + f->got());
+    else
+      f->get(s.preconditioner_refresh, greater_than(0));
+  }
   if (const auto f = m.opt("time_budget")) {  // seconds > 0, or none (stored as 0)
     s.time_budget_where = location_of(*f);
     if (f->yaml().IsScalar() && f->yaml().Scalar() == "none")

@@ -55,6 +55,11 @@ struct SolverSpec {
   /// the tick degrades stably (engine/step_with_recovery.hpp). `stroma serve` budgets every tick
   /// with the period minus --budget-margin-ms, or with this when it is smaller.
   double time_budget = 0;
+  /// `preconditioner_refresh:` (warped_cholesky with implicit Euler): refresh the factor from a
+  /// recent step's system on a worker thread every N steps. -1 = `auto` (the default): on for
+  /// systems of at least kRefreshMinDofs unknowns, every auto_refresh_period() steps (both in
+  /// tissue/time_stepper.hpp); 0 = `off`.
+  int preconditioner_refresh = -1;
   SourceLocation time_budget_where;  ///< the `time_budget:` key (file only when absent)
   SourceLocation where;             ///< the `solver:` section (file only when absent)
   SourceLocation integrator_where;  ///< the `integrator:` key (file only when absent)

@@ -295,6 +295,20 @@ TEST(ScenarioLoader, NewtonIterationsAutoByDefault) {
                {"whole number >= 1 or auto", "a list"});
 }
 
+// solver.preconditioner_refresh: steps between refreshes of the warped factor, auto (the
+// default, -1) or off (0).
+TEST(ScenarioLoader, PreconditionerRefresh) {
+  EXPECT_EQ(parse(kMinimal).solver.preconditioner_refresh, -1);
+  EXPECT_EQ(parse(kMinimal + "solver:\n  preconditioner_refresh: auto\n").solver.preconditioner_refresh, -1);
+  EXPECT_EQ(parse(kMinimal + "solver:\n  preconditioner_refresh: off\n").solver.preconditioner_refresh, 0);
+  EXPECT_EQ(parse(kMinimal + "solver:\n  preconditioner_refresh: 25\n").solver.preconditioner_refresh, 25);
+  expect_error(kMinimal + "solver:\n  preconditioner_refresh: 0\n", 10, "solver.preconditioner_refresh", {"0"});
+  expect_error(kMinimal + "solver:\n  preconditioner_refresh: often\n", 10, "solver.preconditioner_refresh",
+               {"whole number of steps >= 1, auto or off", "'often'"});
+  expect_error(kMinimal + "solver:\n  preconditioner_refresh: 2.5\n", 10, "solver.preconditioner_refresh",
+               {"whole number of steps"});
+}
+
 TEST(ScenarioLoader, RunDuration) {
   const ScenarioSpec s = parse(kMinimal + "run:\n  duration: 0.5\n");
   ASSERT_TRUE(s.run.duration.has_value());

@@ -22,6 +22,9 @@ struct SolveStats {
   bool converged = true;          ///< false: hit the iteration cap, the deadline, or broke down
   bool budget_stopped = false;    ///< stopped by the deadline (converged is then false)
   bool started_from_zero = false; ///< the initial guess was worse than zero and was dropped
+  /// Warped Cholesky: the solve spent its warped share (TimeStepper) without converging and
+  /// Jacobi-PCG continued from its iterate (`iterations` counts both).
+  bool preconditioner_fallback = false;
   /// Bound on the solve's error in the system's energy norm: ½‖x − x*‖²_A ≤ ½ rᵀM⁻¹r with M
   /// the mass part of A (A ≥ M: stiffness, damping and contact terms are PSD). It is exactly
   /// how far the step's quadratic incremental potential is above its minimum (J). Filled by

@@ -5,8 +5,31 @@
 #include <stdexcept>
 
 #include <cholmod.h>
+#include <dlfcn.h>
+
+#include "tissue/supernodal_f32.hpp"
 
 namespace stroma {
+
+namespace {
+/// CHOLMOD's supernodal factorisation calls BLAS. OpenBLAS (Debian's default libblas) would run
+/// those calls on a thread pool of its own, one thread per core, whose threads spin after each
+/// call: on this project's 2-core machine they land on the physics thread's core. Measured with
+/// the preconditioner refresh (beam k6, 3,000 ticks): tick p50 4.81 ms with OpenBLAS's pool,
+/// 2.58 ms with BLAS on the calling thread. The engine's threads are its own, so BLAS runs
+/// single-threaded; found at run time (dlsym) so another BLAS works unchanged.
+void single_threaded_blas() {
+  static const bool done = [] {
+    for (const char* name : {"openblas_set_num_threads", "goto_set_num_threads"})
+      if (void* f = dlsym(RTLD_DEFAULT, name)) {
+        reinterpret_cast<void (*)(int)>(f)(1);
+        break;
+      }
+    return true;
+  }();
+  (void)done;
+}
+}  // namespace
 
 struct CholmodSolver::Impl {
   cholmod_common common;
@@ -17,10 +40,12 @@ struct CholmodSolver::Impl {
   cholmod_dense* Y = nullptr;  // workspace of cholmod_solve2
   cholmod_dense* E = nullptr;  // workspace of cholmod_solve2
   std::vector<int64_t> map;    // CSC value k ← BSR value map[k]
+  SupernodalF32 f32;           // float copy of L (use_float_solves)
   size_t n = 0;
 };
 
 CholmodSolver::CholmodSolver(const BsrPattern& p) : impl_(std::make_unique<Impl>()) {
+  single_threaded_blas();
   Impl& s = *impl_;
   cholmod_start(&s.common);
   s.common.print = 0;
@@ -84,14 +109,23 @@ bool CholmodSolver::factor(const double* vals) {
   for (size_t k = 0; k < s.map.size(); ++k) val[k] = vals[s.map[k]];
   const int ok = cholmod_factorize(s.A, s.L, &s.common);
   // Not positive definite: CHOLMOD still returns TRUE but stops at column L->minor < n.
-  return ok && s.common.status == CHOLMOD_OK && s.L->minor >= s.n;
+  const bool spd = ok && s.common.status == CHOLMOD_OK && s.L->minor >= s.n;
+  if (spd && float_solves_ && !s.f32.load(s.L)) float_solves_ = false;  // not supernodal LLᵀ
+  return spd;
 }
 
 void CholmodSolver::solve(const double* b, double* x) {
   Impl& s = *impl_;
+  if (float_solves_ && s.f32.loaded()) {
+    s.f32.solve(b, x);
+    return;
+  }
   std::memcpy(s.B->x, b, s.n * sizeof(double));
   cholmod_solve2(CHOLMOD_A, s.L, s.B, nullptr, &s.X, nullptr, &s.Y, &s.E, &s.common);
   std::memcpy(x, s.X->x, s.n * sizeof(double));
 }
+
+double CholmodSolver::factor_entries() const { return impl_->L->is_super ? impl_->L->xsize : impl_->common.lnz; }
+double CholmodSolver::factor_flops() const { return impl_->common.fl; }
 
 }  // namespace stroma

@@ -28,10 +28,19 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
     warped_ = std::make_unique<WarpedPreconditioner>(m_);
 }
 
+void TimeStepper::set_realtime(bool realtime) {
+  realtime_ = realtime;
+  if (warped_ && warped_->refreshing()) warped_->enable_refresh(cfg_.preconditioner_refresh, !realtime);
+}
+
 void TimeStepper::prepare(double h) {
   if (!warped_) return;
-  if (cfg_.integrator == Integrator::ImplicitEuler) warped_->factor(h, h, h * h);
   if (cfg_.integrator == Integrator::Static) warped_->factor(-1.0, 0.0, 1.0);
+  if (cfg_.integrator != Integrator::ImplicitEuler) return;
+  warped_->factor(h, h, h * h);
+  int& period = cfg_.preconditioner_refresh;
+  if (period < 0) period = m_.dofs() >= kRefreshMinDofs ? auto_refresh_period(warped_->factor_flops(), h) : 0;
+  if (period > 0) warped_->enable_refresh(period, !realtime_);
 }
 
 TimeStepper::~TimeStepper() = default;
@@ -68,6 +77,9 @@ void TimeStepper::scatter_springs(double* force, double* A, double k_scale, doub
 }
 
 double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& inputs) {
+  const bool implicit = cfg_.integrator == Integrator::ImplicitEuler;
+  // The last step's system, before it is overwritten: a refresh may take it (buffer swap).
+  if (warped_ && implicit) warped_->begin_step(A_, h_);
   in_ = inputs;
   h_ = h;
   std::fill(force_.begin(), force_.end(), 0.0);
@@ -76,7 +88,6 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
   p.force = force_.data();
   p.rotations = rot_.data();
   p.damage = in_.damage;
-  const bool implicit = cfg_.integrator == Integrator::ImplicitEuler;
   const bool any_beta = m_.any_stiffness_damping;
   if (implicit) {
     // A = (1 + hα) M + h(β + h) K. The damping and h·K·v terms of the right-hand side come
@@ -115,8 +126,10 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
     }
     project_constraints(A_.data(), 1.0);
     if (warped_) {
-      // Rest-pose factor with this step's coefficients: built once, rebuilt only if h changes.
+      // Rest-pose factor with this step's coefficients: built once, rebuilt only if h changes
+      // (unless a refreshed factor for this h is in use).
       warped_->factor(h, h, h * h);
+      warped_->poll(h);
       warped_->update_rotations(rot_.data());
     }
   } else {
@@ -186,8 +199,28 @@ SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
     st.iterations = 0;
     return st;
   }
-  st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, cfg_.max_iterations, cfg_.tolerance,
-                 external(), deadline, converged_in_a_row_ == 0);
+  if (warped_) {
+    // The warped factor may not know this tangent: it lags it (rest pose, or a refresh a few
+    // ticks old) and penalty contact stiffness joins it only at a refresh. Where it fits badly
+    // each of its iterations costs a triangular solve, relative_cost() Jacobi iterations, so it
+    // gets the share of the cap that costs as much as the cap of Jacobi iterations (at least
+    // 3); then Jacobi-PCG, whose diagonal holds this tick's contacts and tangent, continues
+    // from its iterate with the full cap. Measured (docs/PERFORMANCE.md): a stiff sphere on a
+    // 7,457-node block, where one warped iteration costs ~40 Jacobi iterations.
+    const int share = std::max(3, static_cast<int>(cfg_.max_iterations / warped_->relative_cost()));
+    st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, std::min(share, cfg_.max_iterations),
+                   cfg_.tolerance, external(), deadline, converged_in_a_row_ == 0);
+    if (!st.converged && !st.budget_stopped && share < cfg_.max_iterations) {
+      const int warped_iterations = st.iterations;
+      st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, Preconditioner::Jacobi, cfg_.max_iterations,
+                     cfg_.tolerance, nullptr, deadline, false);
+      st.iterations += warped_iterations;
+      st.preconditioner_fallback = true;
+    }
+  } else {
+    st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, cfg_.max_iterations, cfg_.tolerance,
+                   nullptr, deadline, converged_in_a_row_ == 0);
+  }
   converged_in_a_row_ = st.converged ? converged_in_a_row_ + 1 : 0;
   error_bounds(cg_.residual(), h_, st);
   return st;

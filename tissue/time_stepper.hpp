@@ -41,7 +41,25 @@ struct StepperSettings {
   /// (backtracking line search); they stop once ‖residual‖ ≤ newton_tolerance × the step's scale.
   int newton_iterations = 1;
   double newton_tolerance = 1e-3;
+  /// Warped Cholesky with implicit Euler: refresh its factor from the system of a recent step
+  /// on a worker thread every this many steps (0: never, the rest-pose factor throughout;
+  /// −1: auto — kRefreshMinDofs and auto_refresh_period() decide, at prepare()).
+  int preconditioner_refresh = 0;
 };
+
+/// `preconditioner_refresh: auto` leaves smaller systems on the rest-pose factor: there a
+/// factorisation is cheap, but so is the CG it would save (the 596-tet liver converges in a
+/// few iterations) and a worker thread is not worth its core.
+inline constexpr int kRefreshMinDofs = 1500;
+
+/// The steps between refreshes `auto` chooses: the factorisation's flop count at 4 GFlop/s
+/// (what CHOLMOD sustains on this project's machine for factors of 10⁸ flops,
+/// docs/PERFORMANCE.md), in steps of `time_step`, at least 16 — so a worker on a free core
+/// keeps up, and a headless run (which waits for it) rarely waits.
+inline int auto_refresh_period(double factor_flops, double time_step) {
+  const double steps = factor_flops / 4.0e9 / time_step;
+  return steps < 16 ? 16 : steps > 1.0e6 ? 1000000 : static_cast<int>(steps + 0.999);
+}
 
 /// What the Newton iterations after the linearised step did (TimeStepper::newton).
 struct NewtonStats {
@@ -93,8 +111,15 @@ class TimeStepper {
   ~TimeStepper();
 
   /// Load-time work that depends on the step size (the warped preconditioner's rest-pose
-  /// factorisation), so the first tick is not slower than the others. Optional.
+  /// factorisation; resolving and starting its refresh), so the first tick is not slower than
+  /// the others. Without it the rest factor is made at the first step and never refreshed.
   void prepare(double h);
+  /// Real-time mode (`stroma serve`): an asynchronous preconditioner refresh is swapped in as
+  /// soon as it is ready and the physics thread never waits for it. Default (headless, replay):
+  /// swapped in on a fixed schedule, so a run's results depend only on its inputs.
+  void set_realtime(bool realtime);
+  /// Refreshed preconditioner factors swapped in so far (0 without a refresh).
+  int64_t preconditioner_refreshes() const { return warped_ ? warped_->refreshes() : 0; }
 
   /// Stage "assemble": element pass at the current state and the step's right-hand side, with
   /// this step's inputs (kept for the rest of the step). Returns the elastic energy at s.x.
@@ -176,7 +201,8 @@ class TimeStepper {
   double timed_residual(NewtonStats& st, const TissueState& s, double h, const double* dv, bool matrix, double* R,
                         double* merit);
   const FemModel& m_;
-  StepperSettings cfg_;
+  StepperSettings cfg_;  ///< preconditioner_refresh resolved by prepare()
+  bool realtime_ = false;
   StepInputs in_;  ///< the inputs of the last assemble()
   /// Solves converged in a row (the initial rest state counts as two): the warm start
   /// extrapolates only from two converged increments, and CG guards its start after a failure.

@@ -8,10 +8,19 @@
 
 namespace stroma {
 
+namespace {
+void set_identities(std::vector<double>& r) {
+  std::fill(r.begin(), r.end(), 0.0);
+  for (size_t i = 0; i + 8 < r.size(); i += 9) r[i] = r[i + 4] = r[i + 8] = 1.0;
+}
+}  // namespace
+
 WarpedPreconditioner::WarpedPreconditioner(const FemModel& model) : m_(model) {
   const size_t n3 = 3 * static_cast<size_t>(m_.num_nodes);
-  node_rot_.assign(9 * static_cast<size_t>(m_.num_nodes), 0.0);
-  for (int32_t i = 0; i < m_.num_nodes; ++i) node_rot_[9 * i] = node_rot_[9 * i + 4] = node_rot_[9 * i + 8] = 1.0;
+  for (auto* r : {&node_abs_, &factor_rot_, &node_rot_}) {
+    r->assign(3 * n3, 0.0);
+    set_identities(*r);
+  }
   a_.assign(n3, 0.0);
   b_.assign(n3, 0.0);
   op_.apply = &WarpedPreconditioner::apply;
@@ -29,16 +38,20 @@ void WarpedPreconditioner::factor(double h_mass, double k_beta, double k_const) 
   elastic_pass(m_, p);
   if (h_mass >= 0) add_mass_diagonal(m_, A0.data(), h_mass, m_.mass.data());
   project_constraints(m_, A0.data(), 1.0, false);
-  if (!factor_) factor_ = std::make_unique<CholmodSolver>(m_.pattern);
+  if (!factor_) {
+    factor_ = std::make_unique<CholmodSolver>(m_.pattern);
+    factor_->use_float_solves();  // a preconditioner: half the memory traffic per application
+  }
   factor_->factor(A0.data());
   key_[0] = h_mass;
   key_[1] = k_beta;
   key_[2] = k_const;
+  set_identities(factor_rot_);  // assembled at rest
 }
 
 void WarpedPreconditioner::update_rotations(const double* rot) {
   for (int32_t i = 0; i < m_.num_nodes; ++i) {
-    double* R = node_rot_.data() + 9 * i;
+    double* R = node_abs_.data() + 9 * i;
     const bool has_element = m_.node_element_ptr[i + 1] > m_.node_element_ptr[i];
     if (!has_element || m_.constrained[i] == 7) {
       std::fill(R, R + 9, 0.0);
@@ -47,7 +60,37 @@ void WarpedPreconditioner::update_rotations(const double* rot) {
       const int32_t e = m_.node_element[m_.node_element_ptr[i]];
       std::copy(rot + 9 * e, rot + 9 * e + 9, R);
     }
+    m3::mul_nt(R, factor_rot_.data() + 9 * i, node_rot_.data() + 9 * i);
   }
+}
+
+void WarpedPreconditioner::enable_refresh(int period, bool deterministic) {
+  period_ = std::max(1, period);
+  deterministic_ = deterministic;
+  if (!refresh_) refresh_ = std::make_unique<CholeskyRefresher>(m_.pattern, m_.num_nodes);
+}
+
+void WarpedPreconditioner::adopt(bool wait) {
+  double key = 0;
+  if (!refresh_->take(factor_, factor_rot_, key, wait)) return;
+  key_[0] = key_[1] = key;
+  key_[2] = key * key;
+  ++refreshes_;
+}
+
+void WarpedPreconditioner::begin_step(std::vector<double>& last_system, double h_last) {
+  if (!refresh_ || h_last <= 0) return;
+  if (++steps_since_offer_ < period_) return;
+  // Deterministic: the factor handed over `period` steps ago is swapped in now, whatever the
+  // worker's speed. Real time: poll() swapped it in as soon as it was ready.
+  if (deterministic_ && refresh_->pending()) adopt(true);
+  if (refresh_->offer(last_system, node_abs_.data(), h_last)) steps_since_offer_ = 0;
+}
+
+void WarpedPreconditioner::poll(double h) {
+  if (!refresh_ || deterministic_ || refresh_->working() || !refresh_->pending()) return;
+  adopt(false);
+  if (key_[0] != h) factor(h, h, h * h);  // made for another step size: back to rest (rare)
 }
 
 void WarpedPreconditioner::apply(void* self, const double* r, double* z) {

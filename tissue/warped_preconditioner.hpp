@@ -1,27 +1,38 @@
 #pragma once
 /// \file warped_preconditioner.hpp
-/// The warped rest-pose Cholesky preconditioner (solver.preconditioner: warped_cholesky): the
-/// system matrix at rest, A₀ = (1 + h_mass·α)·M + (k_beta·β + k_const)·K(rest), factored once by
-/// CHOLMOD, applied as z = R A₀⁻¹ Rᵀ r with one rotation per node (the rotation of an element
-/// around it, from the last element pass). Good while rotations are what changes the tangent;
-/// it degrades when the deformation itself does (docs/PERFORMANCE.md).
+/// The warped Cholesky preconditioner (solver.preconditioner: warped_cholesky): a CHOLMOD factor
+/// of a system matrix A_f, applied in each node's frame rotated since A_f was assembled:
+/// z = R_Δ A_f⁻¹ R_Δᵀ r, R_Δ = R·R_fᵀ per node (the rotation of an element around the node, from
+/// the last element pass, against the one when A_f was assembled).
+///
+/// A_f starts as the system at rest, A₀ = (1 + h_mass·α)·M + (k_beta·β + k_const)·K(rest),
+/// factored once (R_f = I). Warping keeps it good while rotations are what changes the tangent;
+/// it degrades when the deformation itself does, and it never contains contact stiffness. With
+/// a refresh (enable_refresh) a worker thread factors the system of a recent step and the
+/// physics thread swaps it in (tissue/cholesky_refresh.hpp): the factor then lags the tangent
+/// by the refresh period and sees contacts, large strain and damage (docs/PERFORMANCE.md).
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
 #include "tissue/cg_solver.hpp"
+#include "tissue/cholesky_refresh.hpp"
 #include "tissue/cholmod_solver.hpp"
 #include "tissue/fem_model.hpp"
 
 namespace stroma {
 
-/// Invariant: after factor(), op() applies R A₀⁻¹ Rᵀ with the rotations of the last
-/// update_rotations(); before the first update the rotations are the identity.
+/// Invariant: after factor(), op() applies R_Δ A_f⁻¹ R_Δᵀ with the rotations of the last
+/// update_rotations() (identity before the first one). factor_key() is the step h A_f was
+/// assembled for (h_mass of the rest factor).
 class WarpedPreconditioner {
  public:
   explicit WarpedPreconditioner(const FemModel& model);
   /// Factors A₀ with these coefficients (h_mass < 0: no mass term, for static solves). Does
-  /// nothing when already factored with the same ones (allocates only when it refactors).
+  /// nothing when the current factor already has them — the rest factor with the same ones, or
+  /// a refreshed factor of a step with h_mass = k_beta = h, k_const = h² (allocates only when
+  /// it refactors).
   void factor(double h_mass, double k_beta, double k_const);
   /// Per-node rotations from the element rotations `rot` (9 per element) of the last element
   /// pass: each node takes its first element's; fixed and unused nodes keep the identity.
@@ -29,13 +40,51 @@ class WarpedPreconditioner {
   /// The preconditioner as CG takes it (valid while this object lives).
   const ExternalPreconditioner* op() const { return &op_; }
 
+  /// Starts asynchronous refreshes (a worker thread; implicit Euler only): every `period`
+  /// steps the last step's system goes to the worker. `deterministic`: the factor is swapped in
+  /// exactly `period` steps after its matrix was handed over, waiting for the worker if it is
+  /// late — results then depend on nothing but the inputs (headless runs, replays). Otherwise
+  /// (real time) a finished factor is swapped in at the next step and the physics thread never
+  /// waits; a late worker only means the older factor stays in use.
+  void enable_refresh(int period, bool deterministic);
+  /// Start of a step's assembly: `last_system` holds the previous step's projected system
+  /// matrix, assembled for step `h_last` (0: none) in the frame of the last update_rotations().
+  /// When a refresh is due it is handed to the worker by swapping buffers (no copy) — the
+  /// caller refills `last_system` anyway.
+  void begin_step(std::vector<double>& last_system, double h_last);
+  /// After this step's element pass, before update_rotations(): in real-time mode swaps in a
+  /// factor the worker has finished, if it was assembled for this step's h.
+  void poll(double h);
+
+  /// What one application costs against one Jacobi-PCG iteration, from the memory each streams:
+  /// the factor twice in float (8 bytes per entry), which streams at about half the SpMV's rate
+  /// here (measured: beam k6 0.30 ms against 8 MB; 7,457-node block ~10 ms), against the
+  /// matrix's 72 bytes per stored block: 1 + 16·entries(L) / (72·blocks). Deterministic, so the
+  /// fallback it sets (TimeStepper::solve) is too.
+  double relative_cost() const {
+    return factor_ ? 1.0 + 16.0 * factor_->factor_entries() / (72.0 * m_.pattern.nnzb()) : 1.0;
+  }
+  /// Flops of one factorisation (after factor()).
+  double factor_flops() const { return factor_ ? factor_->factor_flops() : 0.0; }
+  int64_t refreshes() const { return refreshes_; }  ///< refreshed factors swapped in
+  bool refreshing() const { return refresh_ != nullptr; }
+
  private:
   static void apply(void* self, const double* r, double* z);
+  void adopt(bool wait);
   const FemModel& m_;
   std::unique_ptr<CholmodSolver> factor_;
-  double key_[3] = {-1, -1, -1};  // coefficients it was factored with
-  std::vector<double> node_rot_, a_, b_;
+  double key_[3] = {-1, -1, -1};  // coefficients the current factor was built with
+  std::vector<double> node_abs_;   // per-node rotation from the last update (9 per node)
+  std::vector<double> factor_rot_; // per-node rotation when A_f was assembled (identity: rest)
+  std::vector<double> node_rot_;   // R_Δ = R·R_fᵀ, what apply() uses
+  std::vector<double> a_, b_;
   ExternalPreconditioner op_;
+  std::unique_ptr<CholeskyRefresher> refresh_;
+  int period_ = 0;
+  bool deterministic_ = true;
+  int steps_since_offer_ = 0;
+  int64_t refreshes_ = 0;
 };
 
 }  // namespace stroma

@@ -22,6 +22,9 @@
 
 namespace {
 std::atomic<long> g_allocations{0};
+/// This thread's allocations: the physics thread's, where the engine's own worker threads (the
+/// preconditioner refresh) may allocate in parallel.
+thread_local long t_allocations = 0;
 }
 
 // glibc's own entry points, which the interposed C allocator forwards to.
@@ -34,18 +37,22 @@ void __libc_free(void*);
 
 void* malloc(size_t n) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
+  ++t_allocations;
   return __libc_malloc(n);
 }
 void* calloc(size_t n, size_t s) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
+  ++t_allocations;
   return __libc_calloc(n, s);
 }
 void* realloc(void* p, size_t n) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
+  ++t_allocations;
   return __libc_realloc(p, n);
 }
 void* memalign(size_t a, size_t n) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
+  ++t_allocations;
   return __libc_memalign(a, n);
 }
 void* aligned_alloc(size_t a, size_t n) { return memalign(a, n); }
@@ -80,6 +87,8 @@ struct Watched {
   long ruptures = 0;         ///< elements ruptured during the counted ticks
   int body_contact_ticks = 0;
   int cg_iterations = 0;
+  long thread_allocations = 0;  ///< on the ticking thread alone
+  int64_t refreshes = 0;        ///< preconditioner factors swapped in
 };
 
 /// Warms up for `warmup` ticks, then counts allocations over `ticks` more. `drive` gives tool k's
@@ -102,7 +111,8 @@ Watched run(const ScenarioSpec& spec, int warmup, int ticks, Drive drive) {
   for (int i = 0; i < warmup; ++i) tick(m, s, w, inputs.data(), inputs_at(i));
   Watched out;
   const long ruptured0 = s.damage_count[kRuptured];
-  const long before = g_allocations.load();
+  const long before = g_allocations.load(), thread_before = t_allocations;
+  const int64_t refreshes_before = w.stepper().preconditioner_refreshes();
   for (int i = warmup; i < warmup + ticks; ++i) {
     const TickReport& r = tick(m, s, w, inputs.data(), inputs_at(i));
     out.contact_ticks += !r.tools.empty() && r.tools[0].contacts > 0;
@@ -111,6 +121,8 @@ Watched run(const ScenarioSpec& spec, int warmup, int ticks, Drive drive) {
     out.cg_iterations += r.solve.iterations;
   }
   out.allocations = g_allocations.load() - before;
+  out.thread_allocations = t_allocations - thread_before;
+  out.refreshes = w.stepper().preconditioner_refreshes() - refreshes_before;
   out.ruptures = s.damage_count[kRuptured] - ruptured0;
   return out;
 }
@@ -144,6 +156,17 @@ TEST(NoAllocation, WarpedCholeskyPreconditionerWithCholmodSolves) {
                         [](const CompiledScenario&, const State&, int) { return ToolPose{}; });
   EXPECT_EQ(w.allocations, 0);
   EXPECT_GT(w.cg_iterations, 0) << "each CG iteration applies the CHOLMOD factor";
+}
+
+// With the factor refreshed on a worker thread: the worker allocates (CHOLMOD's factorisation
+// workspace), the ticking thread never does — the hand-off swaps buffers and factor objects.
+TEST(NoAllocation, WarpedCholeskyRefreshedOnAWorkerThread) {
+  ScenarioSpec s = load_scenario(kDir + "cantilever_dynamic.yaml");
+  s.solver.preconditioner_refresh = 4;
+  const Watched w = run(s, 5, 100, [](const CompiledScenario&, const State&, int) { return ToolPose{}; });
+  EXPECT_EQ(w.thread_allocations, 0);
+  EXPECT_GE(w.refreshes, 20) << "factors must have been swapped in during the counted ticks";
+  EXPECT_GT(w.allocations, w.thread_allocations) << "the worker's factorisations allocate, and are counted";
 }
 
 TEST(NoAllocation, BlockJacobiQrRotationSymplectic) {

@@ -1,0 +1,69 @@
+#pragma once
+/// \file cholesky_refresh.hpp
+/// Asynchronous preconditioning (Courtecuisse et al. 2010, SOFA's AsyncSparseLDLSolver): a
+/// worker thread factors the system matrix of a recent step while the physics thread keeps
+/// solving with the factor it has; the new factor is swapped in at a step boundary. The rest-pose
+/// factor of the warped preconditioner degrades when the deformation itself (not only the
+/// rotation) changes the tangent, and it never sees contact stiffness; a factor of a tangent a
+/// few ticks old sees both.
+///
+/// The hand-off costs the physics thread no copy of the matrix and no wait: offer() swaps its
+/// matrix buffer with the worker's input buffer (O(1)), take() swaps factor objects. Both are
+/// refused (return false) while the worker is busy, so the caller keeps what it has.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "tissue/bsr_matrix.hpp"
+#include "tissue/cholmod_solver.hpp"
+
+namespace stroma {
+
+/// Invariants: exactly one thread owns each buffer at a time — the input buffers and the spare
+/// factor belong to the worker from a successful offer() until the worker publishes its result,
+/// and to the physics thread otherwise (the hand-over is the `state_` atomic, release/acquire).
+/// The worker runs at a lower scheduling priority (nice +10) than the process's other threads.
+class CholeskyRefresher {
+ public:
+  /// Runs the spare factor's symbolic analysis (allocates) and starts the worker thread.
+  CholeskyRefresher(const BsrPattern& pattern, int32_t num_nodes);
+  /// Stops the worker (an unfinished factorisation is completed first) and joins it.
+  ~CholeskyRefresher();
+  CholeskyRefresher(const CholeskyRefresher&) = delete;
+  CholeskyRefresher& operator=(const CholeskyRefresher&) = delete;
+
+  /// Physics thread. If the worker is idle: takes `vals` (a symmetric positive definite system
+  /// in BSR values of `pattern`, 9·nnzb entries) by swapping it with the worker's input buffer
+  /// (`vals` then holds stale values of the same size), copies `node_rot` (9 per node: the frame
+  /// the matrix was assembled in), remembers `key`, and starts factoring. Returns false and
+  /// changes nothing while the worker is busy or holds an untaken result.
+  bool offer(std::vector<double>& vals, const double* node_rot, double key);
+  /// Physics thread. If a factorisation has finished (or, with `wait`, once it finishes):
+  /// swaps `factor` with the new factor and `node_rot` with its rotations, sets `key`, and
+  /// returns true. A matrix CHOLMOD found not positive definite is dropped (failures()).
+  /// Returns false when nothing new is ready; never blocks without `wait`. `factor` must hold a
+  /// solver of the same pattern (it becomes the worker's next spare); with none, returns false.
+  bool take(std::unique_ptr<CholmodSolver>& factor, std::vector<double>& node_rot, double& key, bool wait);
+  /// True from a successful offer() until its result has been taken (or dropped).
+  bool pending() const { return state_.load(std::memory_order_acquire) != kIdle; }
+  /// True while the worker is factoring (a take() with `wait` would block).
+  bool working() const { return state_.load(std::memory_order_acquire) == kRequested; }
+
+  int64_t refreshes() const { return refreshes_; }  ///< factors taken
+  int64_t failures() const { return failures_; }     ///< matrices not positive definite
+
+ private:
+  enum : int { kIdle = 0, kRequested = 1, kDone = 2, kFailed = 3, kStop = 4 };
+  void run();
+  std::unique_ptr<CholmodSolver> spare_;
+  std::vector<double> vals_, rot_;
+  double key_ = 0;
+  std::atomic<int> state_{kIdle};
+  int64_t refreshes_ = 0, failures_ = 0;
+  std::thread worker_;
+};
+
+}  // namespace stroma
