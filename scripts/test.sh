@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds, and runs the whole test suite (unit, physics, regression,
 # command-line, server and interop tests) with ctest, the headless build (no DDS, no OSMesa)
-# with its tests, and the lock-free hand-offs and the physics loop's threads under
-# ThreadSanitizer. This is exactly what CI runs (.ci/run).
+# with its tests, and the lock-free hand-offs, the physics loop's threads and the preconditioner's
+# refresh worker under ThreadSanitizer. This is exactly what CI runs (.ci/run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Loopback only: every DDS participant started here uses Stroma's built-in loopback config,
@@ -20,5 +20,5 @@ ctest --test-dir build-headless --output-on-failure -j "$jobs"
 # ThreadSanitizer stage, so ctest's summary of the full build is the last thing printed.
 cmake --preset tsan >/dev/null
 cmake --build build-tsan -j "$jobs" --target stroma_tests
-build-tsan/tests/stroma_tests --gtest_filter='TripleBuffer*:SpscQueue*:PhysicsLoop*' --gtest_brief=1
+build-tsan/tests/stroma_tests --gtest_filter='TripleBuffer*:SpscQueue*:PhysicsLoop*:CholeskyRefresher*:PreconditionerRefresh.SameTrajectory*' --gtest_brief=1
 ctest --test-dir build --output-on-failure -j "$jobs"

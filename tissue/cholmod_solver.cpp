@@ -16,8 +16,11 @@ namespace {
 /// those calls on a thread pool of its own, one thread per core, whose threads spin after each
 /// call: on this project's 2-core machine they land on the physics thread's core. Measured with
 /// the preconditioner refresh (beam k6, 3,000 ticks): tick p50 4.81 ms with OpenBLAS's pool,
-/// 2.58 ms with BLAS on the calling thread. The engine's threads are its own, so BLAS runs
-/// single-threaded; found at run time (dlsym) so another BLAS works unchanged.
+/// 2.58 ms with BLAS on the calling thread. CHOLMOD itself opens OpenMP regions of up to four
+/// threads (its scatter and clear loops) whose threads spin likewise; with no active levels
+/// every region runs on the thread that meets it — an OpenMP setting of the calling thread, so
+/// it is made on each thread that factors. The engine's threads are its own, so both run
+/// single-threaded; found at run time (dlsym), so another BLAS or no OpenMP works unchanged.
 void single_threaded_blas() {
   static const bool done = [] {
     for (const char* name : {"openblas_set_num_threads", "goto_set_num_threads"})
@@ -28,6 +31,11 @@ void single_threaded_blas() {
     return true;
   }();
   (void)done;
+  thread_local const bool omp_done = [] {
+    if (void* f = dlsym(RTLD_DEFAULT, "omp_set_max_active_levels")) reinterpret_cast<void (*)(int)>(f)(0);
+    return true;
+  }();
+  (void)omp_done;
 }
 }  // namespace
 
@@ -104,6 +112,7 @@ CholmodSolver::~CholmodSolver() {
 }
 
 bool CholmodSolver::factor(const double* vals) {
+  single_threaded_blas();  // this thread's OpenMP setting (once per thread)
   Impl& s = *impl_;
   auto* val = static_cast<double*>(s.A->x);
   for (size_t k = 0; k < s.map.size(); ++k) val[k] = vals[s.map[k]];

@@ -39,7 +39,7 @@ void TimeStepper::prepare(double h) {
   if (cfg_.integrator != Integrator::ImplicitEuler) return;
   warped_->factor(h, h, h * h);
   int& period = cfg_.preconditioner_refresh;
-  if (period < 0) period = m_.dofs() >= kRefreshMinDofs ? auto_refresh_period(warped_->factor_flops(), h) : 0;
+  if (period < 0) period = m_.dofs() >= kRefreshMinDofs ? auto_refresh_period(warped_->factor_entries(), h) : 0;
   if (period > 0) warped_->enable_refresh(period, !realtime_);
 }
 

@@ -52,12 +52,13 @@ struct StepperSettings {
 /// few iterations) and a worker thread is not worth its core.
 inline constexpr int kRefreshMinDofs = 1500;
 
-/// The steps between refreshes `auto` chooses: the factorisation's flop count at 4 GFlop/s
-/// (what CHOLMOD sustains on this project's machine for factors of 10⁸ flops,
-/// docs/PERFORMANCE.md), in steps of `time_step`, at least 16 — so a worker on a free core
-/// keeps up, and a headless run (which waits for it) rarely waits.
-inline int auto_refresh_period(double factor_flops, double time_step) {
-  const double steps = factor_flops / 4.0e9 / time_step;
+/// The steps between refreshes `auto` chooses: 1.5 × the factorisation's expected time, at
+/// least 16 steps. The time is modelled as 40 ns per stored factor entry — what CHOLMOD takes
+/// here in wall time across factors of 3·10⁴–10⁶ entries (docs/PERFORMANCE.md; flop counts
+/// predict it worse: small supernodes run far below peak). A worker on a free core then keeps
+/// up, and a headless run (which waits for it) rarely waits.
+inline int auto_refresh_period(double factor_entries, double time_step) {
+  const double steps = 1.5 * 40e-9 * factor_entries / time_step;
   return steps < 16 ? 16 : steps > 1.0e6 ? 1000000 : static_cast<int>(steps + 0.999);
 }
 

@@ -64,8 +64,8 @@ class WarpedPreconditioner {
   double relative_cost() const {
     return factor_ ? 1.0 + 16.0 * factor_->factor_entries() / (72.0 * m_.pattern.nnzb()) : 1.0;
   }
-  /// Flops of one factorisation (after factor()).
-  double factor_flops() const { return factor_ ? factor_->factor_flops() : 0.0; }
+  /// Stored entries of the factor (after factor()).
+  double factor_entries() const { return factor_ ? factor_->factor_entries() : 0.0; }
   int64_t refreshes() const { return refreshes_; }  ///< refreshed factors swapped in
   bool refreshing() const { return refresh_ != nullptr; }
 
