@@ -279,6 +279,25 @@ TEST(PreconditionerRefresh, CappedWarpedSolveFallsBackToJacobi) {
   EXPECT_LE(diff, 1e-5 * scale);
 }
 
+// Sub-steps keep the factor made for the tick's step: a tick redone in sub-steps does not
+// refactor the rest pose for h/2 and back (two factorisations on the physics thread).
+TEST(PreconditionerRefresh, SubStepsKeepTheTicksFactor) {
+  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+  spec.bodies[0].material.young_modulus = 3e5;
+  spec.solver.max_iterations = 2;  // capped every tick: the ladder runs
+  spec.solver.tolerance = 1e-12;
+  spec.solver.substep_on_cg_cap = true;
+  spec.solver.preconditioner_refresh = 4;
+  const CompiledScenario sc = compile_scenario(spec);
+  const Model& m = *sc.model;
+  State s = State::initial(m);
+  TickWorkspace w(m);
+  int substepped = 0;
+  for (int k = 0; k < 30; ++k) substepped += tick(m, s, w).substeps > 1;
+  EXPECT_GT(substepped, 20) << "the ticks must have been redone in sub-steps";
+  EXPECT_EQ(w.stepper().preconditioner_rest_factorizations(), 1) << "the rest factor, once, at load";
+}
+
 // `auto` leaves a small system on the rest-pose factor and refreshes a large one.
 TEST(PreconditionerRefresh, AutoStaysOffForSmallSystems) {
   ScenarioSpec small = load_scenario(kScenarios + "cantilever_dynamic.yaml");

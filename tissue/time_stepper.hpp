@@ -121,6 +121,8 @@ class TimeStepper {
   void set_realtime(bool realtime);
   /// Refreshed preconditioner factors swapped in so far (0 without a refresh).
   int64_t preconditioner_refreshes() const { return warped_ ? warped_->refreshes() : 0; }
+  /// Rest-pose factorisations of the warped preconditioner so far (1 after prepare()).
+  int64_t preconditioner_rest_factorizations() const { return warped_ ? warped_->rest_factorizations() : 0; }
 
   /// Stage "assemble": element pass at the current state and the step's right-hand side, with
   /// this step's inputs (kept for the rest of the step). Returns the elastic energy at s.x.

@@ -43,6 +43,7 @@ void WarpedPreconditioner::factor(double h_mass, double k_beta, double k_const) 
     factor_->use_float_solves();  // a preconditioner: half the memory traffic per application
   }
   factor_->factor(A0.data());
+  ++rest_factorizations_;
   key_[0] = h_mass;
   key_[1] = k_beta;
   key_[2] = k_const;
@@ -79,7 +80,7 @@ void WarpedPreconditioner::adopt(bool wait) {
 }
 
 void WarpedPreconditioner::begin_step(std::vector<double>& last_system, double h_last) {
-  if (!refresh_ || h_last <= 0) return;
+  if (!refresh_ || h_last <= 0 || h_last != key_[0]) return;
   if (++steps_since_offer_ < period_) return;
   // Deterministic: the factor handed over `period` steps ago is swapped in now, whatever the
   // worker's speed. Real time: poll() swapped it in as soon as it was ready.
@@ -87,10 +88,9 @@ void WarpedPreconditioner::begin_step(std::vector<double>& last_system, double h
   if (refresh_->offer(last_system, node_abs_.data(), h_last)) steps_since_offer_ = 0;
 }
 
-void WarpedPreconditioner::poll(double h) {
+void WarpedPreconditioner::poll() {
   if (!refresh_ || deterministic_ || refresh_->working() || !refresh_->pending()) return;
   adopt(false);
-  if (key_[0] != h) factor(h, h, h * h);  // made for another step size: back to rest (rare)
 }
 
 void WarpedPreconditioner::apply(void* self, const double* r, double* z) {

@@ -50,11 +50,14 @@ class WarpedPreconditioner {
   /// Start of a step's assembly: `last_system` holds the previous step's projected system
   /// matrix, assembled for step `h_last` (0: none) in the frame of the last update_rotations().
   /// When a refresh is due it is handed to the worker by swapping buffers (no copy) — the
-  /// caller refills `last_system` anyway.
+  /// caller refills `last_system` anyway. Only systems of the current factor's step are handed
+  /// over (a sub-step's is not).
   void begin_step(std::vector<double>& last_system, double h_last);
   /// After this step's element pass, before update_rotations(): in real-time mode swaps in a
-  /// factor the worker has finished, if it was assembled for this step's h.
-  void poll(double h);
+  /// factor the worker has finished.
+  void poll();
+  /// True once a factor exists (factor() or a refresh).
+  bool factored() const { return factor_ != nullptr && key_[0] != -1; }
 
   /// What one application costs against one Jacobi-PCG iteration, from the memory each streams:
   /// the factor twice in float (8 bytes per entry), which streams at about half the SpMV's rate
@@ -67,6 +70,7 @@ class WarpedPreconditioner {
   /// Stored entries of the factor (after factor()).
   double factor_entries() const { return factor_ ? factor_->factor_entries() : 0.0; }
   int64_t refreshes() const { return refreshes_; }  ///< refreshed factors swapped in
+  int64_t rest_factorizations() const { return rest_factorizations_; }  ///< factor() calls that factored
   bool refreshing() const { return refresh_ != nullptr; }
 
  private:
@@ -85,6 +89,7 @@ class WarpedPreconditioner {
   bool deterministic_ = true;
   int steps_since_offer_ = 0;
   int64_t refreshes_ = 0;
+  int64_t rest_factorizations_ = 0;
 };
 
 }  // namespace stroma
