@@ -186,6 +186,9 @@ void RunOutputs::finish(RunResult& res) {
   j["time_budget"] = m.time_budget > 0 ? nlohmann::ordered_json(m.time_budget) : nlohmann::ordered_json("none");
   j["ticks_over_budget"] = res.ticks_over_budget;
   j["ticks_degraded"] = res.ticks_degraded;
+  if (m.stepper.preconditioner == Preconditioner::WarpedCholesky)
+    j["warped_preconditioner"] = {{"fallbacks", res.preconditioner_fallbacks},
+                                  {"refreshes", res.preconditioner_refreshes}};
   j["energy_guard"] = {{"ticks_limited", res.ticks_energy_limited}, {"energy_removed", res.energy_removed}};
   j["solve_error"] = {{"residual_max", res.residual_max},
                       {"energy_max", res.error_energy_max},
@@ -342,6 +345,7 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
     res.max_substeps = std::max(res.max_substeps, r.substeps);
     res.ticks_over_budget += r.over_budget;
     res.ticks_degraded += r.degradation != Degradation::None;
+    res.preconditioner_fallbacks += r.solve.preconditioner_fallback;
     res.residual_max = std::max(res.residual_max, r.solve.relative_residual);
     res.error_energy_max = std::max(res.error_energy_max, r.solve.error_energy);
     res.error_position_max = std::max(res.error_position_max, r.solve.error_position);
@@ -395,6 +399,7 @@ RunResult run_headless(const CompiledScenario& sc, const RunOptions& o) {
       log.step_ms.empty() ? 0.0 : static_cast<double>(log.cg_sum) / static_cast<double>(log.step_ms.size());
   for (int st = 0; st < kStageCount; ++st)
     res.stage_ms_total[std::string(stage_name(static_cast<Stage>(st)))] = log.stage_total[st];
+  res.preconditioner_refreshes = w.stepper().preconditioner_refreshes();
   res.final_tools = w.report.tools;
   res.final_state = std::move(s);
   out.finish(res);

@@ -54,6 +54,10 @@ struct RunResult {
   int max_substeps = 1;       ///< most sub-steps any tick needed
   long ticks_over_budget = 0;  ///< ticks that ended past solver.time_budget
   long ticks_degraded = 0;     ///< ticks the budget cut short (TickReport::degradation)
+  /// Warped Cholesky: solves Jacobi-PCG finished (SolveStats::preconditioner_fallback), and
+  /// refreshed factors swapped in (`preconditioner_refresh`).
+  long preconditioner_fallbacks = 0;
+  int64_t preconditioner_refreshes = 0;
   double residual_max = 0;     ///< worst relative residual of a tick's linear solve
   double error_energy_max = 0;   ///< J: worst energy-norm error bound of a tick's solve
   double error_position_max = 0; ///< m: worst mass-weighted RMS position error bound

@@ -7,15 +7,19 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "engine/compiled_scenario.hpp"
+#include "engine/headless_runner.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
@@ -147,7 +151,7 @@ TEST(CholeskyRefresher, HandsOverBuffersAndFactorsWithoutCopies) {
   ASSERT_TRUE(r.offer(again, rot.data(), 0.004));
 }
 
-struct RunResult {
+struct RunTrace {
   std::vector<double> x;
   double mean_iterations = 0;
   double contact_iterations = 0;  ///< mean over ticks with the tool in contact
@@ -158,12 +162,12 @@ struct RunResult {
 };
 
 /// `ticks` ticks of `spec`, its tool (if any) following its script.
-RunResult run(const ScenarioSpec& spec, int ticks) {
+RunTrace run(const ScenarioSpec& spec, int ticks) {
   const CompiledScenario sc = compile_scenario(spec);
   const Model& m = *sc.model;
   State s = State::initial(m);
   TickWorkspace w(m);
-  RunResult out;
+  RunTrace out;
   double it = 0, cit = 0;
   ToolInput in;
   for (int k = 0; k < ticks; ++k) {
@@ -198,9 +202,9 @@ TEST(PreconditionerRefresh, SameTrajectoryFewerIterationsAndDeterministic) {
   spec.solver.tolerance = 1e-10;
   spec.solver.max_iterations = 5000;
   spec.solver.preconditioner_refresh = 0;
-  const RunResult rest = run(spec, 150);
+  const RunTrace rest = run(spec, 150);
   spec.solver.preconditioner_refresh = 4;
-  const RunResult a = run(spec, 150), b = run(spec, 150);
+  const RunTrace a = run(spec, 150), b = run(spec, 150);
   EXPECT_EQ(rest.refreshes, 0);
   EXPECT_GE(a.refreshes, 30);
   double scale = 0, diff = 0;
@@ -246,9 +250,9 @@ ScenarioSpec stiff_press() {
 TEST(PreconditionerRefresh, ContactStiffnessEntersTheRefreshedFactor) {
   ScenarioSpec spec = stiff_press();
   spec.solver.preconditioner_refresh = 0;
-  const RunResult rest = run(spec, 60);
+  const RunTrace rest = run(spec, 60);
   spec.solver.preconditioner_refresh = 4;
-  const RunResult fresh = run(spec, 60);
+  const RunTrace fresh = run(spec, 60);
   ASSERT_GT(rest.contact_ticks, 20);
   EXPECT_EQ(fresh.contact_ticks, rest.contact_ticks);
   std::printf("  CG iterations per contact tick: rest-pose factor %.2f, refreshed %.2f\n", rest.contact_iterations,
@@ -264,9 +268,9 @@ TEST(PreconditionerRefresh, CappedWarpedSolveFallsBackToJacobi) {
   ScenarioSpec spec = stiff_press();
   spec.solver.preconditioner_refresh = 0;
   spec.solver.max_iterations = 2000;  // share ≥ the ~20–30 iterations contact needs: no fallback
-  const RunResult plain = run(spec, 60);
+  const RunTrace plain = run(spec, 60);
   spec.solver.max_iterations = 200;
-  const RunResult fb = run(spec, 60);
+  const RunTrace fb = run(spec, 60);
   std::printf("  fallbacks: %d of 60 ticks (cap 200), %d (cap 2000)\n", fb.fallbacks, plain.fallbacks);
   EXPECT_EQ(plain.fallbacks, 0);
   EXPECT_GT(fb.fallbacks, 10);
@@ -298,6 +302,28 @@ TEST(PreconditionerRefresh, SubStepsKeepTheTicksFactor) {
   EXPECT_EQ(w.stepper().preconditioner_rest_factorizations(), 1) << "the rest factor, once, at load";
 }
 
+// `stroma run` reports what the warped preconditioner did in summary.json: the fallbacks to
+// Jacobi and the refreshed factors swapped in — the same counts the ticks reported.
+TEST(PreconditionerRefresh, RunSummaryCountsFallbacksAndRefreshes) {
+  ScenarioSpec spec = stiff_press();
+  spec.solver.preconditioner_refresh = 8;
+  spec.solver.max_iterations = 200;
+  const RunTrace direct = run(spec, 60);
+  RunOptions o;
+  o.steps = 60;
+  o.progress = false;
+  o.metrics = false;
+  o.out_dir = (std::filesystem::temp_directory_path() / "stroma_refresh_summary").string();
+  const stroma::RunResult r = run_headless(compile_scenario(spec), o);
+  EXPECT_EQ(r.preconditioner_fallbacks, direct.fallbacks);
+  EXPECT_EQ(r.preconditioner_refreshes, direct.refreshes);
+  EXPECT_GT(r.preconditioner_refreshes, 3);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(o.out_dir + "/summary.json"));
+  ASSERT_TRUE(j.contains("warped_preconditioner"));
+  EXPECT_EQ(j["warped_preconditioner"]["refreshes"].get<int64_t>(), direct.refreshes);
+  EXPECT_EQ(j["warped_preconditioner"]["fallbacks"].get<long>(), direct.fallbacks);
+}
+
 // `auto` leaves a small system on the rest-pose factor and refreshes a large one.
 TEST(PreconditionerRefresh, AutoStaysOffForSmallSystems) {
   ScenarioSpec small = load_scenario(kScenarios + "cantilever_dynamic.yaml");
@@ -318,7 +344,7 @@ TEST(PreconditionerRefresh, AutoStaysOffForSmallSystems) {
 TEST(PreconditionerRefresh, AutoRefreshesLargeSystems) {
   const ScenarioSpec spec = load_scenario(kScenarios + "physical/armadillo_0p2m_warped.yaml");
   ASSERT_EQ(spec.solver.preconditioner_refresh, -1);
-  const RunResult r = run(spec, 100);
+  const RunTrace r = run(spec, 100);
   EXPECT_GE(r.refreshes, 3);
   EXPECT_LE(r.mean_iterations, 1.5);
 }
