@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <map>
 #include <sstream>
 #include <string>
@@ -94,6 +95,23 @@ SourceLocation location_of(const MapReader& m) { return {m.file(), m.line()}; }
 
 const Choices<bool> kCapPolicies = {{"substep", true}, {"continue", false}};
 
+/// An optional key holding a whole number >= 1 or one of `words` (each stored as its value);
+/// anything else is an error naming what was `expected`.
+void read_count_or_words(const MapReader& m, const char* key, std::initializer_list<std::pair<const char*, int>> words,
+                         const std::string& expected, int& out) {
+  const auto f = m.opt(key);
+  if (!f) return;
+  const std::string v = f->yaml().IsScalar() ? f->yaml().Scalar() : std::string();
+  for (const auto& [word, value] : words)
+    if (v == word) {
+      out = value;
+      return;
+    }
+  if (v.empty() || v.find_first_not_of("+-0123456789") != std::string::npos)
+    f->fail("expected " + expected + ", got " + f->got());
+  f->get(out, greater_than(0));
+}
+
 SolverSpec parse_solver(const Field& f) {
   const MapReader m = f.map({"integrator", "linear_solver", "preconditioner", "max_iterations",
                              "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap",
@@ -111,27 +129,10 @@ SolverSpec parse_solver(const Field& f) {
   m.read("static_tolerance", s.static_tolerance, greater_than(0));
   m.read("static_max_newton", s.static_max_newton, greater_than(0));
   m.read("on_cg_cap", s.substep_on_cg_cap, kCapPolicies);
-  if (const auto f = m.opt("newton_iterations")) {  // a count ≥ 1, or auto (stored as 0)
-    const std::string v = f->yaml().IsScalar() ? f->yaml().Scalar() : std::string();
-    if (v == "auto")
-      s.newton_iterations = 0;
-    else if (v.empty() || v.find_first_not_of("+-0123456789") != std::string::npos)
-      f->fail("expected a whole number >= 1 or auto, got " + f->got());
-    else
-      f->get(s.newton_iterations, greater_than(0));
-  }
+  read_count_or_words(m, "newton_iterations", {{"auto", 0}}, "a whole number >= 1 or auto", s.newton_iterations);
   m.read("newton_tolerance", s.newton_tolerance, open_interval(0, 1));
-  if (const auto f = m.opt("preconditioner_refresh")) {  // steps >= 1, auto (-1) or off (0)
-    const std::string v = f->yaml().IsScalar() ? f->yaml().Scalar() : std::string();
-    if (v == "auto")
-      s.preconditioner_refresh = -1;
-    else if (v == "off")
-      s.preconditioner_refresh = 0;
-    else if (v.empty() || v.find_first_not_of("+-0123456789") != std::string::npos)
-      f->fail("expected a whole number of steps >= 1, auto or off, got " + f->got());
-    else
-      f->get(s.preconditioner_refresh, greater_than(0));
-  }
+  read_count_or_words(m, "preconditioner_refresh", {{"auto", -1}, {"off", 0}},
+                      "a whole number of steps >= 1, auto or off", s.preconditioner_refresh);
   if (const auto f = m.opt("time_budget")) {  // seconds > 0, or none (stored as 0)
     s.time_budget_where = location_of(*f);
     if (f->yaml().IsScalar() && f->yaml().Scalar() == "none")

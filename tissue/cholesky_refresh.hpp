@@ -49,8 +49,6 @@ class CholeskyRefresher {
   bool take(std::unique_ptr<CholmodSolver>& factor, std::vector<double>& node_rot, double& key, bool wait);
   /// True from a successful offer() until its result has been taken (or dropped).
   bool pending() const { return state_.load(std::memory_order_acquire) != kIdle; }
-  /// True while the worker is factoring (a take() with `wait` would block).
-  bool working() const { return state_.load(std::memory_order_acquire) == kRequested; }
 
   int64_t refreshes() const { return refreshes_; }  ///< factors taken
   int64_t failures() const { return failures_; }     ///< matrices not positive definite

@@ -21,7 +21,7 @@ namespace {
 /// every region runs on the thread that meets it — an OpenMP setting of the calling thread, so
 /// it is made on each thread that factors. The engine's threads are its own, so both run
 /// single-threaded; found at run time (dlsym), so another BLAS or no OpenMP works unchanged.
-void single_threaded_blas() {
+void single_threaded_numerics() {
   static const bool done = [] {
     for (const char* name : {"openblas_set_num_threads", "goto_set_num_threads"})
       if (void* f = dlsym(RTLD_DEFAULT, name)) {
@@ -53,7 +53,7 @@ struct CholmodSolver::Impl {
 };
 
 CholmodSolver::CholmodSolver(const BsrPattern& p) : impl_(std::make_unique<Impl>()) {
-  single_threaded_blas();
+  single_threaded_numerics();
   Impl& s = *impl_;
   cholmod_start(&s.common);
   s.common.print = 0;
@@ -112,7 +112,7 @@ CholmodSolver::~CholmodSolver() {
 }
 
 bool CholmodSolver::factor(const double* vals) {
-  single_threaded_blas();  // this thread's OpenMP setting (once per thread)
+  single_threaded_numerics();  // this thread's OpenMP setting (once per thread)
   Impl& s = *impl_;
   auto* val = static_cast<double*>(s.A->x);
   for (size_t k = 0; k < s.map.size(); ++k) val[k] = vals[s.map[k]];

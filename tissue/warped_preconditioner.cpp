@@ -89,8 +89,7 @@ void WarpedPreconditioner::begin_step(std::vector<double>& last_system, double h
 }
 
 void WarpedPreconditioner::poll() {
-  if (!refresh_ || deterministic_ || refresh_->working() || !refresh_->pending()) return;
-  adopt(false);
+  if (refresh_ && !deterministic_) adopt(false);  // take() returns at once unless a factor is done
 }
 
 void WarpedPreconditioner::apply(void* self, const double* r, double* z) {
