@@ -8,6 +8,8 @@
 #         scenarios/trajectories/physical_liver_press.yaml, and so on)
 # TOOL_ARGS="--loop" replays a trajectory that ends where it starts for the whole duration (the
 # physical trajectories do); without it the tool holds the script's last pose.
+# SERVE_ARGS="..." passes more options to the server (e.g. "--phase-lead-us 0": the fixed
+# schedule, for an A/B of the phase lock).
 # DDS_CONFIG=FILE passes --dds-config FILE to the server and the client (e.g.
 # server/cyclonedds-loopback.xml: the loopback configuration without real-time receive threads,
 # for an A/B of that setting).
@@ -29,7 +31,7 @@ if [ "$idle" != "--idle" ]; then
   timeout $((dur + 10)) sh -c 'while :; do :; done' & hog=$!
 fi
 ./build/stroma serve "$scenario" "${dds[@]}" --domain "$domain" --duration "$((dur + 2))" \
-  --stats "$out/stats.json" > "$out/serve.log" 2>&1 & srv=$!
+  --stats "$out/stats.json" ${SERVE_ARGS:-} > "$out/serve.log" 2>&1 & srv=$!
 sleep 1
 ./build/stroma tool --name probe --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
   --duration "$dur" --domain "$domain" --out "$out/tool.csv" 2> "$out/tool.log" | tee "$out/tool_summary.txt"
@@ -43,6 +45,9 @@ print(f"realtime: {j['realtime']}")
 print(f"loops {j['loops']}, ticks {j['ticks']}, missed deadlines {j['missed_deadlines']} ({100*j['missed_ratio']:.3f} %), lag {j['lag']*1e3:.2f} ms")
 print(f"wake-up latency us: p50 {w['p50_us']} p99 {w['p99_us']} p99.9 {w['p999_us']} max {w['max_us']:.0f}")
 print(f"tick time us:       p50 {t['p50_us']} p99 {t['p99_us']} p99.9 {t['p999_us']} max {t['max_us']:.0f}")
+c, pl = j["command_wait"], j["phase_lock"]
+print(f"command wait for its tick us: p50 {c['p50_us']} p99 {c['p99_us']} max {c['max_us']:.0f} "
+      f"(phase lock lead {pl['lead_us']} us, schedule moved {pl['shift_ms_total']:.3f} ms net)")
 print(f"CG iterations mean {j['cg_iterations']['mean']:.1f} max {j['cg_iterations']['max']}; tool commands {j['tool_commands']}")
 PY
 echo "files in $out"

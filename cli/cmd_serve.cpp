@@ -35,6 +35,11 @@ void add_serve(CLI::App& app, std::vector<Command>& out) {
                     "Each tick's engine work must end this long before the next deadline: its time budget is the "
                     "period minus this (or solver.time_budget if smaller); what does not fit degrades stably")
       ->capture_default_str();
+  serve->add_option("--phase-lead-us", srv->phase_lead_us,
+                    "Follow the tool commands' phase: shift the tick schedule (at most 2 % of a period per tick) "
+                    "so that commands arrive this long before the tick that takes them; 0: fixed schedule")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   serve->footer(
       "Network: by default every DDS participant is on the loopback interface only, without multicast\n"
       "(secure by default). To serve on a LAN, copy server/cyclonedds-loopback.xml, replace \"lo\" by\n"

@@ -184,6 +184,22 @@ int PhysicsLoop::take_inputs(std::array<ToolInput, kMaxTools>& inputs) {
   return n_in;
 }
 
+int64_t PhysicsLoop::follow_commands(PhaseLock& lock, const std::array<ToolInput, kMaxTools>& inputs,
+                                     int n_in, int64_t tick_start) {
+  // The latest-arriving command of this tick is the one the schedule must wait for.
+  int64_t latest = 0;
+  for (int i = 0; i < n_in; ++i) {
+    if (inputs[i].arrival_ns <= 0) continue;
+    stats_.command_wait.record(tick_start - inputs[i].arrival_ns);
+    latest = std::max(latest, inputs[i].arrival_ns);
+  }
+  if (latest == 0) return 0;
+  const int64_t shift = lock.correction(tick_start, latest);
+  stats_.phase_shift_ns += shift;
+  stats_.phase_shift_abs_ns += shift < 0 ? -shift : shift;
+  return shift;
+}
+
 void PhysicsLoop::run(const std::atomic<bool>& stop) {
   const Model& m = *model_;
   const int64_t period = static_cast<int64_t>(m.time_step * 1e9 + 0.5);
@@ -198,6 +214,9 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
   StatusWindow win;
   StatusFrame* status = &status_out.write_slot();
   std::array<ToolInput, kMaxTools> inputs;
+
+  PhaseLock lock(opt_.phase_lead > 0 ? period : 0, static_cast<int64_t>(opt_.phase_lead * 1e9),
+                       static_cast<int64_t>(opt_.phase_max_step * static_cast<double>(period)));
 
   const int64_t t0 = steady_now_ns();
   int64_t deadline = t0 + period;
@@ -217,10 +236,12 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
     handle_controls(rs, steps_pending, shutdown);
     controls_seen += (rs != before);
     const bool do_tick = rs == RunState::Running || steps_pending > 0;
+    int64_t shift = 0;  // the phase lock's move of the next deadline
     if (do_tick) {
       if (rs != RunState::Running) --steps_pending;
       // The newest accepted command of each tool (validated by the DDS thread).
       const int n_in = take_inputs(inputs);
+      shift = follow_commands(lock, inputs, n_in, deadline);
       // The engine's work must end a margin before the next deadline, counted from this tick's
       // scheduled start (a late wake-up eats into it).
       Deadline budget;
@@ -258,8 +279,9 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
     if (stats_.loops % opt_.status_every == 0)
       publish_status(status, rs, win, static_cast<double>(done - t0) * 1e-9, running_wall, controls_seen);
 
-    // Next deadline: on time → one period later; late → start at once and re-anchor.
-    deadline += period;
+    // Next deadline: on time → one period later (moved by the phase lock); late → start at once
+    // and re-anchor.
+    deadline += period + shift;
     if (done > deadline) {
       ++stats_.missed_deadlines;
       deadline = done;

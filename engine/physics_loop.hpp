@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "engine/model.hpp"
+#include "engine/phase_lock.hpp"
 #include "engine/session_log.hpp"
 #include "engine/spsc_queue.hpp"
 #include "engine/state.hpp"
@@ -99,12 +100,22 @@ struct PhysicsLoopOptions {
   double budget_margin = 0.15e-3;
   /// Budget the ticks at all (tests that compare served and headless ticks turn it off).
   bool budget = true;
+  /// Phase-lock the schedule to the tool commands' arrival (engine/phase_lock.hpp): a command
+  /// is to arrive this long before the tick that takes it (s); 0 keeps a free-running schedule.
+  double phase_lead = 0;
+  /// Most the lock moves one deadline, as a fraction of the period.
+  double phase_max_step = 0.02;
 };
 
 /// Final statistics after run() returns (read by the main thread after join).
 struct PhysicsLoopStats {
   LatencyHistogram wake;        ///< actual wake-up − deadline
   LatencyHistogram tick;        ///< tick compute time
+  /// Per taken command: its tick's scheduled start − its arrival (how long it waited for the
+  /// tick; ≤ 0 counts as 0). Only commands stamped by the input thread (ToolInput::arrival_ns).
+  LatencyHistogram command_wait;
+  int64_t phase_shift_ns = 0;      ///< sum of the phase lock's corrections (signed)
+  int64_t phase_shift_abs_ns = 0;  ///< sum of their magnitudes
   uint64_t ticks = 0, loops = 0, missed_deadlines = 0, not_converged = 0, non_finite = 0;
   uint64_t recovered = 0;  ///< ticks redone in sub-steps after a failed step
   uint64_t over_budget = 0;  ///< ticks whose engine work ended past the budget
@@ -159,6 +170,10 @@ class PhysicsLoop {
   void handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown);
   /// The newest command of each tool (logged for replay); returns how many.
   int take_inputs(std::array<ToolInput, kMaxTools>& inputs);
+  /// Records how long this tick's commands waited for it and returns the phase lock's move of
+  /// the next deadline.
+  int64_t follow_commands(PhaseLock& lock, const std::array<ToolInput, kMaxTools>& inputs, int n_in,
+                          int64_t tick_start);
   /// Statistics of one tick; a non-finite tick faults the run.
   void account_tick(const TickReport& r, RunState& rs, StatusWindow& win);
   void publish_feedback(const TickReport& r);

@@ -19,7 +19,7 @@ void prefault_stack(size_t bytes) {
 }
 }  // namespace
 
-RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority, size_t stack_bytes) {
+RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority, size_t stack_bytes, bool lock_memory) {
   RealtimeResult r;
   if (cpu >= 0) {
     cpu_set_t set;
@@ -35,6 +35,7 @@ RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority, s
   const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
   r.fifo = rc == 0;
   if (rc != 0) r.problems += fmt::format("SCHED_FIFO denied ({}); ", std::strerror(rc));
+  if (!lock_memory) return r;
   if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
     r.memory_locked = true;
   } else {

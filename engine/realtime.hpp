@@ -18,10 +18,12 @@ struct RealtimeResult {
 };
 
 /// Applies `mode` to the calling thread (priority `priority` for SCHED_FIFO) and pins it to
-/// `cpu` if cpu ≥ 0. Locks all current and future memory and pre-faults `stack_bytes` of stack
-/// so the first ticks do not page-fault. Never throws; the caller decides what a problem means.
+/// `cpu` if cpu ≥ 0. Unless `lock_memory` is false, locks all current and future memory of the
+/// process and pre-faults `stack_bytes` of stack so the first ticks do not page-fault (a client
+/// leaves memory unlocked: faulting in its whole address space at real-time priority stalls
+/// whatever shares its core). Never throws; the caller decides what a problem means.
 RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority = 80,
-                                     size_t stack_bytes = 512 * 1024);
+                                     size_t stack_bytes = 512 * 1024, bool lock_memory = true);
 
 /// True if this process may run threads under SCHED_FIFO at `priority` (tried on a short-lived
 /// thread; nothing else changes). Used before asking a library, such as the DDS receive threads'

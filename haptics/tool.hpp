@@ -155,6 +155,9 @@ struct ToolInput {
   uint64_t seq = 0;
   int64_t client_time_ns = 0;
   ToolPose pose;
+  /// `serve` only: when the server's input thread accepted it (steady_now_ns); 0 elsewhere.
+  /// Times the command path (PhaseLock); not logged, never read by the tick.
+  int64_t arrival_ns = 0;
 };
 
 /// Force feedback of one tool for one tick as the server sends it (ToolFeedback plus the

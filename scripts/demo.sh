@@ -3,10 +3,13 @@
 # `stroma render` records off-screen frames (PNG + MP4), and `stroma tool --script` presses,
 # slides and grasps the tissue for about 5.5 s; then all three stop cleanly and the script
 # prints where the frames, the video and the timing statistics are. Every DDS participant is on
-# loopback only (the built-in default). The scripted tool runs without SCHED_FIFO: its start-up
-# (memory locking at real-time priority) would otherwise starve the renderer for ~0.1 s.
+# loopback only (the built-in default). The scripted tool runs under SCHED_FIFO, as a haptic
+# bridge would (without locking its memory: that stalled the renderer); TOOL_ARGS=--no-realtime
+# runs it at normal priority.
 # Usage: scripts/demo.sh [SCENARIO [TRAJECTORY]]   (run scripts/build.sh first; scripts/run.sh does)
-# Environment: OUT (default out/demo), STROMA_DOMAIN (default 7), FPS (30), SIZE (640x480).
+# Environment: OUT (default out/demo), STROMA_DOMAIN (default 7), FPS (30), SIZE (640x480),
+# SERVE_ARGS (more options for `stroma serve`, e.g. "--phase-lead-us 0"), TOOL_ARGS (for
+# `stroma tool`, e.g. "--no-realtime").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Loopback only: every DDS participant started here uses Stroma's built-in loopback config,
@@ -41,7 +44,7 @@ record_s=$(awk -v t="$script_s" 'BEGIN { print t + 1.5 }')
 
 echo "demo: serving $scenario on DDS domain $domain (loopback only)"
 "$stroma" serve "$scenario" --domain "$domain" --stats "$out/serve_stats.json" --duration 120 \
-  > "$out/serve.log" 2>&1 &
+  ${SERVE_ARGS:-} > "$out/serve.log" 2>&1 &
 pids+=($!)
 echo "demo: recording ${width}x${height} at $fps FPS into $out/frames"
 "$stroma" render --domain "$domain" --out "$out/frames" --video "$out/demo.mp4" --fps "$fps" \
@@ -62,7 +65,7 @@ if ! grep -q "recording" "$out/render.log"; then
   exit 1
 fi
 echo "demo: driving the tool with $trajectory (${script_s} s)"
-"$stroma" tool --name probe --script "$trajectory" --domain "$domain" --out "$out/tool.csv" --no-realtime \
+"$stroma" tool --name probe --script "$trajectory" --domain "$domain" --out "$out/tool.csv" ${TOOL_ARGS:-} \
   > "$out/tool.log" 2>&1 || { echo "demo: the tool client failed:" >&2; cat "$out/tool.log" >&2; exit 1; }
 
 status=0

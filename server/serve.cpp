@@ -275,6 +275,7 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
       slot.seq = c->seq;
       slot.client_time_ns = c->client_time_ns;
       slot.pose = chk.pose;
+      slot.arrival_ns = monotonic_ns();  // the loop's clock (CLOCK_MONOTONIC)
       loop.tool_in[tool]->publish();
     }
     if (n > 0) dds_return_loan(ep.command_reader, samples, n);
@@ -367,6 +368,10 @@ CompiledScenario load_servable(const ServeOptions& o) {
     throw InputError("", 0, "--budget-margin-ms",
                      fmt::format("{:g} ms leaves no budget: it must be >= 0 and below the period ({:g} ms)",
                                  o.budget_margin_ms, spec.time_step * 1e3));
+  if (o.phase_lead_us < 0 || o.phase_lead_us * 1e-6 >= spec.time_step)
+    throw InputError("", 0, "--phase-lead-us",
+                     fmt::format("{:g} us: the lead must be >= 0 (0: no phase lock) and below the period ({:g} us)",
+                                 o.phase_lead_us, spec.time_step * 1e6));
   CompiledScenario sc = compile_scenario(spec);
   for (const auto& n : sc.notes) spdlog::warn("{}", n);
   if (sc.model->tools.size() > static_cast<size_t>(kMaxTools))
@@ -435,6 +440,10 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
   j["wall_time"] = st.wall_time;
   j["lag"] = st.lag;
   j["wake_latency"] = histogram_json(st.wake);
+  j["phase_lock"] = {{"lead_us", o.phase_lead_us},
+                     {"shift_ms_total", static_cast<double>(st.phase_shift_ns) * 1e-6},
+                     {"shift_ms_abs_total", static_cast<double>(st.phase_shift_abs_ns) * 1e-6}};
+  j["command_wait"] = histogram_json(st.command_wait);
   j["tick_time"] = histogram_json(st.tick);
   j["cg_iterations"] = {{"mean", st.ticks ? static_cast<double>(st.cg_iterations_total) / static_cast<double>(st.ticks) : 0.0},
                         {"max", st.cg_iterations_max}};
@@ -497,6 +506,7 @@ int run_serve(const ServeOptions& o) {
     lo.record = !o.record_file.empty();
     lo.spin_us = o.spin_us;
     lo.budget_margin = o.budget_margin_ms * 1e-3;
+    lo.phase_lead = o.phase_lead_us * 1e-6;
     std::FILE* record = open_record(o);
     PhysicsLoop loop(model, lo);
     std::atomic<bool> stop{false};

@@ -23,6 +23,9 @@ struct ServeOptions {
   /// Each tick's engine work ends this long before the next deadline (ms): its budget is the
   /// period minus this, or solver.time_budget when smaller. Must be ≥ 0 and < the period.
   double budget_margin_ms = 0.15;
+  /// Phase-lock the tick schedule so tool commands arrive this long before the tick that takes
+  /// them (µs; engine/phase_lock.hpp); 0: free-running schedule. Must be < the period.
+  double phase_lead_us = 200;
 };
 
 /// Runs the server; returns the process exit code (0 clean, 1 runtime fault, 2 bad input).

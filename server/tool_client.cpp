@@ -170,14 +170,16 @@ int run_tool_client(const ToolClientOptions& o) {
   std::atomic<uint64_t> feedback_msgs{0};
 
   // A haptic bridge is a real-time client: ask for SCHED_FIFO (silently best effort if denied)
-  // so the round trips measure the server, not the client's scheduling.
+  // so the round trips measure the server, not the client's scheduling. Memory stays unlocked:
+  // mlockall would fault in the whole send log at priority 55 and stall a renderer sharing the
+  // core for ~0.1 s (seen in the demo).
   const RealtimeMode rt = o.realtime ? RealtimeMode::Auto : RealtimeMode::Off;
   std::thread receiver([&] {
-    setup_realtime_thread(rt, -1, 55, 64 * 1024);
+    setup_realtime_thread(rt, -1, 55, 64 * 1024, false);
     receive_feedback(pp.participant, ep.reader, o.name, sent, done, feedback_msgs);
   });
 
-  setup_realtime_thread(rt, -1, 55, 64 * 1024);
+  setup_realtime_thread(rt, -1, 55, 64 * 1024, false);
   stroma_ToolCommand msg{};
   std::snprintf(msg.tool, sizeof(msg.tool), "%s", o.name.c_str());
   uint64_t seq = 0;

@@ -8,8 +8,11 @@
 #include <cmath>
 #include <thread>
 
+#include <time.h>
+
 #include "engine/physics_loop.hpp"
 #include "engine/spsc_queue.hpp"
+#include "tissue/clock.hpp"
 
 using namespace stroma;
 
@@ -93,4 +96,52 @@ TEST(PhysicsLoop, TicksAtTheStepRateAndObeysControlsFromAnotherThread) {
   EXPECT_GT(st.loops, st.ticks);  // the paused loops kept their schedule without ticking
   EXPECT_EQ(st.wake.count(), static_cast<int64_t>(st.loops));
   EXPECT_DOUBLE_EQ(st.sim_time, static_cast<double>(loop.state().step) * m->time_step);
+}
+
+// A client commanding on its own 1 kHz clock just after each tick starts: a fixed schedule
+// makes each command wait most of a period for its tick; the phase-locked one moves the ticks until the
+// commands arrive the asked lead (200 µs) before them.
+TEST(PhysicsLoop, PhaseLockMakesCommandsArriveTheLeadBeforeTheirTick) {
+  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  auto m = compile_model(spec);
+  ASSERT_FALSE(m->tools.empty());
+  auto median_wait_us = [&](double lead) {
+    PhysicsLoopOptions opt;
+    opt.budget = false;
+    opt.spin_us = 100;
+    opt.phase_lead = lead;
+    PhysicsLoop loop(m, opt);
+    std::atomic<bool> stop{false};
+    std::thread physics([&] { loop.run(stop); });
+    // Find the tick phase from a feedback (published when a tick ends; after the slower first
+    // ticks), then send one period after it: just after each later tick has started.
+    const uint64_t seen = loop.feedback_published.load();
+    auto publish = [&](uint64_t seq) {
+      ToolInput& slot = loop.tool_in[0]->write_slot();
+      slot = ToolInput{};
+      slot.seq = seq;
+      slot.pose.position = {0.0, 9.5, 0.0};  // high above the liver, inside the workspace
+      slot.arrival_ns = steady_now_ns();
+      loop.tool_in[0]->publish();
+    };
+    publish(1);
+    while (loop.feedback_published.load() < seen + 30) std::this_thread::yield();
+    const uint64_t now_seen = loop.feedback_published.load();
+    while (loop.feedback_published.load() == now_seen) std::this_thread::yield();
+    int64_t next = steady_now_ns() + 1000000;
+    for (uint64_t seq = 2; seq < 800; ++seq, next += 1000000) {
+      timespec ts{static_cast<time_t>(next / 1000000000), static_cast<long>(next % 1000000000)};
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+      publish(seq);
+    }
+    stop = true;
+    physics.join();
+    EXPECT_GT(loop.stats().command_wait.count(), 400);
+    return loop.stats().command_wait.percentile_us(0.5);
+  };
+  const double fixed = median_wait_us(0.0);
+  const double locked = median_wait_us(200e-6);
+  EXPECT_GT(fixed, 500.0) << "the client was meant to send just after each tick started";
+  EXPECT_LT(locked, 320.0);
+  EXPECT_GT(locked, 100.0);
 }
