@@ -401,6 +401,26 @@ void compile_collision_faces(Model& model) {
   }
 }
 
+/// solver.fem_every > 1 steps the tissue N× longer than the tick: only implicit Euler stays
+/// stable there, and a virtually coupled tool's proxy moves with the tissue step (not yet).
+void check_multirate(const ScenarioSpec& spec) {
+  const SolverSpec& s = spec.solver;
+  if (s.fem_every == 1) return;
+  const SourceLocation& at = s.fem_every_where;
+  auto fail = [&](const std::string& what) {
+    throw InputError(at.file.empty() ? spec.file : at.file, at.line, "solver.fem_every", what);
+  };
+  if (s.integrator != Integrator::ImplicitEuler)
+    fail(fmt::format("fem_every {} needs integrator implicit_euler: a static run has no ticks to interleave, and an "
+                     "explicit step {} times longer than the tick is far past its stability limit",
+                     s.fem_every, s.fem_every));
+  for (const ToolEntry& t : spec.tools)
+    if (t.spec.coupling_stiffness > 0)
+      fail(fmt::format("fem_every {} with tool '{}' virtually coupled (coupling.stiffness): not supported yet — "
+                       "the proxy would move only at the tissue's rate; drop the coupling or use fem_every 1",
+                       s.fem_every, t.spec.name));
+}
+
 }  // namespace
 
 CompiledScenario compile_scenario(const ScenarioSpec& spec) {
@@ -410,10 +430,14 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
   model->name = spec.name;
   model->time_step = spec.time_step;
   const SolverSpec& s = spec.solver;
+  check_multirate(spec);
+  model->fem_every = s.fem_every;
+  model->fem_step = spec.time_step * s.fem_every;
+  model->haptic_compliant = s.haptic_compliant;
   model->stepper = StepperSettings{s.integrator,   s.linear_solver, s.preconditioner,
                                    s.max_iterations, s.tolerance,   s.warm_start,
                                    s.static_tolerance, s.static_max_newton,
-                                   resolved_newton_iterations(s.newton_iterations, spec.time_step),
+                                   resolved_newton_iterations(s.newton_iterations, model->fem_step),
                                    s.newton_tolerance, s.preconditioner_refresh};
   model->substep_on_cg_cap = s.substep_on_cg_cap;
   model->time_budget = s.time_budget;

@@ -43,7 +43,12 @@ struct Model {
   std::string name;                ///< the scenario's name (logs, outputs, published scene)
   FemModel fem;                    ///< all bodies in one system
   StepperSettings stepper;         ///< integrator and solver settings (Newton count resolved)
-  double time_step = 0.001;        ///< s
+  double time_step = 0.001;        ///< s: the tick (and haptic) period
+  /// Multirate (solver.fem_every): the tissue is stepped every fem_every ticks by fem_step =
+  /// fem_every·time_step; the ticks render tools from the last step's haptic model. 1: every tick.
+  int fem_every = 1;
+  double fem_step = 0.001;         ///< s: the tissue's step (= time_step when fem_every is 1)
+  bool haptic_compliant = false;   ///< solver.haptic_model: secant (true) or hold (false, the default)
   /// solver.on_cg_cap: a tick whose CG hits its cap is redone in sub-steps (true, the default)
   /// or kept (false).
   bool substep_on_cg_cap = true;

@@ -94,6 +94,7 @@ SourceLocation location_of(const MapReader& m) { return {m.file(), m.line()}; }
 // Each parser takes the Field of its section and declares the section's allowed keys.
 
 const Choices<bool> kCapPolicies = {{"substep", true}, {"continue", false}};
+const Choices<bool> kHapticModels = {{"secant", true}, {"hold", false}};
 
 /// An optional key holding a whole number >= 1 or one of `words` (each stored as its value);
 /// anything else is an error naming what was `expected`.
@@ -116,7 +117,7 @@ SolverSpec parse_solver(const Field& f) {
   const MapReader m = f.map({"integrator", "linear_solver", "preconditioner", "max_iterations",
                              "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap",
                              "newton_iterations", "newton_tolerance", "time_budget",
-                             "preconditioner_refresh"});
+                             "preconditioner_refresh", "fem_every", "haptic_model"});
   SolverSpec s;
   s.where = location_of(m);
   if (auto i = m.opt("integrator")) s.integrator_where = location_of(*i);
@@ -133,6 +134,11 @@ SolverSpec parse_solver(const Field& f) {
   m.read("newton_tolerance", s.newton_tolerance, open_interval(0, 1));
   read_count_or_words(m, "preconditioner_refresh", {{"auto", -1}, {"off", 0}},
                       "a whole number of steps >= 1, auto or off", s.preconditioner_refresh);
+  if (const auto f = m.opt("fem_every")) {
+    s.fem_every_where = location_of(*f);
+    read_count_or_words(m, "fem_every", {}, "a whole number of ticks >= 1", s.fem_every);
+  }
+  m.read("haptic_model", s.haptic_compliant, kHapticModels);
   if (const auto f = m.opt("time_budget")) {  // seconds > 0, or none (stored as 0)
     s.time_budget_where = location_of(*f);
     if (f->yaml().IsScalar() && f->yaml().Scalar() == "none")

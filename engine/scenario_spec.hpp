@@ -60,6 +60,16 @@ struct SolverSpec {
   /// systems of at least kRefreshMinDofs unknowns, every auto_refresh_period() steps (both in
   /// tissue/time_stepper.hpp); 0 = `off`.
   int preconditioner_refresh = -1;
+  /// `fem_every: N` (multirate, issue 14 §7): the tissue is stepped every N ticks with a step of
+  /// N·time_step; the ticks in between (the haptic rate, 1/time_step) render each tool's force
+  /// from the last finished step's local model (engine/haptic_model.hpp). 1 (the default): every
+  /// tick steps the tissue.
+  int fem_every = 1;
+  /// `haptic_model:` what the ticks between tissue steps render: `hold` (the default) — the
+  /// last finished step's force; `secant` — that force plus the stiffness the last steps
+  /// measured along the contact normal times the tool's motion since (engine/multirate.hpp).
+  bool haptic_compliant = false;
+  SourceLocation fem_every_where;    ///< the `fem_every:` key (file only when absent)
   SourceLocation time_budget_where;  ///< the `time_budget:` key (file only when absent)
   SourceLocation where;             ///< the `solver:` section (file only when absent)
   SourceLocation integrator_where;  ///< the `integrator:` key (file only when absent)

@@ -96,7 +96,7 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
 }  // namespace
 
 void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& r, Deadline& deadline) {
-  const double h = m.time_step;
+  const double h = m.fem_step;  // = time_step unless the tissue steps every fem_every ticks
   // Rollback point: the tissue's positions and velocities (two copies of 3n doubles).
   std::copy(s.tissue.x.begin(), s.tissue.x.end(), w.backup_x.begin());
   std::copy(s.tissue.v.begin(), s.tissue.v.end(), w.backup_v.begin());

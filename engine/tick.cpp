@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "engine/damage.hpp"
+#include "engine/multirate.hpp"
 #include "engine/stage_timer.hpp"
 #include "engine/step_with_recovery.hpp"
 #include "haptics/contact.hpp"
@@ -39,7 +40,7 @@ std::string_view stage_name(Stage s) {
 }
 
 TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
-  stepper_.prepare(m.time_step);
+  stepper_.prepare(m.fem_step);
   backup_x.resize(m.fem.rest.size());
   backup_v.resize(m.fem.rest.size());
   report.tools.resize(m.tools.size());
@@ -86,10 +87,10 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   const ContactSurface surf{m.collision_triangles, m.collision_slots, m.collision_edge,
                             s.face_active.empty() ? nullptr : s.face_active.data()};
   for (size_t k = 0; k < m.tools.size(); ++k)
-    tool_contact(m.tools[k], s.tools[k], w.report.tools[k], surf, w.bvh, x, s.tissue.v.data(), m.time_step,
+    tool_contact(m.tools[k], s.tools[k], w.report.tools[k], surf, w.bvh, x, s.tissue.v.data(), m.fem_step,
                  w.springs);
   if (m.body_contact)
-    body_contact(*m.body_contact, surf, w.bvh, x, s.tissue.v.data(), m.time_step, m.fem.gravity.data(),
+    body_contact(*m.body_contact, surf, w.bvh, x, s.tissue.v.data(), m.fem_step, m.fem.gravity.data(),
                  m.fem.constrained.data(), w.body_boxes.data(), w.springs, w.body_pairs, w.report.body_contact);
 }
 
@@ -139,12 +140,7 @@ void hand_off(const Model& m, State& s, TickWorkspace& w) {
 
 }  // namespace
 
-const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs, int input_count,
-                       Deadline deadline) {
-  TickReport& r = w.report;
-  const int64_t t0 = steady_now_ns();
-  if (!deadline.active() && m.time_budget > 0) deadline.at_ns = t0 + static_cast<int64_t>(m.time_budget * 1e9);
-  r.budget_ns = deadline.at_ns > 0 ? deadline.at_ns - t0 : 0;
+void begin_report(TickReport& r) {
   r.degradation = Degradation::None;
   r.energy_limit = EnergyLimit::None;
   r.energy_removed = 0;
@@ -157,37 +153,72 @@ const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInp
   r.contact_releases = 0;
   r.damage_events = 0;
   r.damage_records.clear();
-  const bool has_tools = !m.tools.empty();
+  r.deadline_check = -1;
+  r.tissue_stepped = false;
+}
 
-  if (has_tools) {
-    StageTimer t(r, Stage::ReadInputs);
-    read_inputs(m, s, inputs, input_count);
-  }
+void apply_tool_inputs(const Model& m, State& s, TickReport& r, const ToolInput* inputs, int input_count) {
+  if (m.tools.empty()) return;
+  StageTimer t(r, Stage::ReadInputs);
+  read_inputs(m, s, inputs, input_count);
+}
+
+bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, int ticks) {
+  TickReport& r = w.report;
+  r.tissue_stepped = true;
   if (m.has_contact) {
     StageTimer t(r, Stage::Collide);
     collide(m, s, w);
   }
   // The step's own work stops early enough to leave the energy guard its time.
-  const int64_t tick_deadline = deadline.at_ns;
   if (deadline.at_ns > 0) deadline.at_ns = std::max<int64_t>(1, deadline.at_ns - (w.guard_ns + w.guard_ns / 4));
   step_with_recovery(m, s, w, r, deadline);  // times assemble, solve and integrate itself
   r.deadline_check = deadline.expired_at;
-  if (r.status == TickStatus::NonFinite) {  // rolled back, not advanced: nothing to report on
-    r.total_ns = steady_now_ns() - t0;
-    r.over_budget = tick_deadline > 0 && t0 + r.total_ns > tick_deadline;
-    return r;
-  }
-  s.time = static_cast<double>(s.step + 1) * m.time_step;
-  ++s.step;
+  if (r.status == TickStatus::NonFinite) return false;  // rolled back, not advanced
+  s.step += ticks;
+  s.time = static_cast<double>(s.step) * m.time_step;
   if (m.has_damage) {
     StageTimer t(r, Stage::Damage);
     damage(m, s, w);
   }
-  if (has_tools) {
+  if (!m.tools.empty()) {
     StageTimer t(r, Stage::HandOff);
     hand_off(m, s, w);
+    if (m.fem_every > 1) capture_haptic_models(m, s, w);
   }
   if (r.status == TickStatus::Ok && !r.solve.converged) r.status = TickStatus::SolverNotConverged;
+  return true;
+}
+
+const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs, int input_count,
+                       Deadline deadline) {
+  TickReport& r = w.report;
+  const int64_t t0 = steady_now_ns();
+  if (!deadline.active() && m.time_budget > 0) deadline.at_ns = t0 + static_cast<int64_t>(m.time_budget * 1e9);
+  r.budget_ns = deadline.at_ns > 0 ? deadline.at_ns - t0 : 0;
+  begin_report(r);
+  apply_tool_inputs(m, s, r, inputs, input_count);
+  // Multirate (engine/multirate.hpp): the tissue steps every fem_every ticks; every tick renders
+  // the tools from the model of the step that has finished by now (the one started fem_every
+  // ticks ago: what a served pipeline feels).
+  const bool multirate = m.fem_every > 1;
+  const int64_t tick_deadline = deadline.at_ns;
+  if (!multirate || s.step % m.fem_every == 0) {
+    if (multirate)
+      for (ToolState& ts : s.tools) ts.haptic = ts.haptic_next;
+    if (!step_tissue(m, s, w, deadline, 1)) {
+      r.total_ns = steady_now_ns() - t0;
+      r.over_budget = tick_deadline > 0 && t0 + r.total_ns > tick_deadline;
+      return r;
+    }
+  } else {
+    s.time = static_cast<double>(s.step + 1) * m.time_step;
+    ++s.step;
+  }
+  if (multirate && !m.tools.empty()) {
+    StageTimer t(r, Stage::HandOff);
+    render_haptic_models(m, s, r.tools);
+  }
   r.total_ns = steady_now_ns() - t0;
   r.over_budget = tick_deadline > 0 && t0 + r.total_ns > tick_deadline;
   return r;

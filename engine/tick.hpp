@@ -95,6 +95,9 @@ struct TickReport {
   std::vector<ToolOutput> tools;    ///< per scenario tool: contact, end-of-step force, feedback
   BodyContactOutput body_contact;   ///< body–body contacts (zero without `body_contact:`)
   int damage_events = 0;            ///< elements reaching a new damage level this tick
+  /// Multirate (solver.fem_every > 1): whether this tick stepped the tissue (always true
+  /// otherwise).
+  bool tissue_stepped = true;
   /// Their records (up to the capacity fixed at load; `tool`: a tool touching tissue then).
   std::vector<DamageEventRecord> damage_records;
 };
@@ -136,6 +139,17 @@ void collide(const Model& m, State& s, TickWorkspace& w);
 /// The step's inputs for the time stepper: this tick's springs, the element damage and the
 /// current lumped masses (StepInputs' pointers stay valid while s and w do).
 StepInputs step_inputs(const Model& m, const State& s, const TickWorkspace& w);
+
+/// Clears a report's per-tick fields (status Ok, no stages run, nothing stepped).
+void begin_report(TickReport& r);
+/// read_inputs stage: each command takes effect (pose, seq, timestamps); a tool whose client
+/// fell silent holds its last accepted pose, then goes idle after its timeout. Timed into r.
+void apply_tool_inputs(const Model& m, State& s, TickReport& r, const ToolInput* inputs, int input_count);
+/// The tissue's part of a tick, into w.report: collide, the step (m.fem_step) with recovery,
+/// then — advancing s by `ticks` ticks — damage, hand_off and (multirate) the tools' next
+/// haptic models. Returns false when the step was non-finite (s rolled back, not advanced).
+/// tick() calls it; so does `serve`'s tissue worker when solver.fem_every > 1.
+bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, int ticks);
 
 /// Advances `s` by one time step of the model. `inputs` are tool commands that take effect at
 /// the start of this tick (read_inputs stage; skipped when the scene has no tools).

@@ -95,6 +95,26 @@ struct ToolCheck {
 ToolCheck validate_tool_command(const ToolSpec& spec, const ToolPose& last, double dt,
                                 const ToolPose& command);
 
+/// Secants a HapticModel keeps (their median is its stiffness; engine/multirate.hpp).
+inline constexpr int kSecantWindow = 3;
+
+/// The local model a tool's force is rendered from between tissue steps (multirate,
+/// solver.fem_every > 1; built by engine/multirate.cpp, rendered by haptics/haptic_model.hpp):
+/// a step of the tissue solved with the tool at `center` left the wrench on the tool, and the
+/// steps before it measured how the force changes as the tool moves along the contact normal.
+/// Invariants: stiffness is symmetric negative semidefinite (row-major, N/m); secants[0,
+/// secant_count) are ≤ 0, newest first; with valid false (no step finished yet) the model
+/// renders no force.
+struct HapticModel {
+  bool valid = false;
+  Vec3 center{0, 0, 0};               ///< the tool centre the step was solved with (m)
+  Vec3 force{0, 0, 0};                ///< the tissue's force on the tool after that step (N)
+  Vec3 torque{0, 0, 0};               ///< its torque about `center` (N·m)
+  std::array<double, 9> stiffness{};  ///< dF/dp rendered with (N/m)
+  std::array<double, kSecantWindow> secants{};  ///< normal secants of the last steps (N/m)
+  int secant_count = 0;
+};
+
 /// A tool's part of the simulation state (copied with the state: replay reproduces it).
 /// Invariants: grasped ≤ kMaxGrasped and grasped > 0 only while jaw_closed; `force` and
 /// `stiffness` are those of the last solved step (zero before the first contact).
@@ -121,6 +141,9 @@ struct ToolState {
   std::array<int32_t, kMaxGrasped> grasp_triangle{};
   std::array<std::array<double, 2>, kMaxGrasped> grasp_uv{};
   std::array<Vec3, kMaxGrasped> grasp_offset{};
+  // Multirate (fem_every > 1): the model rendered now, and the one the last tissue step made,
+  // which takes over when the next step starts (the step it came from took that long to run).
+  HapticModel haptic, haptic_next;
 };
 
 /// What the device renders for one tick: the wrench and its stiffness after the coupling and
