@@ -1,11 +1,16 @@
 #include "engine/physics_loop.hpp"
 
+#include <pthread.h>
+#include <sched.h>
 #include <time.h>
 
 #include <algorithm>
 #include <cmath>
+#include <thread>
 
+#include "engine/multirate.hpp"
 #include "haptics/tool_shape.hpp"
+#include "engine/stage_timer.hpp"
 #include "tissue/clock.hpp"
 
 namespace stroma {
@@ -34,6 +39,12 @@ PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions 
   work_.stepper().set_realtime(true);
   for (size_t t = 0; t < model_->tools.size(); ++t)
     tool_in.push_back(std::make_unique<TripleBuffer<ToolInput>>());
+  multirate_ = model_->fem_every > 1;
+  if (multirate_) {
+    fem_state_ = state_;
+    haptic_report_.tools.resize(model_->tools.size());
+    ticks_since_post_ = model_->fem_every;  // the first tick starts the first step
+  }
 }
 
 void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown) {
@@ -47,7 +58,10 @@ void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& s
     switch (ev.kind) {
       case ControlEvent::Pause: rs = RunState::Paused; break;
       case ControlEvent::Resume: rs = RunState::Running; steps_pending = 0; break;
-      case ControlEvent::Reset: state_ = initial_; break;  // same-size copy: no allocation
+      case ControlEvent::Reset:
+        state_ = initial_;  // same-size copy: no allocation
+        tissue_reset_ = multirate_;  // the worker's state when it is idle
+        break;
       case ControlEvent::Step:
         rs = RunState::Paused;
         steps_pending += ev.steps;
@@ -81,12 +95,12 @@ void PhysicsLoop::publish_feedback(const TickReport& r) {
   feedback_published.notify_one();
 }
 
-void PhysicsLoop::publish_state_frame(const TickReport& r, uint64_t frame) {
+void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, uint64_t frame) {
   StateFrame& f = state_out.write_slot();
   f.frame = frame;
-  f.sim_time = state_.time;
-  std::copy(state_.tissue.x.begin(), state_.tissue.x.end(), f.x.begin());
-  std::copy(state_.damage.begin(), state_.damage.end(), f.damage.begin());
+  f.sim_time = tissue.time;
+  std::copy(tissue.tissue.x.begin(), tissue.tissue.x.end(), f.x.begin());
+  std::copy(tissue.damage.begin(), tissue.damage.end(), f.damage.begin());
   f.tool_count = static_cast<int>(std::min<size_t>(state_.tools.size(), kMaxTools));
   for (int t = 0; t < f.tool_count; ++t) {
     const ToolState& ts = state_.tools[t];
@@ -105,8 +119,11 @@ void PhysicsLoop::publish_damage_events(const TickReport& r) {
   outputs_published.notify_one();
 }
 
-void PhysicsLoop::account_tick(const TickReport& r, RunState& rs, StatusWindow& win) {
-  ++stats_.ticks;
+void PhysicsLoop::account_tick(const TickReport& r, RunState& rs, StatusWindow& win, bool tick) {
+  if (tick) {
+    ++stats_.ticks;
+    ++win.ticks;
+  }
   stats_.cg_iterations_total += static_cast<uint64_t>(r.solve.iterations);
   stats_.cg_iterations_max = std::max(stats_.cg_iterations_max, r.solve.iterations);
   for (int s = 0; s < kStageCount; ++s) {
@@ -130,9 +147,8 @@ void PhysicsLoop::account_tick(const TickReport& r, RunState& rs, StatusWindow& 
     ++stats_.non_finite;
     rs = RunState::Fault;  // state kept finite (not advanced); clients see FAULT
   }
-  win.elastic_energy = r.elastic_energy;
+  if (r.tissue_stepped) win.elastic_energy = r.elastic_energy;
   win.cg_iterations += static_cast<uint64_t>(r.solve.iterations);
-  ++win.ticks;
 }
 
 void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow& win, double wall, double running_wall,
@@ -145,7 +161,8 @@ void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow
   status->missed_deadlines = stats_.missed_deadlines;
   status->controls = controls_seen;
   status->cg_iterations_mean = win.ticks ? static_cast<double>(win.cg_iterations) / static_cast<double>(win.ticks) : 0.0;
-  status->kinetic_energy = work_.stepper().kinetic_energy(state_.tissue);
+  // (multirate: the worker's last finished step; its state may be in use)
+  status->kinetic_energy = multirate_ ? tissue_kinetic_ : work_.stepper().kinetic_energy(state_.tissue);
   for (int st = 0; st < kStageCount; ++st)
     status->stage_ms[st] = win.ticks ? static_cast<double>(win.stage_ns[st]) * 1e-6 / static_cast<double>(win.ticks) : 0.0;
   status->missed_window = stats_.missed_deadlines - win.missed_at_start;
@@ -200,10 +217,113 @@ int64_t PhysicsLoop::follow_commands(PhaseLock& lock, const std::array<ToolInput
   return shift;
 }
 
+void PhysicsLoop::tissue_worker() {
+  // Below the physics thread (SCHED_FIFO 80: its 1 kHz ticks preempt a step of several ms) and
+  // the DDS threads (60), above everything else: a busy machine must not halve the tissue's
+  // rate. Inherited from the physics thread, so a loop without real time runs it at normal
+  // priority.
+  int policy = SCHED_OTHER;
+  sched_param sp{};
+  pthread_getschedparam(pthread_self(), &policy, &sp);
+  if (policy == SCHED_FIFO) {
+    sp.sched_priority = kTissueWorkerPriority;
+  } else {
+    policy = SCHED_OTHER;
+    sp.sched_priority = 0;
+  }
+  pthread_setschedparam(pthread_self(), policy, &sp);
+  if (opt_.physics_cpu >= 0) {  // every CPU but the physics thread's
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    const int n = static_cast<int>(std::thread::hardware_concurrency());
+    for (int c = 0; c < n; ++c)
+      if (c != opt_.physics_cpu) CPU_SET(c, &set);
+    if (CPU_COUNT(&set) > 0) pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
+  }
+  const Model& m = *model_;
+  uint64_t seen = 0;
+  for (;;) {
+    tissue_posted_.wait(seen, std::memory_order_acquire);
+    seen = tissue_posted_.load(std::memory_order_acquire);
+    if (tissue_stop_.load()) return;
+    TickReport& r = work_.report;
+    begin_report(r);
+    const int64_t t0 = steady_now_ns();
+    Deadline d;
+    d.at_ns = tissue_deadline_;
+    r.budget_ns = d.at_ns > 0 ? d.at_ns - t0 : 0;
+    step_tissue(m, fem_state_, work_, d, m.fem_every);
+    r.total_ns = steady_now_ns() - t0;
+    r.over_budget = tissue_deadline_ > 0 && t0 + r.total_ns > tissue_deadline_;
+    tissue_done_.store(seen, std::memory_order_release);
+  }
+}
+
+const TickReport& PhysicsLoop::multirate_tick(const ToolInput* inputs, int n_in, int64_t tick_start, RunState& rs,
+                                              StatusWindow& win, uint64_t& frame) {
+  const Model& m = *model_;
+  TickReport& r = haptic_report_;
+  const int64_t t0 = steady_now_ns();
+  begin_report(r);
+  r.budget_ns = 0;
+  apply_tool_inputs(m, state_, r, inputs, n_in);
+  ++ticks_since_post_;
+  const uint64_t posted = tissue_posted_.load(std::memory_order_relaxed);
+  const bool idle = tissue_done_.load(std::memory_order_acquire) == posted;
+  if (!idle && ticks_since_post_ == m.fem_every) ++stats_.tissue_steps_late;  // due, still running
+  if (idle && ticks_since_post_ >= m.fem_every) {
+    // The worker's step is done: its models take over (as in a headless multirate run, at the
+    // tick fem_every after the step started), its outputs are handed off, the next one starts.
+    if (posted > 0 && !tissue_reset_) {
+      const TickReport& fr = work_.report;
+      for (size_t k = 0; k < m.tools.size(); ++k) {
+        state_.tools[k].haptic = fem_state_.tools[k].haptic_next;
+        r.tools[k].contacts = fr.tools[k].contacts;
+      }
+      ++stats_.tissue_steps;
+      account_tick(fr, rs, win, false);
+      tissue_kinetic_ = work_.stepper().kinetic_energy(fem_state_.tissue);
+      if (fr.damage_events > 0) publish_damage_events(fr);
+      if (state_wanted.load(std::memory_order_relaxed) &&
+          (ticks_since_frame_ += static_cast<uint64_t>(ticks_since_post_)) >= static_cast<uint64_t>(opt_.publish_every)) {
+        ticks_since_frame_ = 0;
+        publish_state_frame(r, fem_state_, ++frame);
+      }
+    }
+    if (tissue_reset_) {
+      fem_state_ = initial_;
+      tissue_reset_ = false;
+    }
+    for (size_t k = 0; k < m.tools.size(); ++k) {  // the step is solved with the tools as they are now
+      ToolState& to = fem_state_.tools[k];
+      const ToolState& from = state_.tools[k];
+      to.pose = from.pose;
+      to.seq = from.seq;
+      to.client_time_ns = from.client_time_ns;
+      to.last_command_time = from.last_command_time;
+      to.active = from.active;
+    }
+    tissue_deadline_ = opt_.budget ? tick_start + stats_.budget_ns : 0;
+    ticks_since_post_ = 0;
+    tissue_posted_.fetch_add(1, std::memory_order_release);
+    tissue_posted_.notify_one();
+  }
+  state_.time = static_cast<double>(state_.step + 1) * m.time_step;
+  ++state_.step;
+  if (!m.tools.empty()) {
+    StageTimer t(r, Stage::HandOff);
+    render_haptic_models(m, state_, r.tools);
+  }
+  r.total_ns = steady_now_ns() - t0;
+  return r;
+}
+
 void PhysicsLoop::run(const std::atomic<bool>& stop) {
   const Model& m = *model_;
   const int64_t period = static_cast<int64_t>(m.time_step * 1e9 + 0.5);
-  int64_t budget = period - static_cast<int64_t>(opt_.budget_margin * 1e9);
+  // The tissue step's budget: its period (a tick's, or fem_every ticks' on the multirate worker)
+  // minus the margin, or the scenario's time_budget if smaller.
+  int64_t budget = period * m.fem_every - static_cast<int64_t>(opt_.budget_margin * 1e9);
   if (m.time_budget > 0) budget = std::min(budget, static_cast<int64_t>(m.time_budget * 1e9));
   stats_.budget_ns = std::max<int64_t>(budget, 1);
   RunState rs = opt_.start_paused ? RunState::Paused : RunState::Running;
@@ -217,6 +337,9 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
 
   PhaseLock lock(opt_.phase_lead > 0 ? period : 0, static_cast<int64_t>(opt_.phase_lead * 1e9),
                        static_cast<int64_t>(opt_.phase_max_step * static_cast<double>(period)));
+
+  std::thread worker;
+  if (multirate_) worker = std::thread([this] { tissue_worker(); });
 
   const int64_t t0 = steady_now_ns();
   int64_t deadline = t0 + period;
@@ -246,7 +369,8 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       // scheduled start (a late wake-up eats into it).
       Deadline budget;
       budget.at_ns = opt_.budget ? deadline + stats_.budget_ns : 0;
-      const TickReport& r = tick(m, state_, work_, inputs.data(), n_in, budget);
+      const TickReport& r = multirate_ ? multirate_tick(inputs.data(), n_in, deadline, rs, win, frame)
+                                       : tick(m, state_, work_, inputs.data(), n_in, budget);
       if (r.deadline_check >= 0) {  // the cut this tick made, so that a replay makes it too
         SessionEvent se;
         se.tick = static_cast<int64_t>(stats_.ticks);
@@ -259,8 +383,8 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       const int64_t h0 = steady_now_ns();
       if (r.damage_events > 0) publish_damage_events(r);
       if (!state_.tools.empty()) publish_feedback(r);
-      if (state_wanted.load(std::memory_order_relaxed) && state_.step % opt_.publish_every == 0)
-        publish_state_frame(r, ++frame);
+      if (!multirate_ && state_wanted.load(std::memory_order_relaxed) && state_.step % opt_.publish_every == 0)
+        publish_state_frame(r, state_, ++frame);
       const int64_t handoff = steady_now_ns() - h0;
       stats_.stage_ns_total[static_cast<int>(Stage::HandOff)] += handoff;
       win.stage_ns[static_cast<int>(Stage::HandOff)] += handoff;
@@ -286,6 +410,12 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       ++stats_.missed_deadlines;
       deadline = done;
     }
+  }
+  if (worker.joinable()) {
+    tissue_stop_.store(true);
+    tissue_posted_.fetch_add(1, std::memory_order_release);
+    tissue_posted_.notify_one();
+    worker.join();
   }
   SessionEvent end;
   end.kind = SessionEvent::End;

@@ -32,6 +32,10 @@ struct ControlEvent {
 /// Run state as published in SimStatus.
 enum class RunState : uint8_t { Running, Paused, Stopping, Fault };
 
+/// SCHED_FIFO priority of the multirate tissue worker (the physics thread has 80, the DDS
+/// input and feedback threads 60).
+inline constexpr int kTissueWorkerPriority = 50;
+
 /// Most tools a scenario served in real time may have.
 inline constexpr int kMaxTools = 8;
 
@@ -97,9 +101,13 @@ struct PhysicsLoopOptions {
   int spin_us = 0;
   /// The tick's engine work must end this long before the next deadline (s): the budget is the
   /// period minus this (or Model::time_budget if smaller), counted from the scheduled start.
+  /// Multirate: the tissue worker's step has fem_every periods minus this.
   double budget_margin = 0.15e-3;
   /// Budget the ticks at all (tests that compare served and headless ticks turn it off).
   bool budget = true;
+  /// The CPU the physics thread is pinned to (−1: not pinned). The multirate tissue worker
+  /// then keeps off it: sharing it with the 1 kHz ticks (and their spin) slowed its steps 2–3×.
+  int physics_cpu = -1;
   /// Phase-lock the schedule to the tool commands' arrival (engine/phase_lock.hpp): a command
   /// is to arrive this long before the tick that takes it (s); 0 keeps a free-running schedule.
   double phase_lead = 0;
@@ -124,6 +132,10 @@ struct PhysicsLoopStats {
   uint64_t cg_iterations_total = 0;
   uint64_t record_dropped = 0;  ///< session-log events lost because the recorder fell behind
   int cg_iterations_max = 0;
+  /// Multirate (Model::fem_every > 1): tissue steps the worker finished and whose models the
+  /// ticks took up, and ticks at which a step was due but the worker was still busy (the next
+  /// step then starts when it is done; the tools keep the last model meanwhile).
+  uint64_t tissue_steps = 0, tissue_steps_late = 0;
   std::array<int64_t, kStageCount> stage_ns_total{};
   double sim_time = 0, wall_time = 0, lag = 0;
 };
@@ -154,7 +166,9 @@ class PhysicsLoop {
   std::atomic<uint64_t> damage_dropped{0};   ///< events lost because the publisher fell behind
 
   const PhysicsLoopStats& stats() const { return stats_; }
-  const State& state() const { return state_; }
+  /// The simulation state (multirate: the tissue worker's, whose tools carry its own copies of
+  /// the poses). Read after run() has returned.
+  const State& state() const { return multirate_ ? fem_state_ : state_; }
   const Model& model() const { return *model_; }
 
  private:
@@ -174,10 +188,20 @@ class PhysicsLoop {
   /// the next deadline.
   int64_t follow_commands(PhaseLock& lock, const std::array<ToolInput, kMaxTools>& inputs, int n_in,
                           int64_t tick_start);
-  /// Statistics of one tick; a non-finite tick faults the run.
-  void account_tick(const TickReport& r, RunState& rs, StatusWindow& win);
+  /// Statistics of one tick (`tick`: count it as a tick; false for a multirate tissue step,
+  /// whose ticks are counted by the physics thread); a non-finite step faults the run.
+  void account_tick(const TickReport& r, RunState& rs, StatusWindow& win, bool tick = true);
   void publish_feedback(const TickReport& r);
-  void publish_state_frame(const TickReport& r, uint64_t frame);
+  void publish_state_frame(const TickReport& r, const State& tissue, uint64_t frame);
+  /// Multirate: one tick of the physics thread — the tools' inputs, the tissue worker's finished
+  /// step taken up and the next one started (every fem_every ticks, or as soon as a late worker
+  /// is done), every tool rendered from its model. Publishes the state frame and damage events
+  /// of a finished step.
+  const TickReport& multirate_tick(const ToolInput* inputs, int n_in, int64_t tick_start, RunState& rs,
+                                   StatusWindow& win, uint64_t& frame);
+  /// Multirate: the tissue worker's loop (SCHED_FIFO kTissueWorkerPriority under a real-time
+  /// physics thread, normal priority otherwise).
+  void tissue_worker();
   void publish_damage_events(const TickReport& r);
   void publish_status(StatusFrame*& status, RunState rs, StatusWindow& win, double wall, double running_wall,
                       uint64_t controls_seen);
@@ -190,6 +214,20 @@ class PhysicsLoop {
   State initial_;
   TickWorkspace work_;
   PhysicsLoopStats stats_;
+  // ---- multirate (Model::fem_every > 1): the tissue steps on a worker thread ----
+  // Ownership: while tissue_done_ == tissue_posted_ the worker is idle and the physics thread
+  // owns fem_state_ and work_; after it posts (release) the worker owns them until it stores
+  // tissue_done_ (release). The tools' poses reach the worker inside fem_state_.
+  bool multirate_ = false;
+  State fem_state_;                       ///< the tissue worker's state
+  TickReport haptic_report_;              ///< the physics thread's tick report
+  std::atomic<uint64_t> tissue_posted_{0}, tissue_done_{0};
+  std::atomic<bool> tissue_stop_{false};
+  int64_t tissue_deadline_ = 0;           ///< the posted step's deadline (0: none)
+  int64_t ticks_since_post_ = 0;
+  uint64_t ticks_since_frame_ = 0;
+  bool tissue_reset_ = false;             ///< a Reset waits for the worker to be idle
+  double tissue_kinetic_ = 0;             ///< kinetic energy of the last finished step
 };
 
 }  // namespace stroma

@@ -27,6 +27,7 @@ RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority, s
     CPU_SET(cpu, &set);
     const int rc = pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
     r.pinned = rc == 0;
+    if (r.pinned) r.cpu = cpu;
     if (rc != 0) r.problems += fmt::format("cannot pin to CPU {} ({}); ", cpu, std::strerror(rc));
   }
   if (mode == RealtimeMode::Off) return r;

@@ -14,6 +14,7 @@ struct RealtimeResult {
   bool fifo = false;
   bool memory_locked = false;
   bool pinned = false;
+  int cpu = -1;  ///< the CPU pinned to (−1: none)
   std::string problems;  ///< empty when everything asked for was granted
 };
 

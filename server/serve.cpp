@@ -355,14 +355,16 @@ CompiledScenario load_servable(const ServeOptions& o) {
                      "implicit_euler (or symplectic_euler) to serve this scenario, or `stroma run` for its static "
                      "equilibrium");
   }
-  // The budget must fit in the period: a longer one could never be kept at the tick rate.
-  if (spec.solver.time_budget > spec.time_step) {
+  // The budget must fit in the period: a longer one could never be kept at the tick rate (with
+  // fem_every > 1 the tissue steps on a worker, once per fem_every ticks: that is its period).
+  if (spec.solver.time_budget > spec.time_step * spec.solver.fem_every) {
     const SourceLocation& at = spec.solver.time_budget_where;
     throw InputError(at.file.empty() ? spec.file : at.file, at.line, "solver.time_budget",
                      fmt::format("time_budget {:g} s is longer than the period (time_step {:g} s): a served tick "
                                  "must fit in one period; use at most {:g} s, or none (the period minus "
                                  "--budget-margin-ms)",
-                                 spec.solver.time_budget, spec.time_step, spec.time_step));
+                                 spec.solver.time_budget, spec.time_step * spec.solver.fem_every,
+                                 spec.time_step * spec.solver.fem_every));
   }
   if (o.budget_margin_ms < 0 || o.budget_margin_ms * 1e-3 >= spec.time_step)
     throw InputError("", 0, "--budget-margin-ms",
@@ -430,7 +432,7 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
   j["scenario"] = model.name;
   j["time_step"] = model.time_step;
   j["realtime"] = {{"mode", o.realtime}, {"fifo", rt.fifo}, {"memory_locked", rt.memory_locked},
-                   {"pinned_cpu", rt.pinned ? o.cpu : -1}, {"problems", rt.problems}};
+                   {"pinned_cpu", rt.cpu}, {"problems", rt.problems}};
   j["dds"] = {{"domain", o.domain}, {"config", pp.config_source}};
   j["loops"] = st.loops;
   j["ticks"] = st.ticks;
@@ -457,6 +459,10 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
   j["ticks_recovered"] = st.recovered;
   j["budget_ms"] = static_cast<double>(st.budget_ns) * 1e-6;
   j["ticks_over_budget"] = st.over_budget;
+  if (model.fem_every > 1)
+    j["multirate"] = {{"fem_every", model.fem_every}, {"tissue_steps", st.tissue_steps},
+                      {"tissue_steps_late", st.tissue_steps_late},
+                      {"haptic_model", model.haptic_compliant ? "secant" : "hold"}};
   j["ticks_degraded"] = st.degraded;
   j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
   j["tool_commands"] = {{"accepted", counters.accepted.load()}, {"clamped", counters.clamped.load()},
@@ -508,7 +514,6 @@ int run_serve(const ServeOptions& o) {
     lo.budget_margin = o.budget_margin_ms * 1e-3;
     lo.phase_lead = o.phase_lead_us * 1e-6;
     std::FILE* record = open_record(o);
-    PhysicsLoop loop(model, lo);
     std::atomic<bool> stop{false};
     std::atomic<uint64_t> status_sent{0};
     InputCounters counters;
@@ -516,8 +521,14 @@ int run_serve(const ServeOptions& o) {
     RealtimeResult rt;
     std::atomic<bool> rt_ready{false}, rt_failed{false};
 
+    // Multirate: the tissue worker needs a core of its own; the physics thread takes the last
+    // CPU unless --cpu says otherwise, and the worker keeps off it.
+    const unsigned ncpu = std::thread::hardware_concurrency();
+    const int physics_cpu = o.cpu >= 0 ? o.cpu : model->fem_every > 1 && ncpu > 1 ? static_cast<int>(ncpu) - 1 : -1;
+    lo.physics_cpu = physics_cpu;
+    PhysicsLoop loop(model, lo);
     std::thread physics([&] {
-      rt = setup_realtime_thread(rt_mode, o.cpu);
+      rt = setup_realtime_thread(rt_mode, physics_cpu);
       if (rt_mode == RealtimeMode::Fifo && !rt.fifo) rt_failed = true;
       rt_ready = true;
       rt_ready.notify_all();
@@ -547,6 +558,10 @@ int run_serve(const ServeOptions& o) {
     if (record) recorder = std::thread([&] { recorder_thread(loop, record, record_error); });
     spdlog::info("serving '{}' at {:.0f} Hz ({} nodes, {} tets); Ctrl-C to stop", model->name,
                  1.0 / model->time_step, model->fem.num_nodes, model->fem.elements.size());
+    if (model->fem_every > 1)
+      spdlog::info("multirate: the tissue steps every {} ticks ({:.0f} Hz) on a worker thread; tools are rendered "
+                   "every tick from the last finished step ({})",
+                   model->fem_every, 1.0 / model->fem_step, model->haptic_compliant ? "secant" : "hold");
 
     wait_for_stop(o, sigs, loop);
     stop = true;

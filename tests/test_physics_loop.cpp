@@ -163,3 +163,57 @@ TEST(PhysicsLoop, PhaseLockMakesCommandsArriveTheLeadBeforeTheirTick) {
   const double fixed = median_wait_us(0.0);
   EXPECT_GT(fixed, 500.0) << "the client was meant to send just after each tick started";
 }
+
+// Multirate served (solver.fem_every = 4): the tissue steps on a worker thread while the
+// physics thread ticks and sends feedback every tick from the last finished step's model.
+TEST(PhysicsLoop, MultirateStepsTheTissueOnAWorkerAndRendersEveryTick) {
+  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  spec.solver.fem_every = 4;
+  auto m = compile_model(spec);
+  PhysicsLoopOptions opt;
+  opt.budget = false;
+  opt.status_every = 20;
+  PhysicsLoop loop(m, opt);
+  loop.state_wanted = true;
+  std::atomic<bool> stop{false};
+  std::thread physics([&] { loop.run(stop); });
+  // The probe pressed into the liver's top (mesh units) for the whole run.
+  ToolInput& slot = loop.tool_in[0]->write_slot();
+  slot = ToolInput{};
+  slot.seq = 1;
+  slot.pose.position = {0.454, 5.27, 0.154};  // 0.1 into the top of the liver (radius 0.3)
+  loop.tool_in[0]->publish();
+  const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(400);
+  uint64_t frames = 0, feedback_batches = 0, in_contact = 0;
+  double force_seen = 0;
+  while (std::chrono::steady_clock::now() < end) {
+    if (loop.state_out.update()) ++frames;
+    if (loop.feedback_out.update()) {
+      const FeedbackBatch& b = loop.feedback_out.read_slot();
+      ++feedback_batches;
+      if (b.count > 0 && b.frames[0].in_contact) ++in_contact;
+      if (b.count > 0) force_seen = std::max(force_seen, std::fabs(b.frames[0].force[1]));
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
+  }
+  ASSERT_TRUE(loop.controls.push({ControlEvent::Shutdown, 0}));
+  physics.join();
+  const PhysicsLoopStats& st = loop.stats();
+  ASSERT_GT(st.ticks, 100u);
+  // At most one step per fem_every ticks; fewer only when the worker was late (a slow or
+  // instrumented build), and then that is counted.
+  EXPECT_GE(st.tissue_steps, 1u);
+  EXPECT_LE(st.tissue_steps * 4, st.ticks + 4);
+  if (st.tissue_steps * 4 + 8 < st.ticks) EXPECT_GT(st.tissue_steps_late, 0u);
+  EXPECT_GT(feedback_batches, 20u);
+  EXPECT_GT(frames, 0u);
+  EXPECT_GT(in_contact, 0u) << "the probe touched the liver";
+  EXPECT_GT(force_seen, 0.0);
+  // The tissue moved (gravity and the probe), in the worker's state, by fem_every ticks a step.
+  const State& s = loop.state();
+  EXPECT_EQ(s.step % 4, 0);
+  EXPECT_GT(s.step, 0);
+  double moved = 0;
+  for (size_t i = 0; i < s.tissue.x.size(); ++i) moved = std::max(moved, std::fabs(s.tissue.x[i] - m->fem.rest[i]));
+  EXPECT_GT(moved, 1e-4);
+}

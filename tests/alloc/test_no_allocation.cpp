@@ -151,6 +151,21 @@ TEST(NoAllocation, ImplicitEulerJacobiPcgWithContactAndGrasp) {
   EXPECT_GT(w.grasp_ticks, 50) << "the counted ticks must include grasping";
 }
 
+// Multirate ticks (fem_every 4, secant model): tissue steps, the tools' models captured and
+// rendered every tick.
+TEST(NoAllocation, MultirateTicksWithContact) {
+  ScenarioSpec s = load_scenario(kDir + "liver.yaml");
+  s.tools[0].spec.timeout = 100;
+  s.tools[0].spec.max_speed = 1e3;
+  s.solver.fem_every = 4;
+  s.solver.haptic_compliant = true;
+  const Watched w = run(s, 8, 400, [](const CompiledScenario& c, const State& st, int i) {
+    return press_then_grasp(c, st, i, 408);
+  });
+  EXPECT_EQ(w.allocations, 0);
+  EXPECT_GT(w.contact_ticks, 50) << "the counted ticks must include contact";
+}
+
 TEST(NoAllocation, WarpedCholeskyPreconditionerWithCholmodSolves) {
   const Watched w = run(load_scenario(kDir + "cantilever_dynamic.yaml"), 5, 100,
                         [](const CompiledScenario&, const State&, int) { return ToolPose{}; });
