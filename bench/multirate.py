@@ -17,29 +17,10 @@ Prints a Markdown table (docs/PERFORMANCE.md, "Multirate").
 Usage: bench/multirate.py [--stroma build/stroma] [--scene raptor_0p32m] [--every 5,10,20]
                           [--out /tmp/stroma_multirate]
 """
-import argparse, csv, math, os, re, statistics, subprocess, sys
+import argparse, csv, math, os, statistics, subprocess, sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def scenario_with_solver(scene, override):
-    """The scene's YAML with the given solver keys replaced (the others kept), written next to
-    the original so relative mesh paths resolve; returns (path, temporary file or None)."""
-    path = os.path.join(ROOT, "scenarios", "physical", scene + ".yaml")
-    if not override:
-        return path, None
-    src = open(path).read()
-    m = re.search(r"solver: \{([^}]*)\}", src, flags=re.S)
-    if not m:
-        sys.exit(f"multirate.py: {path}: expected a flow-style 'solver: {{...}}' map")
-    given = {kv.split(":")[0].strip() for kv in override.split(",")}
-    keep = [kv.strip() for kv in m.group(1).replace("\n", " ").split(",")
-            if kv.strip() and kv.split(":")[0].strip() not in given]
-    src = src[:m.start()] + "solver: {" + ", ".join(keep + [override]) + "}" + src[m.end():]
-    tmp = os.path.join(os.path.dirname(path), f".multirate_{scene}.yaml")
-    with open(tmp, "w") as f:
-        f.write(src)
-    return tmp, tmp
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from physical import scenario_with_solver  # noqa: E402
 
 
 def run(stroma, scenario, out):
@@ -75,7 +56,7 @@ def main():
     results = []
     ref = None
     for label, n, override in configs:
-        path, tmp = scenario_with_solver(a.scene, override)
+        path, tmp = scenario_with_solver(a.scene, override, reset=())
         out = os.path.join(a.out, f"run_{len(results)}")
         print(f"multirate: {label} ...", file=sys.stderr, flush=True)
         try:

@@ -32,18 +32,19 @@ SCENES = ["liver_16cm", "liver_fine_16cm", "liver_fine_16cm_warped", "armadillo_
 CONVERGED = "max_iterations: 5000, tolerance: 1.0e-10"
 
 
-def scenario_with_solver(scene, solver_override):
+def scenario_with_solver(scene, solver_override, reset=("max_iterations", "tolerance", "on_cg_cap", "time_budget")):
     """The scene's YAML with its solver map's settings overridden (a copy next to the original, so
-    relative mesh paths still resolve)."""
+    relative mesh paths still resolve): the keys given replace the scene's, and the `reset` keys
+    are dropped (back to their defaults) unless given. Returns (path, temporary file or None)."""
     path = os.path.join(ROOT, "scenarios", "physical", scene + ".yaml")
     if not solver_override:
         return path, None
     src = open(path).read()
     m = re.search(r"solver: \{([^}]*)\}", src, flags=re.S)
     if not m:
-        sys.exit(f"physical.py: {path}: expected a flow-style 'solver: {{...}}' map")
+        sys.exit(f"{os.path.basename(sys.argv[0])}: {path}: expected a flow-style 'solver: {{...}}' map")
     given = {kv.split(":")[0].strip() for kv in solver_override.split(",")}
-    drop = given | {"max_iterations", "tolerance", "on_cg_cap", "time_budget"}
+    drop = given | set(reset)
     keep = [kv.strip() for kv in m.group(1).replace("\n", " ").split(",")
             if kv.strip() and kv.split(":")[0].strip() not in drop]
     src = src[:m.start()] + "solver: {" + ", ".join(keep + [solver_override]) + "}" + src[m.end():]

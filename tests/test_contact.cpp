@@ -13,27 +13,13 @@
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "cantilever_with_probe.hpp"
 
 using namespace stroma;
 
 namespace {
 
-ScenarioSpec beam_with_probe() {
-  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
-  s.gravity = {0, 0, 0};
-  s.bodies[0].material.young_modulus = 1e5;
-  s.bodies[0].material.rayleigh_mass = 60;  // settle quickly to equilibrium
-  s.solver.preconditioner = Preconditioner::Jacobi;
-  s.solver.tolerance = 1e-10;
-  s.solver.max_iterations = 2000;
-  ToolEntry t;
-  t.spec.name = "probe";
-  t.spec.shape = ToolShape::Sphere;
-  t.spec.radius = 0.003;
-  t.spec.timeout = 10;
-  s.tools.push_back(t);
-  return s;
-}
+ScenarioSpec beam_with_probe() { return test_scenarios::cantilever_with_probe(); }
 
 }  // namespace
 

@@ -13,29 +13,18 @@
 #include "engine/tick.hpp"
 #include "haptics/tool_shape.hpp"
 #include "tissue/input_error.hpp"
+#include "cantilever_with_probe.hpp"
 
 using namespace stroma;
 
 namespace {
 
-/// The cantilever (clamped at x = 0) with a 3 mm spherical probe, no gravity.
-ScenarioSpec beam_with_probe(int fem_every, bool compliant = true) {  // secant by default here
-  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
-  s.gravity = {0, 0, 0};
-  s.bodies[0].material.young_modulus = 1e5;
-  s.bodies[0].material.rayleigh_mass = 60;  // settles: the probe stays in contact
-  s.solver.preconditioner = Preconditioner::Jacobi;
-  s.solver.tolerance = 1e-10;
-  s.solver.max_iterations = 3000;
+/// The damped cantilever with its 3 mm probe (cantilever_with_probe.hpp), multirate.
+ScenarioSpec beam_with_probe(int fem_every, bool secant = true) {
+  ScenarioSpec s = test_scenarios::cantilever_with_probe();
   s.solver.newton_iterations = 1;
   s.solver.fem_every = fem_every;
-  s.solver.haptic_compliant = compliant;
-  ToolEntry t;
-  t.spec.name = "probe";
-  t.spec.shape = ToolShape::Sphere;
-  t.spec.radius = 0.003;
-  t.spec.timeout = 10;
-  s.tools.push_back(t);
+  s.solver.haptic_compliant = secant;
   return s;
 }
 
