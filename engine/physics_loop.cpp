@@ -9,8 +9,8 @@
 #include <thread>
 
 #include "engine/multirate.hpp"
-#include "haptics/tool_shape.hpp"
 #include "engine/stage_timer.hpp"
+#include "haptics/tool_shape.hpp"
 #include "tissue/clock.hpp"
 
 namespace stroma {
