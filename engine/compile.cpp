@@ -433,7 +433,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
   check_multirate(spec);
   model->fem_every = s.fem_every;
   model->fem_step = spec.time_step * s.fem_every;
-  model->haptic_compliant = s.haptic_compliant;
+  model->haptic_secant = s.haptic_secant;
   model->stepper = StepperSettings{s.integrator,   s.linear_solver, s.preconditioner,
                                    s.max_iterations, s.tolerance,   s.warm_start,
                                    s.static_tolerance, s.static_max_newton,

@@ -48,7 +48,7 @@ struct Model {
   /// fem_every·time_step; the ticks render tools from the last step's haptic model. 1: every tick.
   int fem_every = 1;
   double fem_step = 0.001;         ///< s: the tissue's step (= time_step when fem_every is 1)
-  bool haptic_compliant = false;   ///< solver.haptic_model: secant (true) or hold (false, the default)
+  bool haptic_secant = false;   ///< solver.haptic_model: secant (true) or hold (false, the default)
   /// solver.on_cg_cap: a tick whose CG hits its cap is redone in sub-steps (true, the default)
   /// or kept (false).
   bool substep_on_cg_cap = true;

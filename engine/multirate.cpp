@@ -54,12 +54,10 @@ void capture_haptic_models(const Model& m, State& s, const TickWorkspace& w) {
       hm.secant_count = std::min(hm.secant_count + 1, kSecantWindow);
     }
     // One or two secants may be a contact forming (its force jumps as points come in): the
-    // median needs three to reject one.
-    if (!m.haptic_compliant || hm.secant_count < 3) continue;
-    std::array<double, kSecantWindow> window{};
-    std::copy(hm.secants.begin(), hm.secants.begin() + hm.secant_count, window.begin());
-    std::nth_element(window.begin(), window.begin() + hm.secant_count / 2, window.begin() + hm.secant_count);
-    const double sn = window[hm.secant_count / 2];
+    // median of three rejects one.
+    if (!m.haptic_secant || hm.secant_count < kSecantWindow) continue;
+    const auto& [a, b, c] = hm.secants;
+    const double sn = std::max(std::min(a, b), std::min(std::max(a, b), c));
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) hm.stiffness[3 * i + j] = sn * n[i] * n[j];
   }
@@ -69,7 +67,7 @@ void render_haptic_models(const Model& m, State& s, std::vector<ToolOutput>& out
   for (size_t k = 0; k < m.tools.size(); ++k) {
     ToolState& ts = s.tools[k];
     ToolOutput& out = outs[k];
-    render_haptic_model(ts.haptic, tool_center(m.tools[k], ts), m.haptic_compliant, out);
+    render_haptic_model(ts.haptic, tool_center(m.tools[k], ts), out);
     out.feedback = device_feedback(m.tools[k], ts, out, m.time_step);
   }
 }

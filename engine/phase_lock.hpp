@@ -55,9 +55,6 @@ class PhaseLock {
     return static_cast<int64_t>(std::clamp(step, -limit, limit));
   }
 
-  int64_t lead_ns() const { return lead_; }
-  int64_t max_step_ns() const { return max_step_; }
-
  private:
   int64_t period_ = 0, lead_ = 0, max_step_ = 0;
   double gain_ = 0.1, integral_gain_ = 0.005;

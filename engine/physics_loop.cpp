@@ -1,7 +1,5 @@
 #include "engine/physics_loop.hpp"
 
-#include <pthread.h>
-#include <sched.h>
 #include <time.h>
 
 #include <algorithm>
@@ -9,6 +7,7 @@
 #include <thread>
 
 #include "engine/multirate.hpp"
+#include "engine/realtime.hpp"
 #include "engine/stage_timer.hpp"
 #include "haptics/tool_shape.hpp"
 #include "tissue/clock.hpp"
@@ -220,26 +219,8 @@ int64_t PhysicsLoop::follow_commands(PhaseLock& lock, const std::array<ToolInput
 void PhysicsLoop::tissue_worker() {
   // Below the physics thread (SCHED_FIFO 80: its 1 kHz ticks preempt a step of several ms) and
   // the DDS threads (60), above everything else: a busy machine must not halve the tissue's
-  // rate. Inherited from the physics thread, so a loop without real time runs it at normal
-  // priority.
-  int policy = SCHED_OTHER;
-  sched_param sp{};
-  pthread_getschedparam(pthread_self(), &policy, &sp);
-  if (policy == SCHED_FIFO) {
-    sp.sched_priority = kTissueWorkerPriority;
-  } else {
-    policy = SCHED_OTHER;
-    sp.sched_priority = 0;
-  }
-  pthread_setschedparam(pthread_self(), policy, &sp);
-  if (opt_.physics_cpu >= 0) {  // every CPU but the physics thread's
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    const int n = static_cast<int>(std::thread::hardware_concurrency());
-    for (int c = 0; c < n; ++c)
-      if (c != opt_.physics_cpu) CPU_SET(c, &set);
-    if (CPU_COUNT(&set) > 0) pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
-  }
+  // rate. Off the physics thread's CPU: sharing it slowed the steps 2–3×.
+  setup_worker_thread(kTissueWorkerPriority, opt_.physics_cpu);
   const Model& m = *model_;
   uint64_t seen = 0;
   for (;;) {
@@ -255,6 +236,7 @@ void PhysicsLoop::tissue_worker() {
     step_tissue(m, fem_state_, work_, d, m.fem_every);
     r.total_ns = steady_now_ns() - t0;
     r.over_budget = tissue_deadline_ > 0 && t0 + r.total_ns > tissue_deadline_;
+    step_kinetic_ = work_.stepper().kinetic_energy(fem_state_.tissue);  // O(n): here, not in a tick
     tissue_done_.store(seen, std::memory_order_release);
   }
 }
@@ -282,7 +264,7 @@ const TickReport& PhysicsLoop::multirate_tick(const ToolInput* inputs, int n_in,
       }
       ++stats_.tissue_steps;
       account_tick(fr, rs, win, false);
-      tissue_kinetic_ = work_.stepper().kinetic_energy(fem_state_.tissue);
+      tissue_kinetic_ = step_kinetic_;
       if (fr.damage_events > 0) publish_damage_events(fr);
       if (state_wanted.load(std::memory_order_relaxed) &&
           (ticks_since_frame_ += static_cast<uint64_t>(ticks_since_post_)) >= static_cast<uint64_t>(opt_.publish_every)) {

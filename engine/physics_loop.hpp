@@ -217,7 +217,8 @@ class PhysicsLoop {
   // ---- multirate (Model::fem_every > 1): the tissue steps on a worker thread ----
   // Ownership: while tissue_done_ == tissue_posted_ the worker is idle and the physics thread
   // owns fem_state_ and work_; after it posts (release) the worker owns them until it stores
-  // tissue_done_ (release). The tools' poses reach the worker inside fem_state_.
+  // tissue_done_ (release). The tools' poses reach the worker inside fem_state_; its results
+  // come back in fem_state_, work_.report and step_kinetic_.
   bool multirate_ = false;
   State fem_state_;                       ///< the tissue worker's state
   TickReport haptic_report_;              ///< the physics thread's tick report
@@ -227,7 +228,8 @@ class PhysicsLoop {
   int64_t ticks_since_post_ = 0;
   uint64_t ticks_since_frame_ = 0;
   bool tissue_reset_ = false;             ///< a Reset waits for the worker to be idle
-  double tissue_kinetic_ = 0;             ///< kinetic energy of the last finished step
+  double step_kinetic_ = 0;               ///< the worker's: kinetic energy after its step
+  double tissue_kinetic_ = 0;             ///< the physics thread's copy, for status frames
 };
 
 }  // namespace stroma

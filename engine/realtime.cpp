@@ -46,6 +46,22 @@ RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority, s
   return r;
 }
 
+void setup_worker_thread(int priority, int avoid_cpu) {
+  int policy = SCHED_OTHER;
+  sched_param sp{};
+  pthread_getschedparam(pthread_self(), &policy, &sp);
+  const bool fifo = policy == SCHED_FIFO;
+  sp.sched_priority = fifo ? priority : 0;
+  pthread_setschedparam(pthread_self(), fifo ? SCHED_FIFO : SCHED_OTHER, &sp);
+  if (avoid_cpu < 0) return;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  const int n = static_cast<int>(std::thread::hardware_concurrency());
+  for (int c = 0; c < n; ++c)
+    if (c != avoid_cpu) CPU_SET(c, &set);
+  if (CPU_COUNT(&set) > 0) pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
+}
+
 bool fifo_permitted(int priority) {
   bool ok = false;
   std::thread probe([&] {

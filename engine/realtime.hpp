@@ -26,6 +26,11 @@ struct RealtimeResult {
 RealtimeResult setup_realtime_thread(RealtimeMode mode, int cpu, int priority = 80,
                                      size_t stack_bytes = 512 * 1024, bool lock_memory = true);
 
+/// For a worker thread created by a real-time thread: SCHED_FIFO at `priority` if its creator
+/// ran under SCHED_FIFO (it inherited the class), normal priority otherwise; and, if
+/// avoid_cpu ≥ 0, every CPU but that one. Never throws.
+void setup_worker_thread(int priority, int avoid_cpu);
+
 /// True if this process may run threads under SCHED_FIFO at `priority` (tried on a short-lived
 /// thread; nothing else changes). Used before asking a library, such as the DDS receive threads'
 /// configuration, for a real-time class it would otherwise fail to start without.

@@ -138,7 +138,7 @@ SolverSpec parse_solver(const Field& f) {
     s.fem_every_where = location_of(*f);
     read_count_or_words(m, "fem_every", {}, "a whole number of ticks >= 1", s.fem_every);
   }
-  m.read("haptic_model", s.haptic_compliant, kHapticModels);
+  m.read("haptic_model", s.haptic_secant, kHapticModels);
   if (const auto f = m.opt("time_budget")) {  // seconds > 0, or none (stored as 0)
     s.time_budget_where = location_of(*f);
     if (f->yaml().IsScalar() && f->yaml().Scalar() == "none")

@@ -68,7 +68,7 @@ struct SolverSpec {
   /// `haptic_model:` what the ticks between tissue steps render: `hold` (the default) — the
   /// last finished step's force; `secant` — that force plus the stiffness the last steps
   /// measured along the contact normal times the tool's motion since (engine/multirate.hpp).
-  bool haptic_compliant = false;
+  bool haptic_secant = false;
   SourceLocation fem_every_where;    ///< the `fem_every:` key (file only when absent)
   SourceLocation time_budget_where;  ///< the `time_budget:` key (file only when absent)
   SourceLocation where;             ///< the `solver:` section (file only when absent)

@@ -13,21 +13,20 @@
 namespace stroma {
 
 /// The wrench the model gives at tool centre p (torque held), into out.force, out.torque and
-/// out.stiffness.
-inline void render_haptic_model(const HapticModel& hm, const Vec3& p, bool compliant, ToolOutput& out) {
-  out.force = hm.force;
-  out.torque = hm.torque;
-  out.stiffness = hm.stiffness;
-  if (!hm.valid) {
+/// out.stiffness. A held model (haptic_model: hold) has zero stiffness: its force stays.
+inline void render_haptic_model(const HapticModel& hm, const Vec3& p, ToolOutput& out) {
+  if (!hm.valid) {  // no step has finished yet
     out.force = {0, 0, 0};
     out.torque = {0, 0, 0};
     out.stiffness = {};
     return;
   }
-  if (!compliant) return;
+  out.torque = hm.torque;
+  out.stiffness = hm.stiffness;
   const double d[3] = {p[0] - hm.center[0], p[1] - hm.center[1], p[2] - hm.center[2]};
   for (int i = 0; i < 3; ++i)
-    out.force[i] += hm.stiffness[3 * i] * d[0] + hm.stiffness[3 * i + 1] * d[1] + hm.stiffness[3 * i + 2] * d[2];
+    out.force[i] = hm.force[i] + hm.stiffness[3 * i] * d[0] + hm.stiffness[3 * i + 1] * d[1] +
+                   hm.stiffness[3 * i + 2] * d[2];
   // Contact pushes, never pulls: a tool withdrawn past where the linear model crosses zero
   // feels nothing (not an attraction) until the next step says otherwise.
   if (out.force[0] * hm.force[0] + out.force[1] * hm.force[1] + out.force[2] * hm.force[2] < 0) {

@@ -95,7 +95,7 @@ struct ToolCheck {
 ToolCheck validate_tool_command(const ToolSpec& spec, const ToolPose& last, double dt,
                                 const ToolPose& command);
 
-/// Secants a HapticModel keeps (their median is its stiffness; engine/multirate.hpp).
+/// Secants a HapticModel keeps: their median is its stiffness (engine/multirate.hpp).
 inline constexpr int kSecantWindow = 3;
 
 /// The local model a tool's force is rendered from between tissue steps (multirate,

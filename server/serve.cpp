@@ -462,7 +462,7 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
   if (model.fem_every > 1)
     j["multirate"] = {{"fem_every", model.fem_every}, {"tissue_steps", st.tissue_steps},
                       {"tissue_steps_late", st.tissue_steps_late},
-                      {"haptic_model", model.haptic_compliant ? "secant" : "hold"}};
+                      {"haptic_model", model.haptic_secant ? "secant" : "hold"}};
   j["ticks_degraded"] = st.degraded;
   j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
   j["tool_commands"] = {{"accepted", counters.accepted.load()}, {"clamped", counters.clamped.load()},
@@ -561,7 +561,7 @@ int run_serve(const ServeOptions& o) {
     if (model->fem_every > 1)
       spdlog::info("multirate: the tissue steps every {} ticks ({:.0f} Hz) on a worker thread; tools are rendered "
                    "every tick from the last finished step ({})",
-                   model->fem_every, 1.0 / model->fem_step, model->haptic_compliant ? "secant" : "hold");
+                   model->fem_every, 1.0 / model->fem_step, model->haptic_secant ? "secant" : "hold");
 
     wait_for_stop(o, sigs, loop);
     stop = true;

@@ -24,7 +24,7 @@ ScenarioSpec beam_with_probe(int fem_every, bool secant = true) {
   ScenarioSpec s = test_scenarios::cantilever_with_probe();
   s.solver.newton_iterations = 1;
   s.solver.fem_every = fem_every;
-  s.solver.haptic_compliant = secant;
+  s.solver.haptic_secant = secant;
   return s;
 }
 
@@ -88,8 +88,8 @@ TEST(Multirate, TicksRenderTheModelOfTheStepThatHasFinished) {
 // model missed: the secant model (force + measured stiffness × motion since) keeps those jumps
 // smaller than holding the force (measured: by a third).
 TEST(Multirate, SecantModelSmoothsTheForceBetweenSteps) {
-  auto run = [](bool compliant) {
-    ScenarioSpec spec = beam_with_probe(10, compliant);
+  auto run = [](bool secant) {
+    ScenarioSpec spec = beam_with_probe(10, secant);
     // A finer beam (2 mm elements) under a 6 mm sphere: enough contact points that the steps'
     // own force is smooth.
     spec.bodies[0].mesh_path = std::string(STROMA_SOURCE_DIR) + "/scenarios/meshes/beam_tet4_h2p000mm.msh";

@@ -781,10 +781,10 @@ TEST(ScenarioLoaderTools, BladeAndGrasperShapes) {
 }  // namespace
 TEST(ScenarioLoader, MultirateFemEveryAndHapticModel) {
   EXPECT_EQ(parse(kMinimal).solver.fem_every, 1);
-  EXPECT_FALSE(parse(kMinimal).solver.haptic_compliant);  // hold
+  EXPECT_FALSE(parse(kMinimal).solver.haptic_secant);  // hold
   const ScenarioSpec s = parse(kMinimal + "solver:\n  fem_every: 10\n  haptic_model: secant\n");
   EXPECT_EQ(s.solver.fem_every, 10);
-  EXPECT_TRUE(s.solver.haptic_compliant);
+  EXPECT_TRUE(s.solver.haptic_secant);
   EXPECT_EQ(s.solver.fem_every_where.line, 10);
   expect_error(kMinimal + "solver:\n  fem_every: 0\n", 10, "solver.fem_every", {"0"});
   expect_error(kMinimal + "solver:\n  fem_every: 2.5\n", 10, "solver.fem_every", {"whole number of ticks >= 1", "'2.5'"});

@@ -158,7 +158,7 @@ TEST(NoAllocation, MultirateTicksWithContact) {
   s.tools[0].spec.timeout = 100;
   s.tools[0].spec.max_speed = 1e3;
   s.solver.fem_every = 4;
-  s.solver.haptic_compliant = true;
+  s.solver.haptic_secant = true;
   const Watched w = run(s, 8, 400, [](const CompiledScenario& c, const State& st, int i) {
     return press_then_grasp(c, st, i, 408);
   });
