@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 
 long resolve_steps(const CompiledScenario& sc, const RunOptions& o) {
   const Model& m = *sc.model;
-  if (!o.replay.empty()) return static_cast<long>(read_session_log(o.replay).back().tick);
+  if (!o.replay.empty()) return static_cast<long>(read_session_log(o.replay, static_cast<int>(m.tools.size())).back().tick);
   if (o.steps) return *o.steps;
   if (o.duration) return std::lround(*o.duration / m.time_step);
   if (sc.spec.run.steps) return *sc.spec.run.steps;
@@ -305,7 +305,14 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
   const Model& m = *sc.model;
   // Tool inputs: a replayed session, else each scripted tool sampled at the tick's start time.
   std::vector<SessionEvent> replay;
-  if (!o.replay.empty()) replay = read_session_log(o.replay);
+  if (!o.replay.empty()) {
+    bool interrupted = false;
+    replay = read_session_log(o.replay, static_cast<int>(m.tools.size()), &interrupted);
+    if (interrupted)
+      spdlog::warn("{}: no 'end' line (the server was stopped without closing its log): replaying to its last "
+                   "checkpoint, tick {}",
+                   o.replay, replay.back().tick);
+  }
   size_t next_event = 0;
   std::vector<ToolInput> inputs;
   inputs.reserve(m.tools.size() + 16);

@@ -122,6 +122,13 @@ void PhysicsLoop::account_tick(const TickReport& r, RunState& rs, StatusWindow& 
   if (tick) {
     ++stats_.ticks;
     ++win.ticks;
+    if (opt_.record && !record_lost_ && stats_.ticks % kRecordMarkTicks == 0) {
+      // A checkpoint in the session log: a log cut short (the server killed) replays to it.
+      SessionEvent mark;
+      mark.kind = SessionEvent::Mark;
+      mark.tick = static_cast<int64_t>(stats_.ticks);
+      log(mark);
+    }
   }
   stats_.cg_iterations_total += static_cast<uint64_t>(r.solve.iterations);
   stats_.cg_iterations_max = std::max(stats_.cg_iterations_max, r.solve.iterations);

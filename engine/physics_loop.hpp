@@ -206,8 +206,12 @@ class PhysicsLoop {
   void publish_status(StatusFrame*& status, RunState rs, StatusWindow& win, double wall, double running_wall,
                       uint64_t controls_seen);
   void log(const SessionEvent& e) {
-    if (opt_.record && !record.push(e)) ++stats_.record_dropped;
+    if (opt_.record && !record.push(e)) {
+      ++stats_.record_dropped;
+      record_lost_ = true;  // no checkpoint after a lost event: the log replays only up to it
+    }
   }
+  bool record_lost_ = false;
   std::shared_ptr<const Model> model_;
   PhysicsLoopOptions opt_;
   State state_;

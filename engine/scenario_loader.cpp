@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fmt/format.h>
 #include <fstream>
 #include <initializer_list>
 #include <map>
@@ -31,6 +32,7 @@
 namespace stroma {
 namespace {
 
+using yaml::physical_range;
 using yaml::at_least;
 using yaml::Choices;
 using yaml::did_you_mean;
@@ -158,11 +160,20 @@ MaterialSpec parse_material(const Field& f) {
   nu.note_hi = "0.5 is incompressible; use 0.49 or lower";
   m.read("model", mat.model, kElementModels);
   m.read("rotation", mat.rotation, kRotationMethods);
-  m.require("young_modulus", mat.young_modulus, greater_than(0));
+  // Physical ranges wide enough for any consistent unit system (SI; mm-tonne-s, where water is
+  // 1e-9 t/mm^3 and 1 kPa is 1e-3 MPa; density 1 in mesh units) and narrow enough that
+  // masses, stiffnesses and their products with h and h^2 stay far from overflow and underflow.
+  m.require("young_modulus", mat.young_modulus,
+            physical_range(1e-9, 1e12, "soft tissue is 1e2..1e6 Pa, bone 2e10 Pa, diamond 1e12 Pa; 1 Pa is 1e-6 in MPa"));
   m.require("poisson_ratio", mat.poisson_ratio, nu);
-  m.require("density", mat.density, greater_than(0));
-  m.read("rayleigh_mass", mat.rayleigh_mass, at_least(0));
-  m.read("rayleigh_stiffness", mat.rayleigh_stiffness, at_least(0));
+  m.require("density", mat.density,
+            physical_range(1e-12, 1e6, "tissue is ~1000 kg/m^3 in SI, 1e-9 t/mm^3 in mm-tonne-s units"));
+  Range alpha = physical_range(0, 1e6, "");
+  alpha.note_hi = "1/s: a mass damping above 1e6/s stops any motion within a microsecond";
+  Range beta = physical_range(0, 1e3, "");
+  beta.note_hi = "s: tissue is 1e-3..1e-1 s";
+  m.read("rayleigh_mass", mat.rayleigh_mass, alpha);
+  m.read("rayleigh_stiffness", mat.rayleigh_stiffness, beta);
   if (auto f2 = m.opt("damage")) {
     const MapReader dm = f2->map({"measure", "warning", "onset", "rupture"});
     DamageSpec& d = mat.damage;
@@ -274,8 +285,12 @@ BodySpec parse_body(const MapReader& m, const Context& ctx) {
   m.require("mesh", mesh);
   b.mesh_where = location_of(m.req("mesh"));
   b.mesh_path = resolve_path(mesh, ctx.base_dir);
-  m.read("scale", b.scale, greater_than(0));
+  m.read("scale", b.scale, physical_range(1e-9, 1e9, "a unit conversion: 1e-3 turns mm into m"));
   m.read("translate", b.translate);
+  for (int k = 0; k < 3; ++k)
+    if (!(std::fabs(b.translate[k]) <= 1e9))
+      m.req("translate").fail(fmt::format("translate component {} = {} is out of range: must be within +-1e9", k,
+                                          format_number(b.translate[k])));
   b.material = parse_material(m.req("material"));
   for (const auto& item : m.list("fixed")) b.fixed.push_back(parse_fixed(item));
   for (const auto& item : m.list("loads")) b.loads.push_back(parse_load(item));
@@ -479,8 +494,15 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   ScenarioSpec s;
   s.file = ctx.file;
   m.read("name", s.name);
-  m.read("time_step", s.time_step, greater_than(0));
+  m.read("time_step", s.time_step,
+         physical_range(1e-7, 1.0, "s: a step above 1 s resolves no tissue motion; below 1e-7 s h^2*K vanishes "
+                                   "beside the mass"));
   m.read("gravity", s.gravity);
+  for (int k = 0; k < 3; ++k)
+    if (!(std::fabs(s.gravity[k]) <= 1e6))
+      m.req("gravity").fail(fmt::format("gravity component {} = {} is out of range: must be within +-1e6 (9.81 m/s^2 "
+                                        "is 9810 mm/s^2)",
+                                        k, format_number(s.gravity[k])));
   if (auto f = m.opt("solver")) s.solver = parse_solver(*f);
 
   const Field bodies = m.req("bodies");
@@ -529,23 +551,10 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
 
 ScenarioSpec parse_scenario(const std::string& yaml_text, const std::string& file,
                             const std::string& base_dir) {
-  std::vector<YAML::Node> docs;
-  try {
-    docs = YAML::LoadAll(yaml_text);
-  } catch (const YAML::Exception& e) {
-    const int line = e.mark.is_null() || e.mark.line < 0 ? 0 : e.mark.line + 1;
-    throw InputError(file, line, "", "YAML syntax error: " + e.msg);
-  }
-  if (docs.empty() || docs.front().IsNull())
-    throw InputError(file, 0, "", "scenario file is empty");
-  if (docs.size() > 1) {
-    const int l = docs[1].Mark().line;
-    throw InputError(file, l >= 0 ? l + 1 : 0, "",
-                     "expected a single YAML document, found " + std::to_string(docs.size()));
-  }
+  const YAML::Node root = yaml::load_single_document(yaml_text, file);
+  if (!root || root.IsNull()) throw InputError(file, 0, "", "scenario file is empty");
 
   const Context ctx{file, base_dir};
-  const YAML::Node& root = docs.front();
   const int root_line = root.Mark().line >= 0 ? root.Mark().line + 1 : 1;
   const Field root_field(&ctx.file, root, "", root_line);
   const MapReader m = root_field.map(

@@ -16,14 +16,21 @@ namespace stroma {
 
 /// One recorded event.
 struct SessionEvent {
-  enum Kind : uint8_t { Tool, Pause, Resume, Reset, Step, Shutdown, End, Deadline } kind = Tool;
+  /// Mark: a checkpoint — `tick` ticks had executed and every event before them is above it in
+  /// the log (the server writes one at least every kRecordMarkTicks; a log cut short by a crash
+  /// replays to its last mark).
+  enum Kind : uint8_t { Tool, Pause, Resume, Reset, Step, Shutdown, End, Deadline, Mark } kind = Tool;
   int64_t tick = 0;    ///< ticks executed before it took effect
   ToolInput input;     ///< Tool events
   uint32_t steps = 0;  ///< Step events
   /// Deadline events: the tick `tick` ran out of its time budget at this deadline check
   /// (tissue/deadline.hpp); the replay expires that tick's deadline at the same check.
   int64_t deadline_check = -1;
+  int line = 0;        ///< its line in the log (read_session_log), for messages
 };
+
+/// Ticks between the checkpoints (Mark events) a server writes into its session log.
+inline constexpr int64_t kRecordMarkTicks = 10;
 
 /// First lines of a session log (format version and column names).
 extern const char* const kSessionLogHeader;
@@ -31,8 +38,12 @@ extern const char* const kSessionLogHeader;
 /// One line (with '\n') for `e`.
 std::string format_session_event(const SessionEvent& e);
 
-/// Reads a session log. Throws InputError with file and line on a malformed line, on ticks
-/// that go backwards, and on a log without its final `end` line (an interrupted recording).
-std::vector<SessionEvent> read_session_log(const std::string& path);
+/// Reads a session log for a scenario with `tool_count` tools. Throws InputError with file, line
+/// and column on a malformed value (not a number, not finite, not a unit quaternion), on a tool
+/// index outside [0, tool_count) — the replay indexes the scenario's tools with it — and on
+/// ticks that go backwards. The result ends with an End event. A log without its `end` line (the
+/// server was killed) is cut at its last Mark: the events before it and an End at its tick, with
+/// `*interrupted` set; without any Mark it is an error. Marks are not returned.
+std::vector<SessionEvent> read_session_log(const std::string& path, int tool_count, bool* interrupted = nullptr);
 
 }  // namespace stroma

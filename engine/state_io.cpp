@@ -4,11 +4,13 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <string_view>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
 #include "tissue/input_error.hpp"
+#include "tissue/text_scan.hpp"
 
 namespace stroma {
 
@@ -26,27 +28,43 @@ void write_state_csv(const std::string& path, const State& s) {
 }
 
 std::vector<double> read_state_csv(const std::string& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, "", "cannot open reference state file");
+  static const char* const kFields[] = {"node", "x", "y", "z"};
   std::string line;
   int ln = 0;
   std::vector<double> x;
   while (std::getline(in, line)) {
     ++ln;
+    if (!line.empty() && line.back() == '\r') line.pop_back();  // written on Windows
     if (ln == 1) {
-      if (line.rfind("node,x,y,z", 0) != 0)
-        throw InputError(path, 1, "header", "expected 'node,x,y,z'");
+      if (line != "node,x,y,z")
+        throw InputError(path, 1, "header", fmt::format("expected 'node,x,y,z', got '{}'", text::clip(line)));
       continue;
     }
     if (line.empty()) continue;
-    long node;
-    double a, b, c;
-    char tail;
-    if (std::sscanf(line.c_str(), "%ld,%lf,%lf,%lf%c", &node, &a, &b, &c, &tail) != 4)
-      throw InputError(path, ln, "", fmt::format("expected 'node,x,y,z', got '{}'", line));
-    if (node != static_cast<long>(x.size() / 3))
+    std::vector<std::string_view> cells;
+    for (size_t b = 0;;) {
+      const size_t e = line.find(',', b);
+      cells.push_back(std::string_view(line).substr(b, e == std::string::npos ? std::string::npos : e - b));
+      if (e == std::string::npos) break;
+      b = e + 1;
+    }
+    if (cells.size() != 4)
+      throw InputError(path, ln, "", fmt::format("expected 4 values 'node,x,y,z', got {} in '{}'", cells.size(),
+                                                 text::clip(line)));
+    int64_t node = 0;
+    if (!text::parse_number(cells[0], node))
+      throw InputError(path, ln, "node", fmt::format("'{}' is not an integer", text::clip(cells[0])));
+    if (node != static_cast<int64_t>(x.size() / 3))
       throw InputError(path, ln, "node", fmt::format("expected node {}, got {}", x.size() / 3, node));
-    x.insert(x.end(), {a, b, c});
+    for (int k = 1; k < 4; ++k) {
+      double v = 0;
+      if (!text::parse_number(cells[k], v))
+        throw InputError(path, ln, kFields[k], fmt::format("'{}' is not a number", text::clip(cells[k])));
+      if (!std::isfinite(v)) throw InputError(path, ln, kFields[k], fmt::format("'{}' is not finite", text::clip(cells[k])));
+      x.push_back(v);
+    }
   }
   if (x.empty()) throw InputError(path, ln, "", "reference state has no nodes");
   return x;

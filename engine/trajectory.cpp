@@ -10,6 +10,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "tissue/input_error.hpp"
+#include "tissue/text_scan.hpp"
 
 namespace stroma {
 
@@ -37,9 +38,19 @@ std::array<double, 4> slerp(std::array<double, 4> a, std::array<double, 4> b, do
 void check_keys(const Trajectory& tr, const std::vector<int>& lines, const std::string& src) {
   if (tr.keys.empty()) throw InputError(src, 0, "keyframes", "trajectory has no keyframes");
   for (size_t i = 0; i < tr.keys.size(); ++i) {
-    const auto& q = tr.keys[i].pose.orientation;
+    const Keyframe& k = tr.keys[i];
+    // YAML reads .nan and .inf as numbers: refuse them here, field by field.
+    auto finite = [&](const char* field, std::initializer_list<double> values) {
+      for (double v : values)
+        if (!std::isfinite(v)) throw InputError(src, lines[i], field, fmt::format("{} is not finite", v));
+    };
+    finite("t", {k.t});
+    finite("position", {k.pose.position[0], k.pose.position[1], k.pose.position[2]});
+    finite("orientation", {k.pose.orientation[0], k.pose.orientation[1], k.pose.orientation[2], k.pose.orientation[3]});
+    finite("jaw", {k.pose.jaw});
+    const auto& q = k.pose.orientation;
     const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    if (std::fabs(n - 1) > 1e-3)
+    if (!(std::fabs(n - 1) <= 1e-3))
       throw InputError(src, lines[i], "orientation",
                        fmt::format("|q| = {:.6g} is not a unit quaternion (w, x, y, z)", n));
     if (i > 0 && !(tr.keys[i].t > tr.keys[i - 1].t))
@@ -109,7 +120,7 @@ Trajectory parse_trajectory_csv(const std::string& text, const std::string& src)
       char* end = nullptr;
       const double v = std::strtod(s.c_str(), &end);
       if (s.empty() || *end != '\0' || !std::isfinite(v))
-        throw InputError(src, ln, name, fmt::format("expected a finite number, got '{}'", s));
+        throw InputError(src, ln, name, fmt::format("expected a finite number, got '{}'", text::clip(s)));
       return v;
     };
     Keyframe k;
@@ -117,7 +128,10 @@ Trajectory parse_trajectory_csv(const std::string& text, const std::string& src)
     k.pose.position = {num("x", 0), num("y", 0), num("z", 0)};
     k.pose.orientation = {num("qw", 1), num("qx", 0), num("qy", 0), num("qz", 0)};
     k.pose.jaw = num("jaw", 0);
-    k.pose.buttons = static_cast<uint32_t>(num("buttons", 0));
+    const double buttons = num("buttons", 0);
+    if (!(buttons >= 0 && buttons <= 4294967295.0 && buttons == std::floor(buttons)))
+      throw InputError(src, ln, "buttons", fmt::format("{} is not a button mask (an integer in [0, 2^32))", buttons));
+    k.pose.buttons = static_cast<uint32_t>(buttons);
     tr.keys.push_back(k);
     lines.push_back(ln);
   }
@@ -140,41 +154,49 @@ Trajectory load_trajectory(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throw InputError(path, e.mark.line + 1, "", "YAML syntax error: " + e.msg);
   }
-  const YAML::Node keys = root["keyframes"];
-  if (!keys || !keys.IsSequence())
-    throw InputError(path, 1, "keyframes", "expected a list 'keyframes: [{t, position, orientation, jaw}, ...]'");
   Trajectory tr;
   std::vector<int> lines;
-  for (size_t i = 0; i < keys.size(); ++i) {
-    const YAML::Node k = keys[i];
-    const int ln = k.Mark().line + 1;
-    const std::string field = fmt::format("keyframes[{}]", i);
-    if (!k.IsMap()) throw InputError(path, ln, field, "expected a map {t, position, ...}");
-    for (const auto& kv : k) {
-      const std::string key = kv.first.as<std::string>();
-      if (key != "t" && key != "position" && key != "orientation" && key != "jaw" && key != "buttons")
-        throw InputError(path, kv.first.Mark().line + 1, field + "." + key,
-                         "unknown key (allowed: t, position, orientation, jaw, buttons)");
-    }
-    Keyframe kf;
-    try {
-      if (!k["t"] || !k["position"]) throw InputError(path, ln, field, "needs 't' and 'position'");
-      kf.t = k["t"].as<double>();
-      const auto p = k["position"].as<std::vector<double>>();
-      if (p.size() != 3) throw InputError(path, ln, field + ".position", "expected 3 numbers");
-      kf.pose.position = {p[0], p[1], p[2]};
-      if (k["orientation"]) {
-        const auto q = k["orientation"].as<std::vector<double>>();
-        if (q.size() != 4) throw InputError(path, ln, field + ".orientation", "expected 4 numbers (w, x, y, z)");
-        kf.pose.orientation = {q[0], q[1], q[2], q[3]};
+  try {  // anything yaml-cpp still throws (a node of an unexpected kind) is a bad input too
+    if (!root.IsMap())
+      throw InputError(path, 1, "", "expected a map 'keyframes: [{t, position, orientation, jaw}, ...]'");
+    const YAML::Node keys = root["keyframes"];
+    if (!keys || !keys.IsSequence())
+      throw InputError(path, 1, "keyframes", "expected a list 'keyframes: [{t, position, orientation, jaw}, ...]'");
+    for (size_t i = 0; i < keys.size(); ++i) {
+      const YAML::Node k = keys[i];
+      const int ln = k.Mark().line + 1;
+      const std::string field = fmt::format("keyframes[{}]", i);
+      if (!k.IsMap()) throw InputError(path, ln, field, "expected a map {t, position, ...}");
+      for (const auto& kv : k) {
+        if (!kv.first.IsScalar())
+          throw InputError(path, kv.first.Mark().line + 1, field, "expected a key name, got a list or map");
+        const std::string key = kv.first.Scalar();
+        if (key != "t" && key != "position" && key != "orientation" && key != "jaw" && key != "buttons")
+          throw InputError(path, kv.first.Mark().line + 1, field + "." + key,
+                           "unknown key (allowed: t, position, orientation, jaw, buttons)");
       }
-      if (k["jaw"]) kf.pose.jaw = k["jaw"].as<double>();
-      if (k["buttons"]) kf.pose.buttons = k["buttons"].as<uint32_t>();
-    } catch (const YAML::Exception& e) {
-      throw InputError(path, ln, field, "expected numbers: " + e.msg);
+      Keyframe kf;
+      try {
+        if (!k["t"] || !k["position"]) throw InputError(path, ln, field, "needs 't' and 'position'");
+        kf.t = k["t"].as<double>();
+        const auto p = k["position"].as<std::vector<double>>();
+        if (p.size() != 3) throw InputError(path, ln, field + ".position", "expected 3 numbers");
+        kf.pose.position = {p[0], p[1], p[2]};
+        if (k["orientation"]) {
+          const auto q = k["orientation"].as<std::vector<double>>();
+          if (q.size() != 4) throw InputError(path, ln, field + ".orientation", "expected 4 numbers (w, x, y, z)");
+          kf.pose.orientation = {q[0], q[1], q[2], q[3]};
+        }
+        if (k["jaw"]) kf.pose.jaw = k["jaw"].as<double>();
+        if (k["buttons"]) kf.pose.buttons = k["buttons"].as<uint32_t>();
+      } catch (const YAML::Exception& e) {
+        throw InputError(path, ln, field, "expected numbers: " + e.msg);
+      }
+      tr.keys.push_back(kf);
+      lines.push_back(ln);
     }
-    tr.keys.push_back(kf);
-    lines.push_back(ln);
+  } catch (const YAML::Exception& e) {
+    throw InputError(path, e.mark.line + 1, "", "unexpected YAML: " + e.msg);
   }
   check_keys(tr, lines, path);
   return tr;

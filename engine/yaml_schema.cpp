@@ -7,6 +7,8 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -14,6 +16,10 @@
 #include <system_error>
 #include <utility>
 #include <vector>
+
+#include <yaml-cpp/anchor.h>
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
 
 namespace stroma::yaml {
 namespace {
@@ -90,10 +96,84 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
 }
 
 std::string format_number(double v) {
+  // Shortest digits that read back as v; large and tiny magnitudes in scientific notation
+  // (1e+12, not 1000000000000).
+  const double a = std::fabs(v);
+  if (std::isfinite(v) && v != 0 && (a >= 1e7 || a < 1e-4)) {
+    char buf[40];
+    for (int p = 1; p <= 17; ++p) {
+      std::snprintf(buf, sizeof buf, "%.*g", p, v);
+      if (std::strtod(buf, nullptr) == v) break;
+    }
+    return buf;
+  }
   std::ostringstream os;
   os.precision(15);
   os << v;
   return os.str();
+}
+
+namespace {
+
+/// Records where each document starts and whether its root is null (no content).
+class DocumentProbe : public YAML::EventHandler {
+ public:
+  struct Document {
+    int line = 0;         ///< 1-based line of its first node (0: none)
+    bool null_root = true;
+  };
+  std::vector<Document> docs;
+  void OnDocumentStart(const YAML::Mark&) override { docs.emplace_back(); depth_ = 0; }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& m, YAML::anchor_t) override { node(m, false); }
+  void OnAlias(const YAML::Mark& m, YAML::anchor_t) override { node(m, true); }
+  void OnScalar(const YAML::Mark& m, const std::string&, YAML::anchor_t, const std::string&) override { node(m, true); }
+  void OnSequenceStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(m, true);
+    ++depth_;
+  }
+  void OnSequenceEnd() override { --depth_; }
+  void OnMapStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(m, true);
+    ++depth_;
+  }
+  void OnMapEnd() override { --depth_; }
+
+ private:
+  void node(const YAML::Mark& m, bool content) {
+    if (docs.empty() || depth_ > 0) return;
+    docs.back().line = m.line >= 0 ? m.line + 1 : 0;
+    docs.back().null_root = !content;
+  }
+  int depth_ = 0;
+};
+
+}  // namespace
+
+YAML::Node load_single_document(const std::string& text, const std::string& file) {
+  auto syntax_error = [&](const YAML::Exception& e) {
+    const int line = e.mark.is_null() || e.mark.line < 0 ? 0 : e.mark.line + 1;
+    return InputError(file, line, "", "YAML syntax error: " + e.msg);
+  };
+  DocumentProbe probe;
+  try {
+    std::istringstream in(text);
+    YAML::Parser parser(in);
+    for (int d = 0; d < 2 && parser.HandleNextDocument(probe); ++d) {
+    }
+  } catch (const YAML::Exception& e) {
+    throw syntax_error(e);
+  }
+  if (probe.docs.size() > 1) {
+    if (probe.docs[0].null_root && probe.docs[1].null_root)  // the parser is stuck on a token
+      throw InputError(file, probe.docs[1].line, "", "YAML syntax error: cannot parse the text here");
+    throw InputError(file, probe.docs[1].line, "", "expected a single YAML document, found another one here");
+  }
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw syntax_error(e);
+  }
 }
 
 std::string child_path(const std::string& parent, const std::string& key) {
@@ -130,6 +210,7 @@ Range any_value() { return {}; }
 Range greater_than(double lo) { return Range{lo, std::nullopt, false, false, {}, {}}; }
 Range at_least(double lo) { return Range{lo, std::nullopt, true, false, {}, {}}; }
 Range open_interval(double lo, double hi) { return Range{lo, hi, false, false, {}, {}}; }
+Range physical_range(double lo, double hi, std::string why) { return Range{lo, hi, true, true, why, why}; }
 
 // ---------------------------------------------------------------------------------------------
 // Field

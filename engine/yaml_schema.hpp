@@ -43,6 +43,13 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
 /// A number as messages show it: up to 15 significant digits, no trailing zeros ("0.49", "1e-06").
 std::string format_number(double v);
 
+/// The one YAML document of `text` (a scenario file). Throws InputError(file, line, "", ...) on
+/// a syntax error, on a second document, and on input the parser cannot get through. yaml-cpp
+/// 0.7's LoadAll loops for ever, allocating, on some malformed input (a document that consumes
+/// no token, e.g. one starting with ',': jbeder/yaml-cpp#1040, fixed upstream by #1319, not in
+/// Debian 12's 0.7.0); documents are counted here with a bounded parse instead.
+YAML::Node load_single_document(const std::string& text, const std::string& file);
+
 /// Path of map key `key` below `parent`: "parent.key", or just "key" below the root (empty path).
 std::string child_path(const std::string& parent, const std::string& key);
 
@@ -77,6 +84,8 @@ Range greater_than(double lo);
 Range at_least(double lo);
 /// lo < v < hi.
 Range open_interval(double lo, double hi);
+/// lo <= v <= hi, with the reason for the bounds shown on either side ("tissue is ...").
+Range physical_range(double lo, double hi, std::string why);
 
 // ---------------------------------------------------------------------------------------------
 // Enumerations

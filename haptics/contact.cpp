@@ -230,6 +230,17 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, ToolOutput& out, const Co
   out = ToolOutput{};
   out.spring_begin = out.spring_end = static_cast<int32_t>(springs.size());
   if (spec.shape == ToolShape::None || ts.last_command_time < 0) return;
+  if (!ts.active) {
+    // Idle (its client fell silent for longer than `timeout`, e.g. it died mid-press): the tool
+    // lets go and leaves the tissue — no grasp, no contact, no force — rather than holding a
+    // press nobody controls. Commands resuming bring it back from the pose they command.
+    ts.grasped = 0;
+    ts.jaw_closed = false;
+    ts.has_center = false;
+    ts.force = {0, 0, 0};
+    ts.stiffness = {};
+    return;
+  }
   const double* c = tool_center(spec, ts).data();
   if (spec.can_grasp && grasp(surf, spec, ts, out, c, x, bvh, springs)) {  // holding tissue: no tip contact
     out.spring_end = static_cast<int32_t>(springs.size());

@@ -34,7 +34,8 @@ inline constexpr double kContactSamplesPerRadius = 4.0;
 /// proxy (coupling), fills `out` (contacts, energy, and force, torque and stiffness as found at
 /// x) and appends the tool's springs — recording their range in out — dropping, and counting,
 /// beyond capacity. `v` (node velocities) and `dt` are for friction (relative sliding
-/// velocity); v may be null when the tool has no friction.
+/// velocity); v may be null when the tool has no friction. A tool never commanded, or idle
+/// (ToolState::active false: silent past its `timeout`), touches nothing and releases its grasp.
 void tool_contact(const ToolSpec& spec, ToolState& ts, ToolOutput& out, const ContactSurface& surf,
                   const TriangleBvh& bvh, const double* x, const double* v, double dt,
                   std::vector<ContactSpring>& springs);

@@ -19,6 +19,8 @@ PACKAGES=(
   libfcl-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # the sanitizer stage and the fuzz targets: clang with its runtimes (ASan, UBSan, libFuzzer)
+  clang libclang-rt-14-dev
   # off-screen rendering (OSMesa: software OpenGL, no display), PNG frames, MP4 video
   libosmesa6-dev libpng-dev ffmpeg
   # the peer in the accuracy benchmark (Bullet's soft bodies), meshes from .geo files, plots

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "engine/realtime.hpp"
+#include "server/loopback_bind.hpp"
 
 namespace stroma {
 
@@ -62,6 +63,9 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file,
     p.config_source = "built-in loopback configuration (lo only, no multicast)";
     if (receive_priority > 0) p.config_source += "; receive thread at normal priority (SCHED_FIFO denied)";
   }
+  // The built-in configuration promises loopback only: its sockets are bound to loopback too
+  // (server/loopback_bind.hpp), not just told to use "lo".
+  if (config_file.empty() && !(std::getenv("CYCLONEDDS_URI") && *std::getenv("CYCLONEDDS_URI"))) enable_loopback_bind();
   if (!xml.empty()) {
     const dds_entity_t d = dds_create_domain(static_cast<dds_domainid_t>(domain_id), xml.c_str());
     // A domain already created in this process (a second participant) keeps its configuration.

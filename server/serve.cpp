@@ -53,8 +53,36 @@ struct Endpoints {
 };
 
 /// Counters of the input thread, published in SimStatus.
+/// Every command received is accepted, clamped (then applied), rejected or superseded:
+/// accepted + clamped + rejected + superseded = received.
 struct InputCounters {
   std::atomic<uint64_t> accepted{0}, clamped{0}, rejected{0}, controls{0}, controls_dropped{0};
+  /// Commands the reader's keep-last history replaced by a newer one of the same tool before
+  /// this thread took them: counted from the gaps in each writer's seq (DDS.md: a client's seq
+  /// increases by one per command), so never seen, neither accepted nor rejected.
+  std::atomic<uint64_t> superseded{0};
+};
+
+/// The last seq taken from each writer of ToolCommand (a handful: clients of the tools).
+class WriterSeqs {
+ public:
+  /// Commands between the last one taken from `writer` and `seq` that were never taken (0 for
+  /// a writer's first command, and when seq does not increase: a restarted client).
+  uint64_t gap(dds_instance_handle_t writer, uint64_t seq) {
+    for (auto& [h, last] : last_)
+      if (h == writer) {
+        const uint64_t g = seq > last + 1 ? seq - last - 1 : 0;
+        last = seq;
+        return g;
+      }
+    if (last_.size() >= kMaxWriters) last_.erase(last_.begin());  // bounded: forget the oldest
+    last_.emplace_back(writer, seq);
+    return 0;
+  }
+
+ private:
+  static constexpr size_t kMaxWriters = 64;
+  std::vector<std::pair<dds_instance_handle_t, uint64_t>> last_;
 };
 
 Endpoints create_endpoints(dds_entity_t pp) {
@@ -186,8 +214,9 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
       msg.kinetic_energy = st.kinetic_energy;
       msg.elastic_energy = st.elastic_energy;
       msg.controls_received = in.controls.load();
-      msg.commands_accepted = in.accepted.load();
+      msg.commands_accepted = in.accepted.load() + in.clamped.load();
       msg.commands_rejected = in.rejected.load();
+      msg.commands_superseded = in.superseded.load();
       msg.budget_ms = st.budget_ms;
       msg.ticks_over_budget = st.over_budget;
       msg.ticks_degraded = st.degraded;
@@ -213,6 +242,7 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
   std::vector<bool> have_last(m.tools.size(), false);
   void* samples[16] = {nullptr};
   dds_sample_info_t infos[16];
+  WriterSeqs seqs;
   while (!stop.load() && !loop.finished.load()) {
     dds_waitset_wait(ep.waitset, nullptr, 0, DDS_MSECS(100));
     dds_return_t n = dds_take(ep.control_reader, samples, infos, 16, 16);
@@ -237,6 +267,7 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
     for (dds_return_t i = 0; i < n; ++i) {
       if (!infos[i].valid_data) continue;
       const auto* c = static_cast<const stroma_ToolCommand*>(samples[i]);
+      if (const uint64_t g = seqs.gap(infos[i].publication_handle, c->seq)) cnt.superseded.fetch_add(g);
       int tool = -1;
       for (size_t t = 0; t < m.tools.size(); ++t)
         if (m.tools[t].name == c->tool) tool = static_cast<int>(t);
@@ -311,24 +342,40 @@ void feedback_thread(PhysicsLoop& loop, const Endpoints& ep) {
   }
 }
 
-/// Recorder thread: drains the physics loop's session events into the log file.
+/// Recorder thread: drains the physics loop's session events into the log file, and flushes it
+/// to the kernel after every drain (every 10 ms): a server killed outright (SIGKILL, a crash)
+/// leaves a log that replays to its last checkpoint, at most ~20 ms before the kill. Of the
+/// checkpoints (a Mark every kRecordMarkTicks) only those followed by an event, and the last of a
+/// drain, are written: the log grows with the session's events, not with its ticks.
 void recorder_thread(PhysicsLoop& loop, std::FILE* f, bool& io_error) {
   SessionEvent e;
-  bool saw_end = false;
+  SessionEvent mark;
+  bool mark_pending = false;
+  auto write = [&](const SessionEvent& ev) {
+    const std::string line = format_session_event(ev);
+    if (std::fwrite(line.data(), 1, line.size(), f) != line.size()) io_error = true;
+  };
   auto drain = [&] {
     while (loop.record.pop(e)) {
-      saw_end = saw_end || e.kind == SessionEvent::End;
+      if (e.kind == SessionEvent::Mark) {
+        mark = e;
+        mark_pending = true;
+        continue;
+      }
       if (e.kind == SessionEvent::End && loop.stats().record_dropped > 0) continue;  // unreplayable
-      const std::string line = format_session_event(e);
-      if (std::fwrite(line.data(), 1, line.size(), f) != line.size()) io_error = true;
+      if (mark_pending) write(mark);
+      mark_pending = false;
+      write(e);
     }
+    if (mark_pending) write(mark);
+    mark_pending = false;
+    if (std::fflush(f) != 0) io_error = true;
   };
   while (!loop.finished.load()) {
     drain();
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   drain();
-  (void)saw_end;
 }
 
 nlohmann::ordered_json histogram_json(const LatencyHistogram& h) {
@@ -465,8 +512,12 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
                       {"haptic_model", model.haptic_secant ? "secant" : "hold"}};
   j["ticks_degraded"] = st.degraded;
   j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
-  j["tool_commands"] = {{"accepted", counters.accepted.load()}, {"clamped", counters.clamped.load()},
-                        {"rejected", counters.rejected.load()}};
+  {
+    const uint64_t a = counters.accepted.load(), c = counters.clamped.load(), r = counters.rejected.load(),
+                   s = counters.superseded.load();
+    j["tool_commands"] = {{"received", a + c + r + s}, {"accepted", a}, {"clamped", c}, {"rejected", r},
+                          {"superseded", s}};
+  }
   j["status_messages"] = status_sent;
   if (model.has_damage) {
     const State& fs = loop.state();

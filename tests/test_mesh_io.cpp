@@ -3,6 +3,8 @@
 // the file, the line, the section and the right words.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -412,6 +414,52 @@ TEST(MeshIoErrors, VtuCompressedBinary) {
       "</Points></Piece></UnstructuredGrid></VTKFile>\n");
   expect_input_error([&] { read_vtu(in, "z.vtu"); }, "z.vtu", 4, "Points",
                      {"compressed binary data", "vtkZLibDataCompressor"});
+}
+
+}  // namespace
+}  // namespace stroma
+
+namespace stroma {
+namespace {
+
+// Non-finite coordinates: refused by every reader, with the line where there is one (they used
+// to load and fail later, without a line).
+TEST(MeshIoErrors, NonFiniteCoordinatesAreRefusedWhereTheyAreRead) {
+  const std::string gmsh =
+      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 nan 0\n4 0 0 1\n$EndNodes\n"
+      "$Elements\n1\n1 4 0 1 2 3 4\n$EndElements\n";
+  const std::string gpath = write_temp_file("nan.msh", gmsh);
+  expect_file_error(gpath, 8, "$Nodes", {"non-finite", "'nan'"});
+  const std::string vtk =
+      "# vtk DataFile Version 3.0\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n0 0 0 1 0 0\n0 1 0 0 0 inf\n"
+      "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n";
+  const std::string vpath = write_temp_file("inf.vtk", vtk);
+  expect_file_error(vpath, 7, "POINTS", {"non-finite", "'inf'"});
+  // Binary data has no line: the point is named instead.
+  std::string bin = "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n";
+  for (double c : {0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0, 0.0, 1.0}) put_big_endian(bin, c);
+  bin += "\nCELLS 1 5\n";
+  for (int32_t v : {4, 0, 1, 2, 3}) put_big_endian(bin, v);
+  bin += "\nCELL_TYPES 1\n";
+  put_big_endian(bin, int32_t{10});
+  bin += "\n";
+  const std::string bpath = write_temp_file("nan_binary.vtk", bin);
+  expect_file_error(bpath, 0, "points", {"point 2", "non-finite"});
+}
+
+// Binary junk in an error is escaped and capped, never echoed raw.
+TEST(MeshIoErrors, QuotedFileTextIsEscapedAndCapped) {
+  std::string junk = "# vtk DataFile Version 3.0\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 1 double\n";
+  junk += std::string("\x01\x02\xff") + std::string(100000, 'z') + "\n";
+  try {
+    load_tet_mesh(write_temp_file("junk.vtk", junk));
+    ADD_FAILURE() << "accepted junk";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("\\x01\\x02\\xff"), std::string::npos) << what;
+    EXPECT_LT(what.size(), 400u) << what;
+    for (char c : what) EXPECT_TRUE(c == '\n' || (c >= 0x20 && c < 0x7f)) << "raw byte in: " << what;
+  }
 }
 
 }  // namespace

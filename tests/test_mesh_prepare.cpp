@@ -224,5 +224,21 @@ TEST(MeshPrepare, BoundaryOfBoxHasNoInteriorFaces) {
   EXPECT_NEAR(div_volume, 12.0, 1e-11);
 }
 
+// Every node at one point: the longest edge is 0 and 0 ≥ ratio·0³ held, so the mesh passed and
+// the visual mapping's grid search then hung. Degenerate, naming the first element.
+TEST(MeshPrepare, AllNodesAtOnePointIsDegenerate) {
+  for (double at : {0.0, 0.25}) {
+    TetMesh m;
+    m.nodes = {Vec3{at, at, at}, Vec3{at, at, at}, Vec3{at, at, at}, Vec3{at, at, at}};
+    m.tets = {Tet{0, 1, 2, 3}};
+    m.source = "point.msh";
+    const std::string msg = message_of(m);
+    EXPECT_NE(msg.find("degenerate tetrahedron 0"), std::string::npos) << msg;
+  }
+  // Edges so short that l³ underflows: degenerate too (the element's inverse shape is infinite).
+  TetMesh tiny = single_tet(1e-120);
+  EXPECT_THROW(prepare_mesh(tiny), InputError);
+}
+
 }  // namespace
 }  // namespace stroma

@@ -116,7 +116,20 @@ TEST(Runner, StateCsvErrorsNameFileAndLine) {
     FAIL();
   } catch (const InputError& e) {
     EXPECT_EQ(e.line(), 3);
+    EXPECT_EQ(e.field(), "y");
     EXPECT_NE(std::string(e.what()).find("stroma_bad_state.csv:3"), std::string::npos) << e.what();
+  }
+  // A reference written on Windows (CRLF) reads like the original, and a NaN is refused with
+  // its field (a CRLF file was refused quoting a line that looked valid).
+  std::ofstream(p, std::ios::binary) << "node,x,y,z\r\n0,1,2,3\r\n1,4,5,6\r\n";
+  EXPECT_EQ(read_state_csv(p.string()), (std::vector<double>{1, 2, 3, 4, 5, 6}));
+  std::ofstream(p, std::ios::binary) << "node,x,y,z\n0,1,2,3\n1,4,5,nan\n";
+  try {
+    read_state_csv(p.string());
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 3);
+    EXPECT_EQ(e.field(), "z");
   }
   fs::remove(p);
 }

@@ -111,3 +111,60 @@ TEST(ScriptedTool, HeadlessRunFollowsTheTrajectoryAndGoesIdleAfterTimeout) {
   EXPECT_FALSE(idle.final_state.tools[0].active);
   EXPECT_EQ(idle.final_state.tools[0].pose.position, want.position);
 }
+
+namespace {
+
+/// Largest nodal distance between two position arrays.
+double max_distance(const std::vector<double>& a, const std::vector<double>& b) {
+  double worst = 0;
+  for (size_t i = 0; i + 2 < a.size(); i += 3)
+    worst = std::max(worst, std::hypot(a[i] - b[i], a[i + 1] - b[i + 1], a[i + 2] - b[i + 2]));
+  return worst;
+}
+
+}  // namespace
+
+// A client that dies mid-press (issue 15 §3): its tool held the press for ever — the tissue's
+// energy stayed at the pressed level. After `timeout` the idle tool lets go and the tissue
+// returns to where it rests without a tool.
+TEST(ScriptedTool, IdleToolReleasesTheTissueAfterItsTimeout) {
+  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/physical/liver_16cm.yaml");
+  const CompiledScenario sc = compile_scenario(spec);
+  ASSERT_DOUBLE_EQ(sc.model->tools.at(0).timeout, 0.5);
+  const Trajectory press = load_trajectory(std::string(STROMA_SOURCE_DIR) + "/scenarios/trajectories/physical_liver_press.yaml");
+  const double dt = sc.model->time_step;
+  // The client commands the press for 2 s (12 mm into the 16 cm liver), then dies.
+  std::string log = kSessionLogHeader;
+  for (int k = 0; k < 2000; ++k) {
+    SessionEvent e;
+    e.kind = SessionEvent::Tool;
+    e.tick = k;
+    e.input.seq = static_cast<uint64_t>(k + 1);
+    e.input.pose = press.sample(k * dt);
+    log += format_session_event(e);
+  }
+  auto run_to = [&](int64_t ticks, const std::string& body) {
+    SessionEvent end;
+    end.kind = SessionEvent::End;
+    end.tick = ticks;
+    RunOptions o;
+    o.progress = false;
+    o.metrics = false;
+    o.replay = write_temp("stroma_dead_client.log", body + format_session_event(end));
+    return run_headless(sc, o);
+  };
+  const RunResult pressed = run_to(2000, log);
+  ASSERT_GT(std::hypot(pressed.final_state.tools[0].force[0], pressed.final_state.tools[0].force[1], pressed.final_state.tools[0].force[2]), 0.1) << "the probe is not pressing";
+  const RunResult rest_pressed = run_to(2000, kSessionLogHeader);  // the same ticks, no tool
+  const double press_depth = max_distance(pressed.final_state.tissue.x, rest_pressed.final_state.tissue.x);
+  ASSERT_GT(press_depth, 0.005);  // m
+  // 0.5 s of silence → idle; then 2 s to relax.
+  const RunResult released = run_to(4500, log);
+  const RunResult rest = run_to(4500, kSessionLogHeader);
+  const ToolState& t = released.final_state.tools[0];
+  EXPECT_FALSE(t.active);
+  EXPECT_EQ(t.grasped, 0);
+  EXPECT_EQ(t.force, (Vec3{0, 0, 0}));
+  EXPECT_EQ(t.pose.position, pressed.final_state.tools[0].pose.position);  // the pose is held, not used
+  EXPECT_LT(max_distance(released.final_state.tissue.x, rest.final_state.tissue.x), 0.05 * press_depth);
+}

@@ -66,3 +66,40 @@ TEST(Trajectory, LoopingRepeatsTheScriptFromItsStart) {
   EXPECT_DOUBLE_EQ(tr.sample_looping(7.25).position[0], 1.25);
   EXPECT_DOUBLE_EQ(tr.sample(7.25).position[0], 2.0) << "without looping the last pose is held";
 }
+
+// YAML reads .nan and .inf as numbers; the unit-quaternion test |n − 1| > 1e-3 was false for a
+// NaN. Every non-finite value is refused with its keyframe's line and field.
+TEST(Trajectory, NonFiniteValuesAreRefusedWithLineAndField) {
+  struct Case {
+    const char* key;
+    const char* field;
+  };
+  const Case cases[] = {{"t: .nan", "t"},
+                        {"position: [0, .inf, 0]", "position"},
+                        {"orientation: [.nan, 0, 0, 0]", "orientation"},
+                        {"jaw: -.inf", "jaw"}};
+  for (const Case& c : cases) {
+    std::string key = c.key;
+    std::string yaml = "keyframes:\n  - {t: 0, position: [0, 0, 0]}\n  - {";
+    yaml += key.rfind("t:", 0) == 0 ? key + ", position: [0, 0, 0]" : "t: 1, " + key + (key.rfind("position", 0) == 0 ? "" : ", position: [0, 0, 0]");
+    yaml += "}\n";
+    const std::string path = write_temp("stroma_traj_nan.yaml", yaml);
+    try {
+      load_trajectory(path);
+      ADD_FAILURE() << "accepted: " << yaml;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.line(), 3) << e.what();
+      EXPECT_EQ(e.field(), c.field) << e.what();
+    }
+  }
+  // CSV: a button mask must be an integer (a negative or huge value was cast blindly).
+  for (const char* b : {"-1", "1e20", "2.5"}) {
+    try {
+      parse_trajectory_csv(std::string("t,x,y,z,buttons\n0,0,0,0,") + b + "\n", "b.csv");
+      ADD_FAILURE() << "accepted buttons " << b;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.line(), 2);
+      EXPECT_EQ(e.field(), "buttons");
+    }
+  }
+}

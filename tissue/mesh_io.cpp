@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <bit>
 #include <charconv>
 #include <cstdint>
@@ -111,6 +112,7 @@ class Scanner {
     if (tok.empty()) fail_missing(what);
     double v = 0;
     if (!parse_number(tok, v)) ctx_->fail(at, fmt::format("non-numeric {} '{}'", what, clip(tok)));
+    if (!std::isfinite(v)) ctx_->fail(at, fmt::format("non-finite {} '{}'", what, clip(tok)));
     return v;
   }
   /// A count from a section header: an integer in [0, INT32_MAX] (indices are int32_t).
@@ -195,6 +197,8 @@ std::vector<T> read_values(const ParseContext& ctx, Scanner& sc, size_t count,
     const std::string_view tok = sc.token();
     T v{};
     if (!tok.empty() && parse_number(tok, v)) {
+      if constexpr (std::is_floating_point_v<T>)
+        if (!std::isfinite(v)) ctx.fail(at, fmt::format("non-finite value '{}' in {}", clip(tok), what));
       out.push_back(v);
       continue;
     }
@@ -1221,7 +1225,16 @@ template <class Reader>
 TetMesh read_with(std::istream& in, const std::string& source) {
   const std::string text = slurp(in);
   ParseContext ctx{text, source, {}};
-  return Reader(ctx).read();
+  TetMesh mesh = Reader(ctx).read();
+  // Text values were checked where they were read (with their line); binary ones are checked
+  // here, so no reader hands on a NaN or an infinity.
+  for (size_t i = 0; i < mesh.nodes.size(); ++i) {
+    const Vec3& p = mesh.nodes[i];
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      throw InputError(source, 0, "points",
+                       fmt::format("point {} has a non-finite coordinate ({}, {}, {})", i, p[0], p[1], p[2]));
+  }
+  return mesh;
 }
 
 }  // namespace

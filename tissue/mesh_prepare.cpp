@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <unordered_map>
 
 #include <fmt/format.h>
@@ -92,7 +93,10 @@ PreparedMesh prepare_mesh(TetMesh mesh, double degenerate_ratio) {
     const double v = signed_volume(mesh.nodes[t[0]], mesh.nodes[t[1]], mesh.nodes[t[2]],
                                    mesh.nodes[t[3]]);
     const double l = longest_edge(mesh, t);
-    if (!(std::fabs(v) >= degenerate_ratio * l * l * l) || !std::isfinite(v))
+    // A zero longest edge (every node at one point) must not pass as 0 >= 0, nor an l³ that
+    // underflows: the element's inverse rest shape would be infinite.
+    const double l3 = l * l * l;
+    if (!(l3 >= std::numeric_limits<double>::min()) || !(std::fabs(v) >= degenerate_ratio * l3) || !std::isfinite(v))
       throw InputError(mesh.source, 0, "",
                        fmt::format("degenerate tetrahedron {} (element {} in the file): volume "
                                    "{:.3g} is below {:.1g} x (longest edge {:.3g})^3",

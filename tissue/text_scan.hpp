@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <string>
 #include <string_view>
 
@@ -21,10 +22,26 @@ inline bool iequals(std::string_view a, std::string_view b) {
                                             [](char x, char y) { return lower(x) == lower(y); });
 }
 
-/// Quotes file text in a message without flooding it (binary junk, long lines).
-inline std::string clip(std::string_view s) {
-  constexpr size_t kMax = 40;
-  return s.size() <= kMax ? std::string(s) : std::string(s.substr(0, kMax)) + "...";
+/// Quotes file text in a message without flooding it or the terminal: at most `max` bytes of it
+/// (then "..." and how many more), every byte that is not printable ASCII written as \xHH
+/// (binary junk, a stray CR: "\x0d" says why a line that looks valid was refused).
+inline std::string clip(std::string_view s, size_t max = 60) {
+  static const char* const kHex = "0123456789abcdef";
+  std::string out;
+  const size_t n = std::min(s.size(), max);
+  out.reserve(n + 16);
+  for (size_t i = 0; i < n; ++i) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+    }
+  }
+  if (s.size() > max) out += "... (" + std::to_string(s.size() - max) + " more bytes)";
+  return out;
 }
 
 /// Parses a whole token as a number, exactly and locale-independently. from_chars rejects a

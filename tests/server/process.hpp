@@ -49,6 +49,7 @@ class Process {
     return -1;
   }
   void signal(int sig) { kill(pid_, sig); }
+  pid_t pid() const { return pid_; }
 
  private:
   pid_t pid_ = -1;

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <sched.h>
 #include <signal.h>
 #include <spawn.h>
@@ -323,6 +325,43 @@ TEST(Serve, ToolClientFeedbackAndBitExactReplay) {
   fs::remove_all(dir);
 }
 
+// A server killed outright while recording (SIGKILL: no 'end' line): its log, flushed every
+// 10 ms with a checkpoint every 10 ticks, replays headless to its last checkpoint — close to
+// where the server was — and does so deterministically.
+TEST(Serve, RecordingOfAKilledServerReplaysToItsLastCheckpoint) {
+  const fs::path dir = fs::temp_directory_path() / "stroma_killed_record_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string rec = (dir / "session.log").string();
+  Server server(121, {"--duration", "60", "--record", rec});
+  Client client(121);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  Process tool({STROMA_BINARY, "tool", "--name", "probe", "--script", kPress, "--duration", "30", "--domain", "121"});
+  stroma_SimStatus s{};
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.commands_accepted > 1000; }, &s));
+  server.signal(SIGKILL);
+  EXPECT_EQ(server.wait_exit(5), 128 + SIGKILL);
+  tool.signal(SIGTERM);
+  tool.wait_exit(5);
+  const std::string log = read_file(rec);
+  EXPECT_EQ(log.find(",end,"), std::string::npos) << "a killed server wrote its 'end' line?";
+  std::string replayed[2];
+  for (int k = 0; k < 2; ++k) {
+    const std::string out = (dir / ("replay" + std::to_string(k))).string();
+    Process replay({STROMA_BINARY, "run", kLiver, "--replay", rec, "--out", out, "--quiet", "--no-metrics"});
+    ASSERT_EQ(replay.wait_exit(120), 0) << "the killed server's log does not replay";
+    const auto j = nlohmann::json::parse(read_file(out + "/summary.json"));
+    EXPECT_EQ(j["status"], "ok");
+    // The last status seen was at most ~0.1 s old and the log is at most ~20 ms behind the kill.
+    EXPECT_GE(j["steps"].get<int64_t>(), static_cast<int64_t>(s.ticks) - 50) << "replayed only to tick " << j["steps"];
+    EXPECT_EQ(j["steps"].get<int64_t>() % 10, 0) << "not a checkpoint";
+    replayed[k] = read_file(out + "/final_state.csv");
+  }
+  EXPECT_FALSE(replayed[0].empty());
+  EXPECT_TRUE(replayed[0] == replayed[1]) << "the replay is not deterministic";
+  fs::remove_all(dir);
+}
+
 // Malformed commands are rejected and counted; they never reach physics.
 TEST(Serve, MalformedCommandsAreCountedAndPhysicsStaysFinite) {
   Server server(115, {"--duration", "60"});
@@ -356,9 +395,98 @@ TEST(Serve, MalformedCommandsAreCountedAndPhysicsStaysFinite) {
       << "rejected " << s.commands_rejected << ", accepted " << s.commands_accepted;
   EXPECT_EQ(s.commands_rejected, 5u);
   EXPECT_EQ(s.commands_accepted, accepted0 + 1);
+  EXPECT_EQ(s.commands_superseded, 0u);  // one at a time: none replaced before it was taken
   EXPECT_EQ(s.state, stroma_RUNNING);
   EXPECT_TRUE(std::isfinite(s.kinetic_energy));
   EXPECT_TRUE(std::isfinite(s.elastic_energy));
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+
+// The server's command reader keeps only the newest sample per tool: a burst overwrites most
+// of them before the input thread takes them. Those are counted (superseded), from the gaps in
+// the writer's seq, so that accepted + rejected + superseded = received.
+TEST(Serve, CommandsSupersededInABurstAreCounted) {
+  Server server(120, {"--duration", "60"});
+  Client client(120);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  const dds_entity_t w = client.command_writer();
+  auto send = [&](uint64_t seq) {
+    stroma_ToolCommand c{};
+    std::snprintf(c.tool, sizeof(c.tool), "%s", "probe");
+    c.seq = seq;
+    c.client_time_ns = static_cast<int64_t>(seq) * 1000000;  // 1 ms apart: within max_speed
+    c.position[1] = 7;
+    c.orientation[0] = 1;
+    c.jaw = 1;
+    dds_write(w, &c);
+  };
+  stroma_SimStatus s{};
+  for (int i = 0; i < 100 && !(client.wait_status(0.05, [](const stroma_SimStatus& st) { return st.commands_accepted > 0; }, &s)); ++i)
+    send(1);  // until discovery is complete (repeats of one seq are no gap)
+  ASSERT_GT(s.commands_accepted, 0u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ASSERT_TRUE(client.wait_status(1, [](const stroma_SimStatus&) { return true; }, &s));
+  const uint64_t before = s.commands_accepted + s.commands_rejected + s.commands_superseded;
+  constexpr uint64_t kBurst = 3000;
+  for (uint64_t q = 2; q <= kBurst + 1; ++q) send(q);  // back to back
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  send(kBurst + 2);  // after a pause: taken on its own, closing the count
+  const bool complete = client.wait_status(5, [&](const stroma_SimStatus& st) {
+    return st.commands_accepted + st.commands_rejected + st.commands_superseded - before >= kBurst + 1;
+  }, &s);
+  ASSERT_TRUE(complete) << "accepted " << s.commands_accepted << " rejected " << s.commands_rejected << " superseded "
+                        << s.commands_superseded << " (before " << before << ")";
+  EXPECT_EQ(s.commands_accepted + s.commands_rejected + s.commands_superseded - before, kBurst + 1);
+  EXPECT_GT(s.commands_superseded, 0u) << "a burst of " << kBurst << " commands was taken one by one?";
+  EXPECT_EQ(s.commands_rejected, 0u);
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+
+namespace {
+
+/// The local addresses (hex, as /proc/net/udp{,6} print them) of process `pid`'s UDP sockets.
+std::vector<std::string> udp_local_addresses(pid_t pid) {
+  std::set<std::string> inodes;  // socket:[INODE] links in /proc/PID/fd
+  for (const auto& e : fs::directory_iterator(fs::path("/proc") / std::to_string(pid) / "fd")) {
+    std::error_code ec;
+    const std::string target = fs::read_symlink(e.path(), ec).string();
+    if (!ec && target.rfind("socket:[", 0) == 0) inodes.insert(target.substr(8, target.size() - 9));
+  }
+  std::vector<std::string> out;
+  for (const char* table : {"udp", "udp6"}) {
+    std::ifstream f(fs::path("/proc") / std::to_string(pid) / "net" / table);
+    std::string line;
+    std::getline(f, line);  // header
+    while (std::getline(f, line)) {
+      std::istringstream ss(line);
+      std::string sl, local, remote, st, queues, tr, retr, uid, timeout, inode;
+      ss >> sl >> local >> remote >> st >> queues >> tr >> retr >> uid >> timeout >> inode;
+      if (inodes.count(inode)) out.push_back(local);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// Cyclone 0.10 binds its receive sockets to 0.0.0.0 whatever interface it is told to use; with
+// the built-in loopback configuration every socket of the server must be bound to 127.0.0.1
+// (or ::1), so another host cannot reach it (server/loopback_bind.hpp).
+TEST(Serve, SocketsAreBoundToLoopbackOnly) {
+  Server server(122, {"--duration", "60"});
+  Client client(122);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  const std::vector<std::string> local = udp_local_addresses(server.pid());
+  EXPECT_GE(local.size(), 2u) << "found no DDS sockets of the server";  // discovery + data, at least
+  for (const std::string& a : local) {
+    const std::string host = a.substr(0, a.find(':'));
+    EXPECT_TRUE(host == "0100007F" || host == "00000000000000000000000001000000")
+        << "a server socket is bound to " << a << " (not loopback)";
+  }
+  // The test's own participant (same built-in configuration) too.
+  for (const std::string& a : udp_local_addresses(getpid())) EXPECT_EQ(a.substr(0, 8), "0100007F") << a;
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(15), 0);
 }

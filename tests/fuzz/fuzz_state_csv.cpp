@@ -1,0 +1,13 @@
+// libFuzzer target: reference states (`stroma check SCENARIO REF.csv`, final_state.csv).
+#include "engine/state_io.hpp"
+#include "fuzz_input.hpp"
+#include "tissue/input_error.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const std::string path = stroma::fuzz::write_input(data, size, ".csv");
+  try {
+    stroma::read_state_csv(path);
+  } catch (const stroma::InputError&) {
+  }
+  return 0;
+}
