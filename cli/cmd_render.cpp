@@ -41,6 +41,7 @@ void add_render(CLI::App& app, std::vector<Command>& out) {
   rnd->add_flag("--no-contacts", rdo.no_contacts, "No contact markers");
   rnd->add_option("--stats", rdo.stats_file, "Statistics JSON (default: <out>/render_stats.json)");
   rnd->add_option("--dds-config", rdo.dds_config, "Cyclone DDS XML (default: CYCLONEDDS_URI, else built-in loopback-only)")->check(CLI::ExistingFile);
+  rnd->add_option("--security", rdo.security_dir, "Join a protected domain (DDS Security) with the identity 'renderer' of this 'stroma security init' directory")->check(CLI::ExistingDirectory);
   rnd->add_option("--domain", rdo.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
   rnd->footer("Starts before or after the server (it waits for the mesh; the mesh is transient-local) and\n"
               "follows a restarted server. Frames are dropped (and counted), never queued, when rendering\n"

@@ -14,6 +14,7 @@ void add_serve(CLI::App& app, std::vector<Command>& out) {
   serve->add_option("scenario", srv->scenario, "Scenario YAML file (a dynamic one: static scenarios have no time to serve)")
       ->required()
       ->check(CLI::ExistingFile);
+  serve->add_option("--security", srv->security_dir, "Run a protected domain (DDS Security) with the identity 'server' of this 'stroma security init' directory: only permitted clients command tools, state and feedback are encrypted")->check(CLI::ExistingDirectory);
   serve->add_option("--dds-config", srv->dds_config, "Cyclone DDS XML configuration (default: CYCLONEDDS_URI, else built-in loopback-only)")
       ->check(CLI::ExistingFile);
   serve->add_option("--domain", srv->domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
@@ -57,6 +58,8 @@ void add_tool(CLI::App& app, std::vector<Command>& out) {
   tool->add_option("--rate", tco->rate, "Command rate in Hz (script mode)")->capture_default_str()->check(CLI::Range(1.0, 10000.0));
   tool->add_option("--duration", tco->duration, "Seconds (default: the script's length / until end of stdin)")->check(CLI::NonNegativeNumber);
   tool->add_option("--out", tco->out_csv, "CSV log: seq, sent, received, round trip (ms), force");
+  tool->add_option("--security", tco->security_dir, "Join a protected domain (DDS Security) with --identity from this 'stroma security init' directory")->check(CLI::ExistingDirectory);
+  tool->add_option("--identity", tco->identity, "Client identity in the --security directory (NAME.pem, permissions_NAME.p7s)")->capture_default_str();
   tool->add_option("--dds-config", tco->dds_config, "Cyclone DDS XML (default: CYCLONEDDS_URI, else built-in loopback-only)")->check(CLI::ExistingFile);
   tool->add_option("--domain", tco->domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
   tool->add_option("--wait", tco->wait_server, "Seconds to wait for a server")->capture_default_str();

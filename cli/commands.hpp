@@ -30,6 +30,7 @@ void add_bench(CLI::App& app, std::vector<Command>& out);   ///< stroma bench st
 #ifdef STROMA_WITH_DDS
 void add_serve(CLI::App& app, std::vector<Command>& out);   ///< stroma serve
 void add_tool(CLI::App& app, std::vector<Command>& out);    ///< stroma tool
+void add_security(CLI::App& app, std::vector<Command>& out);  ///< stroma security init
 #endif
 #ifdef STROMA_WITH_RENDER
 void add_render(CLI::App& app, std::vector<Command>& out);  ///< stroma render

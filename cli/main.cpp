@@ -6,6 +6,7 @@
 ///   stroma serve SCENARIO    real-time server at 1 kHz over DDS (loopback by default)
 ///   stroma tool              drive a served tool over DDS (script or stdin)
 ///   stroma render            record a served scenario off-screen (PNG frames, MP4)
+///   stroma security init DIR certificates and signed documents for a protected DDS domain
 /// serve and tool exist when built with STROMA_WITH_DDS, render with STROMA_WITH_RENDER.
 /// Exit codes: 0 success, 1 check failed / run unhealthy, 2 bad input or usage.
 
@@ -33,6 +34,7 @@ int main(int argc, char** argv) {
 #ifdef STROMA_WITH_DDS
   cli::add_serve(app, commands);
   cli::add_tool(app, commands);
+  cli::add_security(app, commands);
 #endif
 #ifdef STROMA_WITH_RENDER
   cli::add_render(app, commands);

@@ -617,16 +617,16 @@ int run_render(const RenderOptions& o) {
   SceneState st;
   Renderer renderer(o.width, o.height, make_look(o, st));
 
-  const DdsParticipant pp = create_participant(o.domain, o.dds_config);
+  const DdsParticipant pp = create_participant(o.domain, o.dds_config, 0, o.security_dir, "renderer");
   spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
   int exit_code = 0;
   try {
     exit_code = follow_and_record(o, out, gl, pp.participant, renderer, st, stop_signals);
   } catch (...) {
-    dds_delete(pp.participant);
+    close_dds(pp);
     throw;
   }
-  dds_delete(pp.participant);
+  close_dds(pp);
   return exit_code;
 }
 

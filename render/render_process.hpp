@@ -15,6 +15,7 @@ namespace stroma {
 /// topic), then the defaults.
 struct RenderOptions {
   std::string dds_config;   ///< Cyclone XML; empty: CYCLONEDDS_URI or built-in loopback
+  std::string security_dir; ///< --security: a `stroma security init` directory (identity "renderer")
   int domain = 0;
   std::string out_dir = "out/render";
   double fps = 30;

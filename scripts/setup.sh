@@ -11,8 +11,9 @@ PACKAGES=(
   libeigen3-dev libsuitesparse-dev libopenblas0-pthread
   # scenario files, CLI, logging
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
-  # DDS (Eclipse Cyclone DDS C API + idlc)
-  cyclonedds-dev cyclonedds-tools
+  # DDS (Eclipse Cyclone DDS C API + idlc; its DDS Security plugins come with libddsc), and
+  # openssl for `stroma security init`
+  cyclonedds-dev cyclonedds-tools openssl
   # DDS interoperability test (a Fast DDS client from the same IDL)
   libfastrtps-dev fastddsgen
   # collision benchmark against FCL

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "engine/realtime.hpp"
+#include "server/dds_security.hpp"
 #include "server/loopback_bind.hpp"
 
 namespace stroma {
@@ -42,7 +43,8 @@ dds_return_t dds_check(dds_return_t rc, const char* what) {
   return rc;
 }
 
-DdsParticipant create_participant(int domain_id, const std::string& config_file, int receive_priority) {
+DdsParticipant create_participant(int domain_id, const std::string& config_file, int receive_priority,
+                                  const std::string& security_dir, const std::string& identity) {
   DdsParticipant p;
   std::string xml;
   if (!config_file.empty()) {
@@ -65,7 +67,19 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file,
   }
   // The built-in configuration promises loopback only: its sockets are bound to loopback too
   // (server/loopback_bind.hpp), not just told to use "lo".
-  if (config_file.empty() && !(std::getenv("CYCLONEDDS_URI") && *std::getenv("CYCLONEDDS_URI"))) enable_loopback_bind();
+  const char* env_uri = std::getenv("CYCLONEDDS_URI");
+  if (config_file.empty() && !(env_uri && *env_uri)) enable_loopback_bind();
+  if (!security_dir.empty()) {
+    const std::string sec = security_config_element(security_dir, identity);
+    if (xml.empty()) {
+      // CYCLONEDDS_URI's configuration, then the security settings (a configuration string is
+      // a comma-separated list of files and XML fragments, merged in order).
+      xml = std::string(env_uri) + ",<CycloneDDS><Domain Id=\"any\">" + sec + "</Domain></CycloneDDS>";
+    } else {
+      xml.insert(xml.rfind("</Domain>"), sec);
+    }
+    p.config_source += fmt::format("; DDS Security as '{}' ({})", identity, security_dir);
+  }
   if (!xml.empty()) {
     const dds_entity_t d = dds_create_domain(static_cast<dds_domainid_t>(domain_id), xml.c_str());
     // A domain already created in this process (a second participant) keeps its configuration.
@@ -78,6 +92,11 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file,
     throw std::runtime_error(fmt::format("DDS participant on domain {}: {}", domain_id,
                                          dds_strretcode(p.participant)));
   return p;
+}
+
+void close_dds(const DdsParticipant& p) {
+  if (p.participant > 0) dds_delete(p.participant);
+  dds_delete(DDS_CYCLONEDDS_HANDLE);
 }
 
 }  // namespace stroma

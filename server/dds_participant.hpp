@@ -29,7 +29,19 @@ struct DdsParticipant {
 /// readers) runs under SCHED_FIFO at that priority, if the process may (else at normal
 /// priority, and the source says so). A command then reaches the server's input thread without waiting behind whatever
 /// else the machine runs (docs/REALTIME.md). A user's own configuration is left as it is.
-DdsParticipant create_participant(int domain_id, const std::string& config_file, int receive_priority = 0);
+///
+/// `security_dir` (from --security; empty: none): the participant joins a protected domain as
+/// `identity` ("server", "renderer" or a client's name) with the certificates and signed
+/// documents of that directory (server/dds_security.hpp); its <Security> settings are added to
+/// whichever configuration is used. Throws std::runtime_error naming a missing file.
+DdsParticipant create_participant(int domain_id, const std::string& config_file, int receive_priority = 0,
+                                  const std::string& security_dir = "", const std::string& identity = "");
+
+/// Deletes the participant and then every DDS entity of the process, its domains included, so
+/// that Cyclone's threads have stopped before the process exits: with DDS Security they encrypt
+/// with OpenSSL, whose clean-up at exit would otherwise pull its state from under them
+/// (a segmentation fault at exit). For the end of `serve`, `tool` and `render`.
+void close_dds(const DdsParticipant& p);
 
 /// The built-in loopback configuration with Cyclone's receive thread at SCHED_FIFO `priority`.
 std::string loopback_config_with_receive_priority(int priority);

@@ -47,7 +47,12 @@ dds_qos_t* make_qos(bool reliable, bool transient_local) {
 /// Topics, readers and writers of the server.
 struct Endpoints {
   dds_entity_t mesh_writer = 0, state_writer = 0, status_writer = 0, control_reader = 0;
-  dds_entity_t command_reader = 0, feedback_writer = 0, damage_writer = 0;
+  /// ToolCommand readers: one in the default partition for every tool (open domain), or one per
+  /// tool in the partition named after it (protected domain, --security: a client's permissions
+  /// name the partitions it may write), with the tool it serves (−1: any).
+  std::vector<dds_entity_t> command_readers;
+  std::vector<int> command_reader_tool;
+  dds_entity_t feedback_writer = 0, damage_writer = 0;
   dds_entity_t tool_state_writer = 0, scene_writer = 0;
   dds_entity_t waitset = 0;
 };
@@ -85,7 +90,7 @@ class WriterSeqs {
   std::vector<std::pair<dds_instance_handle_t, uint64_t>> last_;
 };
 
-Endpoints create_endpoints(dds_entity_t pp) {
+Endpoints create_endpoints(dds_entity_t pp, const Model& model, bool per_tool_partitions) {
   Endpoints e;
   const dds_entity_t t_mesh = dds_check(dds_create_topic(pp, &stroma_TissueMesh_desc, "stroma_TissueMesh", nullptr, nullptr), "topic stroma_TissueMesh");
   const dds_entity_t t_state = dds_check(dds_create_topic(pp, &stroma_TissueState_desc, "stroma_TissueState", nullptr, nullptr), "topic stroma_TissueState");
@@ -94,7 +99,20 @@ Endpoints create_endpoints(dds_entity_t pp) {
   const dds_entity_t t_command = dds_check(dds_create_topic(pp, &stroma_ToolCommand_desc, "stroma_ToolCommand", nullptr, nullptr), "topic stroma_ToolCommand");
   const dds_entity_t t_feedback = dds_check(dds_create_topic(pp, &stroma_ToolFeedback_desc, "stroma_ToolFeedback", nullptr, nullptr), "topic stroma_ToolFeedback");
   dds_qos_t* q_fast = make_qos(false, false);  // best effort, keep last 1
-  e.command_reader = dds_check(dds_create_reader(pp, t_command, q_fast, nullptr), "reader stroma_ToolCommand");
+  if (!per_tool_partitions) {
+    e.command_readers.push_back(dds_check(dds_create_reader(pp, t_command, q_fast, nullptr), "reader stroma_ToolCommand"));
+    e.command_reader_tool.push_back(-1);
+  } else {
+    for (size_t t = 0; t < model.tools.size(); ++t) {
+      dds_qos_t* qp = dds_create_qos();
+      dds_qset_partition1(qp, model.tools[t].name.c_str());
+      const dds_entity_t sub = dds_check(dds_create_subscriber(pp, qp, nullptr), "subscriber (tool partition)");
+      dds_delete_qos(qp);
+      e.command_readers.push_back(dds_check(dds_create_reader(sub, t_command, q_fast, nullptr),
+                                            "reader stroma_ToolCommand (tool partition)"));
+      e.command_reader_tool.push_back(static_cast<int>(t));
+    }
+  }
   e.feedback_writer = dds_check(dds_create_writer(pp, t_feedback, q_fast, nullptr), "writer stroma_ToolFeedback");
   const dds_entity_t t_damage = dds_check(dds_create_topic(pp, &stroma_DamageEvent_desc, "stroma_DamageEvent", nullptr, nullptr), "topic stroma_DamageEvent");
   dds_qos_t* q_events = dds_create_qos();
@@ -121,8 +139,10 @@ Endpoints create_endpoints(dds_entity_t pp) {
   e.waitset = dds_check(dds_create_waitset(pp), "waitset");
   const dds_entity_t rc = dds_check(dds_create_readcondition(e.control_reader, DDS_ANY_STATE), "read condition");
   dds_check(dds_waitset_attach(e.waitset, rc, e.control_reader), "waitset attach");
-  const dds_entity_t rc2 = dds_check(dds_create_readcondition(e.command_reader, DDS_ANY_STATE), "read condition");
-  dds_check(dds_waitset_attach(e.waitset, rc2, e.command_reader), "waitset attach");
+  for (dds_entity_t r : e.command_readers) {
+    const dds_entity_t rc2 = dds_check(dds_create_readcondition(r, DDS_ANY_STATE), "read condition");
+    dds_check(dds_waitset_attach(e.waitset, rc2, r), "waitset attach");
+  }
   return e;
 }
 
@@ -263,7 +283,9 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
     }
     if (n > 0) dds_return_loan(ep.control_reader, samples, n);
 
-    n = dds_take(ep.command_reader, samples, infos, 16, 16);
+    for (size_t r = 0; r < ep.command_readers.size(); ++r) {
+    const dds_entity_t reader = ep.command_readers[r];
+    n = dds_take(reader, samples, infos, 16, 16);
     for (dds_return_t i = 0; i < n; ++i) {
       if (!infos[i].valid_data) continue;
       const auto* c = static_cast<const stroma_ToolCommand*>(samples[i]);
@@ -274,6 +296,13 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
       if (tool < 0) {
         cnt.rejected.fetch_add(1);
         spdlog::debug("command for unknown tool '{}' rejected", c->tool);
+        continue;
+      }
+      if (ep.command_reader_tool[r] >= 0 && ep.command_reader_tool[r] != tool) {
+        // Protected domain: the writer was permitted this reader's tool partition only.
+        cnt.rejected.fetch_add(1);
+        spdlog::debug("command for tool '{}' in the partition of '{}' rejected", c->tool,
+                      m.tools[ep.command_reader_tool[r]].name);
         continue;
       }
       ToolPose pose;
@@ -309,7 +338,8 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
       slot.arrival_ns = monotonic_ns();  // the loop's clock (CLOCK_MONOTONIC)
       loop.tool_in[tool]->publish();
     }
-    if (n > 0) dds_return_loan(ep.command_reader, samples, n);
+    if (n > 0) dds_return_loan(reader, samples, n);
+    }
   }
 }
 
@@ -546,11 +576,12 @@ int run_serve(const ServeOptions& o) {
 
   // Cyclone's receive threads deliver every tool command: real-time like the input thread that
   // takes them (priority 60, below the physics thread's 80), best effort if denied.
-  const DdsParticipant pp = create_participant(o.domain, o.dds_config, rt_mode == RealtimeMode::Off ? 0 : 60);
+  const DdsParticipant pp = create_participant(o.domain, o.dds_config, rt_mode == RealtimeMode::Off ? 0 : 60,
+                                               o.security_dir, "server");
   spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
   int exit_code = 0;
   try {
-    const Endpoints ep = create_endpoints(pp.participant);
+    const Endpoints ep = create_endpoints(pp.participant, *model, !o.security_dir.empty());
     // A new id per server run: renderers that outlive a server reset on a new session.
     const uint64_t session = static_cast<uint64_t>(monotonic_ns()) ^ (static_cast<uint64_t>(getpid()) << 40);
     SurfaceExtractor surfaces(scenario);
@@ -644,10 +675,10 @@ int run_serve(const ServeOptions& o) {
     }
     if (st.non_finite) exit_code = 1;
   } catch (...) {
-    dds_delete(pp.participant);
+    close_dds(pp);
     throw;
   }
-  dds_delete(pp.participant);  // deletes every reader, writer, topic and waitset below it
+  close_dds(pp);  // every reader, writer, topic and waitset, and the domain's threads
   return exit_code;
 }
 

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <iostream>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -56,14 +57,27 @@ struct ToolEndpoints {
   dds_entity_t writer = 0, reader = 0;
 };
 
-ToolEndpoints open_endpoints(dds_entity_t participant) {
+/// `partition` (protected domain): the command writer publishes in it — the tool's name, which
+/// the client's permissions must grant (DDS Security refuses the writer otherwise).
+ToolEndpoints open_endpoints(dds_entity_t participant, const std::string& partition) {
   const dds_entity_t t_cmd = dds_check(dds_create_topic(participant, &stroma_ToolCommand_desc, "stroma_ToolCommand", nullptr, nullptr), "topic");
   const dds_entity_t t_fb = dds_check(dds_create_topic(participant, &stroma_ToolFeedback_desc, "stroma_ToolFeedback", nullptr, nullptr), "topic");
   dds_qos_t* q = dds_create_qos();
   dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
   ToolEndpoints ep;
-  ep.writer = dds_check(dds_create_writer(participant, t_cmd, q, nullptr), "writer");
+  dds_entity_t publisher = participant;
+  if (!partition.empty()) {
+    dds_qos_t* qp = dds_create_qos();
+    dds_qset_partition1(qp, partition.c_str());
+    publisher = dds_check(dds_create_publisher(participant, qp, nullptr), "publisher (tool partition)");
+    dds_delete_qos(qp);
+  }
+  const dds_entity_t w = dds_create_writer(publisher, t_cmd, q, nullptr);
+  if (w < 0 && !partition.empty())
+    throw std::runtime_error(fmt::format("commanding tool '{}' is not permitted to this identity ({})", partition,
+                                         dds_strretcode(w)));
+  ep.writer = dds_check(w, "writer stroma_ToolCommand");
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 64);
   ep.reader = dds_check(dds_create_reader(participant, t_fb, q, nullptr), "reader");
   dds_delete_qos(q);
@@ -154,12 +168,19 @@ int run_tool_client(const ToolClientOptions& o) {
   if (!o.script.empty()) traj = load_trajectory(o.script);  // InputError → exit 2 in the CLI
   // The feedback arrives through Cyclone's receive threads: real-time like the client's own
   // threads (55), unless --no-realtime.
-  const DdsParticipant pp = create_participant(o.domain, o.dds_config, o.realtime ? 55 : 0);
+  const DdsParticipant pp =
+      create_participant(o.domain, o.dds_config, o.realtime ? 55 : 0, o.security_dir, o.identity);
   spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
-  const ToolEndpoints ep = open_endpoints(pp.participant);
+  ToolEndpoints ep;
+  try {
+    ep = open_endpoints(pp.participant, o.security_dir.empty() ? "" : o.name);
+  } catch (...) {
+    close_dds(pp);
+    throw;
+  }
   if (!wait_for_server(ep.writer, o.wait_server)) {
     spdlog::error("no server is reading stroma_ToolCommand on domain {} after {:.0f} s", o.domain, o.wait_server);
-    dds_delete(pp.participant);
+    close_dds(pp);
     return 1;
   }
 
@@ -229,7 +250,7 @@ int run_tool_client(const ToolClientOptions& o) {
   done = true;
   receiver.join();
   report(o, sent, seq, t0, feedback_msgs.load());
-  dds_delete(pp.participant);
+  close_dds(pp);
   return feedback_msgs.load() > 0 ? 0 : 1;
 }
 

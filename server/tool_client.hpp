@@ -15,6 +15,8 @@ struct ToolClientOptions {
   double duration = 0;       ///< s; 0: the script's length (script mode) or until EOF (stdin)
   std::string out_csv;       ///< per-command log: seq, sent, received, round trip, force
   std::string dds_config;
+  std::string security_dir;  ///< --security: a `stroma security init` directory (protected domain)
+  std::string identity = "tool";  ///< --identity: the client identity in it (NAME.pem, permissions_NAME.p7s)
   int domain = 0;
   double wait_server = 10;   ///< s to wait for the server's command reader before starting
   bool realtime = true;      ///< try SCHED_FIFO for the send and receive threads

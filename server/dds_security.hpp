@@ -1,0 +1,54 @@
+#pragma once
+/// \file dds_security.hpp
+/// DDS Security (OMG DDS-Security 1.1, Cyclone's built-in plugins: PKI-DH authentication,
+/// signed governance and permissions, AES-GCM crypto) for Stroma's processes.
+///
+/// `stroma security init DIR` (init_security_dir) makes a self-contained test PKI with the
+/// `openssl` command: an identity CA and a permissions CA; identities (key + certificate) for
+/// the server, the renderer and each tool client; a governance document (no unauthenticated
+/// participant joins; every topic's reads and writes access-controlled, its data and metadata
+/// encrypted) and one permissions document per identity, all signed by the permissions CA.
+/// `serve`, `tool` and `render --security DIR` then run the protected domain:
+///  - the server may publish every server→client topic and read ToolCommand (any tool) and
+///    Control;
+///  - a tool client may write ToolCommand only in the partitions named after its tools (and
+///    Control), and read ToolFeedback and SimStatus;
+///  - the renderer may read what it draws, and write nothing.
+/// In a protected domain ToolCommand travels in a partition named after its tool, and the
+/// server reads each tool's commands in that tool's partition only, rejecting a command whose
+/// `tool` field names another: a client's permissions decide which tools it can move.
+
+#include <string>
+#include <vector>
+
+namespace stroma {
+
+/// A tool client's identity and the tools it may command.
+struct SecurityClient {
+  std::string name;                ///< file names NAME.pem, NAME_key.pem, permissions_NAME.p7s
+  std::vector<std::string> tools;  ///< tool names (ToolCommand partitions) it may write
+};
+
+/// What `stroma security init` makes. Invariants: names are [A-Za-z0-9_-], unique, and none is
+/// "server", "renderer" or a CA's name; every client has at least one tool.
+struct SecurityInitOptions {
+  std::string dir;                  ///< must not exist yet (nothing is overwritten)
+  std::vector<SecurityClient> clients{{"tool", {"probe"}}};
+  int days = 3650;                  ///< certificate and permission validity
+  int domain_min = 0, domain_max = 230;  ///< the domains the documents cover (DDS Security: at most 230)
+};
+
+/// Creates the directory with every file (see the file comment). Writes into a temporary
+/// sibling and renames it at the end: on any failure (openssl missing or failing, a bad name)
+/// nothing is left behind. Throws std::runtime_error saying which step failed.
+void init_security_dir(const SecurityInitOptions& o);
+
+/// The <Security> element of a Cyclone configuration for identity `identity` ("server",
+/// "renderer" or a client's name) from a directory made by init_security_dir. Throws
+/// std::runtime_error naming the first missing file.
+std::string security_config_element(const std::string& dir, const std::string& identity);
+
+/// Where Cyclone's security plugins are (Debian: a private directory beside libddsc).
+std::string security_plugin_dir();
+
+}  // namespace stroma
