@@ -1,5 +1,6 @@
 #include "render/png_io.hpp"
 
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
@@ -23,9 +24,11 @@ bool write_png(const std::string& path, const Image& image, int level, std::stri
     return false;
   }
   if (setjmp(png_jmpbuf(png))) {  // libpng reports errors by longjmp
+    const int e = errno;            // the failed write's reason (a full disk: ENOSPC)
     png_destroy_write_struct(&png, &info);
     std::fclose(f);
-    if (error) *error = "libpng: error writing '" + path + "'";
+    std::remove(path.c_str());      // no half-written frame is left behind
+    if (error) *error = "error writing '" + path + "'" + (e ? std::string(": ") + std::strerror(e) : std::string());
     return false;
   }
   png_init_io(png, f);
@@ -42,8 +45,10 @@ bool write_png(const std::string& path, const Image& image, int level, std::stri
     png_write_row(png, const_cast<png_bytep>(image.pixels.data() + y * stride));
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
+  errno = 0;
   if (std::fclose(f) != 0) {
-    if (error) *error = "error closing '" + path + "': " + std::strerror(errno);
+    if (error) *error = "error writing '" + path + "': " + std::strerror(errno ? errno : EIO);
+    std::remove(path.c_str());
     return false;
   }
   return true;

@@ -68,6 +68,14 @@ struct InputCounters {
   std::atomic<uint64_t> superseded{0};
 };
 
+/// What became of the --record log (written by the recorder thread; read after it joined).
+struct RecordStatus {
+  bool failed = false;          ///< a write failed: the log ends there
+  std::string error;            ///< the system's reason (e.g. "No space left on device")
+  int64_t stopped_at_tick = 0;  ///< the tick of the last event written before the failure
+  uint64_t lines_written = 0;
+};
+
 /// The last seq taken from each writer of ToolCommand (a handful: clients of the tools).
 class WriterSeqs {
  public:
@@ -377,13 +385,29 @@ void feedback_thread(PhysicsLoop& loop, const Endpoints& ep) {
 /// leaves a log that replays to its last checkpoint, at most ~20 ms before the kill. Of the
 /// checkpoints (a Mark every kRecordMarkTicks) only those followed by an event, and the last of a
 /// drain, are written: the log grows with the session's events, not with its ticks.
-void recorder_thread(PhysicsLoop& loop, std::FILE* f, bool& io_error) {
+/// A write that fails (a full disk, an I/O error) stops the recording there — said at once, with
+/// the system's reason — while the server goes on; the queue is still drained, so physics never
+/// notices.
+void recorder_thread(PhysicsLoop& loop, std::FILE* f, RecordStatus& rs, const std::string& path) {
   SessionEvent e;
   SessionEvent mark;
   bool mark_pending = false;
+  int64_t last_tick = 0;
+  auto fail = [&] {
+    if (rs.failed) return;
+    rs.failed = true;
+    rs.error = std::strerror(errno ? errno : EIO);
+    rs.stopped_at_tick = last_tick;
+    spdlog::error("--record: writing '{}' failed ({}): recording stopped at tick {}; the server goes on", path,
+                  rs.error, last_tick);
+  };
   auto write = [&](const SessionEvent& ev) {
+    if (rs.failed) return;
     const std::string line = format_session_event(ev);
-    if (std::fwrite(line.data(), 1, line.size(), f) != line.size()) io_error = true;
+    errno = 0;
+    if (std::fwrite(line.data(), 1, line.size(), f) != line.size()) return fail();
+    ++rs.lines_written;
+    last_tick = ev.tick;
   };
   auto drain = [&] {
     while (loop.record.pop(e)) {
@@ -399,7 +423,8 @@ void recorder_thread(PhysicsLoop& loop, std::FILE* f, bool& io_error) {
     }
     if (mark_pending) write(mark);
     mark_pending = false;
-    if (std::fflush(f) != 0) io_error = true;
+    errno = 0;
+    if (!rs.failed && std::fflush(f) != 0) fail();
   };
   while (!loop.finished.load()) {
     drain();
@@ -469,10 +494,16 @@ std::FILE* open_record(const ServeOptions& o) {
 }
 
 /// Closes the session log and says whether it replays; returns false on any loss or error.
-bool close_record(const ServeOptions& o, std::FILE* record, bool record_error, const PhysicsLoop& loop) {
-  if (std::fclose(record) != 0) record_error = true;
-  if (record_error) {
-    spdlog::error("--record: error writing '{}'", o.record_file);
+bool close_record(const ServeOptions& o, std::FILE* record, RecordStatus& rs, const PhysicsLoop& loop) {
+  errno = 0;
+  if (std::fclose(record) != 0 && !rs.failed) {
+    rs.failed = true;
+    rs.error = std::strerror(errno ? errno : EIO);
+    spdlog::error("--record: closing '{}' failed ({})", o.record_file, rs.error);
+  }
+  if (rs.failed) {
+    spdlog::error("--record: '{}' holds the session up to tick {} only ({})", o.record_file, rs.stopped_at_tick,
+                  rs.error);
     return false;
   }
   if (loop.stats().record_dropped) {
@@ -503,7 +534,7 @@ void wait_for_stop(const ServeOptions& o, const sigset_t& sigs, const PhysicsLoo
 /// The --stats JSON: timing, misses, stage means, solver health, command and damage counters.
 nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, const PhysicsLoop& loop,
                                   const RealtimeResult& rt, const DdsParticipant& pp, const InputCounters& counters,
-                                  uint64_t status_sent) {
+                                  uint64_t status_sent, const RecordStatus& record) {
   const PhysicsLoopStats& st = loop.stats();
   nlohmann::ordered_json j;
   j["scenario"] = model.name;
@@ -549,6 +580,13 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
                           {"superseded", s}};
   }
   j["status_messages"] = status_sent;
+  if (!o.record_file.empty())
+    j["record"] = {{"file", o.record_file},
+                   {"ok", !record.failed && loop.stats().record_dropped == 0},
+                   {"lines_written", record.lines_written},
+                   {"events_dropped", loop.stats().record_dropped},
+                   {"error", record.error},
+                   {"stopped_at_tick", record.failed ? record.stopped_at_tick : -1}};
   if (model.has_damage) {
     const State& fs = loop.state();
     j["damage"] = {{"elements_warned", fs.damage_count[1]}, {"elements_damaged", fs.damage_count[2]},
@@ -599,7 +637,7 @@ int run_serve(const ServeOptions& o) {
     std::atomic<bool> stop{false};
     std::atomic<uint64_t> status_sent{0};
     InputCounters counters;
-    bool record_error = false;
+    RecordStatus record_status;
     RealtimeResult rt;
     std::atomic<bool> rt_ready{false}, rt_failed{false};
 
@@ -637,7 +675,7 @@ int run_serve(const ServeOptions& o) {
       feedback_thread(loop, ep);
     });
     std::thread recorder;
-    if (record) recorder = std::thread([&] { recorder_thread(loop, record, record_error); });
+    if (record) recorder = std::thread([&] { recorder_thread(loop, record, record_status, o.record_file); });
     spdlog::info("serving '{}' at {:.0f} Hz ({} nodes, {} tets); Ctrl-C to stop", model->name,
                  1.0 / model->time_step, model->fem.num_nodes, model->fem.elements.size());
     if (model->fem_every > 1)
@@ -652,7 +690,7 @@ int run_serve(const ServeOptions& o) {
     inputs.join();
     feedback.join();
     if (recorder.joinable()) recorder.join();
-    if (record && !close_record(o, record, record_error, loop)) exit_code = 1;
+    if (record && !close_record(o, record, record_status, loop)) exit_code = 1;
     if (!o.final_state_file.empty()) write_state_csv(o.final_state_file, loop.state());
     if (rt_failed) exit_code = 1;
 
@@ -665,7 +703,7 @@ int run_serve(const ServeOptions& o) {
                  static_cast<double>(st.budget_ns) * 1e-6, st.over_budget, st.degraded);
     if (!o.stats_file.empty()) {
       std::ofstream f(o.stats_file);
-      f << stats_json(o, *model, loop, rt, pp, counters, status_sent.load()).dump(2) << '\n';
+      f << stats_json(o, *model, loop, rt, pp, counters, status_sent.load(), record_status).dump(2) << '\n';
       if (!f) {
         spdlog::error("cannot write --stats file '{}'", o.stats_file);
         exit_code = 1;

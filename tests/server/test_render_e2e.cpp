@@ -160,3 +160,90 @@ TEST(RenderEndToEnd, RendererWaitsForTheServerAndFollowsARestart) {
   EXPECT_EQ(resets, 1);
   EXPECT_GT(last, 1.0);
 }
+
+namespace {
+
+/// A 400 KB tmpfs at `dir` (needs root: CAP_SYS_ADMIN); false when it cannot be mounted.
+bool mount_small_fs(const fs::path& dir) {
+  fs::create_directories(dir);
+  const std::string cmd = "mount -t tmpfs -o size=400k stroma_test_fs " + dir.string() + " 2>/dev/null";
+  return std::system(cmd.c_str()) == 0;
+}
+
+void unmount(const fs::path& dir) {
+  const std::string cmd = "umount " + dir.string() + " 2>/dev/null";
+  if (std::system(cmd.c_str()) != 0) {
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+
+// Frames onto a full disk (issue 15 §3): a clear error, the recording stops with nothing
+// half-written, and the server goes on.
+TEST(RenderEndToEnd, FramesOntoAFullDiskStopTheRecordingNotTheServer) {
+  const fs::path fsdir = fs::temp_directory_path() / ("stroma_small_fs_" + std::to_string(getpid()));
+  if (!mount_small_fs(fsdir)) GTEST_SKIP() << "cannot mount a small tmpfs here (needs root)";
+  const std::string domain = "143";
+  Process server({STROMA_BINARY, "serve", kSrc + "/scenarios/liver.yaml", "--domain", domain, "--realtime", "off",
+                  "--duration", "60", "--stats", (fs::temp_directory_path() / "stroma_fullfs_stats.json").string()});
+  Process renderer({STROMA_BINARY, "render", "--domain", domain, "--out", (fsdir / "frames").string(), "--frames", "200",
+                    "--fps", "20", "--width", "320", "--height", "240", "--msaa", "0", "--no-video", "--wait", "30"});
+  EXPECT_EQ(renderer.wait_exit(60), 1) << "the renderer did not report the full disk";
+  int frames = 0;
+  for (const auto& e : fs::directory_iterator(fsdir / "frames"))
+    if (e.path().extension() == ".png") {
+      ++frames;
+      EXPECT_NO_THROW(render::read_png(e.path().string())) << "half-written " << e.path();
+    }
+  EXPECT_GT(frames, 0);
+  EXPECT_LT(frames, 200);
+  // The server kept its schedule throughout and shuts down cleanly.
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(20), 0);
+  const auto stats = nlohmann::json::parse(std::ifstream(fs::temp_directory_path() / "stroma_fullfs_stats.json"));
+  EXPECT_GT(stats["ticks"].get<int>(), 1000);
+  unmount(fsdir);
+}
+
+// A renderer stopped for 10 s (SIGSTOP) and continued: the server does not notice, and the
+// renderer resumes at the newest state, counting the frames it missed (issue 15 §3).
+TEST(RenderEndToEnd, AStalledRendererDoesNotDisturbTheServerAndResumesAtTheNewestState) {
+  const std::string domain = "144";
+  const fs::path out = fs::temp_directory_path() / ("stroma_stalled_render_" + std::to_string(getpid()));
+  const fs::path stats = fs::temp_directory_path() / ("stroma_stalled_server_" + std::to_string(getpid()) + ".json");
+  fs::remove_all(out);
+  Process server({STROMA_BINARY, "serve", kSrc + "/scenarios/liver.yaml", "--domain", domain, "--realtime", "off",
+                  "--duration", "60", "--stats", stats.string()});
+  Process renderer({STROMA_BINARY, "render", "--domain", domain, "--out", out.string(), "--duration", "16", "--fps",
+                    "10", "--width", "160", "--height", "120", "--msaa", "0", "--no-video", "--wait", "30"});
+  const auto deadline = Clock::now() + std::chrono::seconds(30);
+  while (!fs::exists(out / "frame_000010.png") && Clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(fs::exists(out / "frame_000010.png"));
+  renderer.signal(SIGSTOP);
+  std::this_thread::sleep_for(std::chrono::seconds(10));
+  renderer.signal(SIGCONT);
+  EXPECT_EQ(renderer.wait_exit(60), 0);
+  server.signal(SIGTERM);
+  ASSERT_EQ(server.wait_exit(20), 0);
+  const auto rs = nlohmann::json::parse(std::ifstream(out / "render_stats.json"));
+  // 10 s at 10 FPS were missed and counted (not rendered late one after another).
+  EXPECT_GE(rs["frames_dropped_late"].get<int>(), 90) << rs.dump();
+  // After the stall the frames show the newest state: simulated time moved on by about the
+  // stall between two consecutive frames, not by one frame period.
+  std::ifstream csv(out / "frames.csv");
+  std::string line;
+  std::getline(csv, line);
+  double prev = -1, biggest_jump = 0;
+  while (std::getline(csv, line)) {
+    const double t = std::stod(line.substr(line.find(',') + 1));
+    if (prev >= 0) biggest_jump = std::max(biggest_jump, t - prev);
+    prev = t;
+  }
+  EXPECT_GT(biggest_jump, 8.0) << "the renderer did not skip to the newest state";
+  const auto ss = nlohmann::json::parse(std::ifstream(stats));
+  EXPECT_LT(ss["missed_ratio"].get<double>(), 0.05) << "the server was disturbed by the stalled renderer";
+  fs::remove_all(out);
+  fs::remove(stats);
+}

@@ -362,6 +362,24 @@ TEST(Serve, RecordingOfAKilledServerReplaysToItsLastCheckpoint) {
   fs::remove_all(dir);
 }
 
+// Recording onto a full disk (/dev/full: every write fails with ENOSPC): a clear error, the
+// recording stops, physics and DDS go on, and the statistics say so.
+TEST(Serve, RecordingOntoAFullDiskStopsTheRecordingNotTheServer) {
+  const fs::path stats = fs::temp_directory_path() / "stroma_full_disk_stats.json";
+  Server server(123, {"--duration", "3", "--record", "/dev/full", "--stats", stats.string()});
+  Client client(123);
+  stroma_SimStatus s{};
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 1500; }, &s))
+      << "the server stopped ticking when its recording failed";
+  EXPECT_EQ(s.state, stroma_RUNNING);
+  EXPECT_EQ(server.wait_exit(20), 1);  // the recording is incomplete: said by the exit status too
+  const auto j = nlohmann::json::parse(read_file(stats.string()));
+  EXPECT_GT(j["ticks"].get<int>(), 2000);
+  EXPECT_FALSE(j["record"]["ok"].get<bool>());
+  EXPECT_NE(j["record"]["error"].get<std::string>().find("No space left"), std::string::npos) << j["record"];
+  fs::remove(stats);
+}
+
 // Malformed commands are rejected and counted; they never reach physics.
 TEST(Serve, MalformedCommandsAreCountedAndPhysicsStaysFinite) {
   Server server(115, {"--duration", "60"});
