@@ -546,7 +546,10 @@ void log_summary(const Recording& rec, size_t written, const std::vector<double>
 bool add_video(const RenderOptions& o, const OutputPaths& out, nlohmann::ordered_json& stats) {
   const std::string err = encode_video(out.ffmpeg, o.out_dir, o.fps, out.video);
   if (!err.empty()) {
-    spdlog::error("video: {}", err);
+    std::error_code ec;
+    fs::remove(out.video, ec);  // no half-written video is left (a full disk): the frames stay
+    spdlog::error("video: {} ({} not written; the frames are in {})", err, out.video, o.out_dir);
+    stats["video_error"] = err;
     return false;
   }
   spdlog::info("video: {}", out.video);

@@ -3,7 +3,7 @@
 # command-line, server and interop tests) with ctest; the headless build (no DDS, no OSMesa) with
 # its tests under ASan + UBSan and the fuzz targets; and the lock-free hand-offs, the physics
 # loop's threads and the preconditioner's refresh worker under ThreadSanitizer. This is exactly
-# what CI runs (.ci/run).
+# what CI runs (.ci/run). Also a 2-minute soak of the demo's three processes.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Loopback only: every DDS participant started here uses Stroma's built-in loopback config,
@@ -26,6 +26,9 @@ cmake --preset asan >/dev/null
 cmake --build build-asan -j "$jobs"
 ctest --test-dir build-asan --output-on-failure -j "$jobs" -E "$asan_skip"
 scripts/fuzz.sh "${STROMA_FUZZ_SECONDS:-30}"
+# A 2-minute soak of the demo's three processes (server, renderer, looping tool client):
+# memory flat after warm-up, nothing dies (bench/soak.sh; the 60-minute figures: REALTIME.md).
+bench/soak.sh 2
 # ThreadSanitizer stage, so ctest's summary of the full build is the last thing printed.
 cmake --preset tsan >/dev/null
 cmake --build build-tsan -j "$jobs" --target stroma_thread_tests

@@ -198,11 +198,27 @@ TEST(RenderEndToEnd, FramesOntoAFullDiskStopTheRecordingNotTheServer) {
     }
   EXPECT_GT(frames, 0);
   EXPECT_LT(frames, 200);
+  // The video onto the full disk (the frames elsewhere): the encoder fails, no partial video is
+  // left, the frames are kept and the statistics say why.
+  const fs::path frames_dir = fs::temp_directory_path() / ("stroma_fullfs_frames_" + std::to_string(getpid()));
+  fs::remove_all(frames_dir);
+  const std::string fill = "dd if=/dev/zero of=" + (fsdir / "filler").string() + " bs=4k count=200 2>/dev/null";
+  if (std::system(fill.c_str()) != 0) {
+  }  // dd stops when the 400 KB are full: that is the point
+  Process video({STROMA_BINARY, "render", "--domain", domain, "--out", frames_dir.string(), "--frames", "10", "--fps",
+                 "20", "--width", "160", "--height", "120", "--msaa", "0", "--video", (fsdir / "demo.mp4").string(),
+                 "--wait", "30"});
+  EXPECT_EQ(video.wait_exit(60), 1) << "the renderer did not report the failed video";
+  EXPECT_FALSE(fs::exists(fsdir / "demo.mp4")) << "a partial video was left";
+  EXPECT_TRUE(fs::exists(frames_dir / "frame_000009.png"));
+  const auto rs = nlohmann::json::parse(std::ifstream(frames_dir / "render_stats.json"));
+  EXPECT_TRUE(rs.contains("video_error")) << rs.dump();
   // The server kept its schedule throughout and shuts down cleanly.
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(20), 0);
   const auto stats = nlohmann::json::parse(std::ifstream(fs::temp_directory_path() / "stroma_fullfs_stats.json"));
   EXPECT_GT(stats["ticks"].get<int>(), 1000);
+  fs::remove_all(frames_dir);
   unmount(fsdir);
 }
 
