@@ -7,8 +7,9 @@
 #    after a warm-up (the first fifth of the run, at least 30 s): flat means within 1 %;
 #  - the server's missed deadlines, the tool's round trip p50/p99/max, the renderer's drops.
 # Exits 1 if a process dies, the memory grows by more than 1 % after warm-up, or the tool sees
-# no feedback. With LSAN=1 (binaries built with -fsanitize=address: BUILD=build-asan-full),
-# LeakSanitizer's report of each process at exit is checked too.
+# no feedback. With LSAN=1 (binaries built with -fsanitize=address: BUILD=build-asan-full, preset
+# asan-full) LeakSanitizer's report of each process at exit is the check instead of the memory
+# growth (ASan's quarantine grows by design); no real-time scheduling then.
 # Usage: bench/soak.sh [MINUTES=60]    Environment: OUT (default out/soak), STROMA_DOMAIN (37),
 #        BUILD (default build).
 set -euo pipefail
@@ -69,7 +70,10 @@ awk -F, -v warm="$warm" 'NR > 1 && $1 >= warm && $2 > 0 && $3 > 0 && $4 > 0 {
     if (n < 2) { print "soak: too few memory samples after warm-up"; exit 1 }
     ds = 100 * (smax - s0) / s0; dr = 100 * (rmax - r0) / r0; dt = 100 * (tmax - t0) / t0
     printf "memory after warm-up (%d s), first -> largest: server %d -> %d kB (%+.2f %%), renderer %d -> %d kB (%+.2f %%), tool %d -> %d kB (%+.2f %%)\n", warm, s0, smax, ds, r0, rmax, dr, t0, tmax, dt
-    if (ds > 1 || dr > 1 || dt > 1) { print "soak: memory grew by more than 1 % after warm-up"; exit 1 } }' "$out/rss.csv" || status=1
+    if (ds > 1 || dr > 1 || dt > 1) { print "soak: memory grew by more than 1 % after warm-up"; exit 1 } }' "$out/rss.csv" ||
+  # Under ASan, freed memory waits in its quarantine (up to 256 MB) and the shadow grows with it:
+  # growth is reported, not judged; LeakSanitizer's report is the check there.
+  [ "${LSAN:-0}" = 1 ] || status=1
 grep -h "missed deadlines" "$out/serve.log" | tail -1 | sed 's/^.*info\] /server:   /'
 grep -h "round trip" "$out/tool.log" | tail -1 | sed 's/^/tool:     /'
 grep -h "frames written" "$out/render.log" | tail -1 | sed 's/^.*info\] /renderer: /'
