@@ -184,7 +184,7 @@ void unmount(const fs::path& dir) {
 TEST(RenderEndToEnd, FramesOntoAFullDiskStopTheRecordingNotTheServer) {
   const fs::path fsdir = fs::temp_directory_path() / ("stroma_small_fs_" + std::to_string(getpid()));
   if (!mount_small_fs(fsdir)) GTEST_SKIP() << "cannot mount a small tmpfs here (needs root)";
-  const std::string domain = "143";
+  const std::string domain = "145";
   Process server({STROMA_BINARY, "serve", kSrc + "/scenarios/liver.yaml", "--domain", domain, "--realtime", "off",
                   "--duration", "60", "--stats", (fs::temp_directory_path() / "stroma_fullfs_stats.json").string()});
   Process renderer({STROMA_BINARY, "render", "--domain", domain, "--out", (fsdir / "frames").string(), "--frames", "200",
