@@ -47,6 +47,7 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file,
                                   const std::string& security_dir, const std::string& identity) {
   DdsParticipant p;
   std::string xml;
+  const char* env_uri = std::getenv("CYCLONEDDS_URI");
   if (!config_file.empty()) {
     std::ifstream f(config_file);
     if (!f) throw std::runtime_error(fmt::format("--dds-config: cannot open '{}'", config_file));
@@ -54,8 +55,8 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file,
     ss << f.rdbuf();
     xml = ss.str();
     p.config_source = config_file;
-  } else if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri && *uri) {
-    p.config_source = std::string("CYCLONEDDS_URI=") + uri;
+  } else if (env_uri && *env_uri) {
+    p.config_source = std::string("CYCLONEDDS_URI=") + env_uri;
   } else if (receive_priority > 0 && fifo_permitted(receive_priority)) {
     xml = loopback_config_with_receive_priority(receive_priority);
     p.config_source = fmt::format(
@@ -67,7 +68,6 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file,
   }
   // The built-in configuration promises loopback only: its sockets are bound to loopback too
   // (server/loopback_bind.hpp), not just told to use "lo".
-  const char* env_uri = std::getenv("CYCLONEDDS_URI");
   if (config_file.empty() && !(env_uri && *env_uri)) enable_loopback_bind();
   if (!security_dir.empty()) {
     const std::string sec = security_config_element(security_dir, identity);

@@ -292,61 +292,61 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
     if (n > 0) dds_return_loan(ep.control_reader, samples, n);
 
     for (size_t r = 0; r < ep.command_readers.size(); ++r) {
-    const dds_entity_t reader = ep.command_readers[r];
-    n = dds_take(reader, samples, infos, 16, 16);
-    for (dds_return_t i = 0; i < n; ++i) {
-      if (!infos[i].valid_data) continue;
-      const auto* c = static_cast<const stroma_ToolCommand*>(samples[i]);
-      if (const uint64_t g = seqs.gap(infos[i].publication_handle, c->seq)) cnt.superseded.fetch_add(g);
-      int tool = -1;
-      for (size_t t = 0; t < m.tools.size(); ++t)
-        if (m.tools[t].name == c->tool) tool = static_cast<int>(t);
-      if (tool < 0) {
-        cnt.rejected.fetch_add(1);
-        spdlog::debug("command for unknown tool '{}' rejected", c->tool);
-        continue;
+      const dds_entity_t reader = ep.command_readers[r];
+      n = dds_take(reader, samples, infos, 16, 16);
+      for (dds_return_t i = 0; i < n; ++i) {
+        if (!infos[i].valid_data) continue;
+        const auto* c = static_cast<const stroma_ToolCommand*>(samples[i]);
+        if (const uint64_t g = seqs.gap(infos[i].publication_handle, c->seq)) cnt.superseded.fetch_add(g);
+        int tool = -1;
+        for (size_t t = 0; t < m.tools.size(); ++t)
+          if (m.tools[t].name == c->tool) tool = static_cast<int>(t);
+        if (tool < 0) {
+          cnt.rejected.fetch_add(1);
+          spdlog::debug("command for unknown tool '{}' rejected", c->tool);
+          continue;
+        }
+        if (ep.command_reader_tool[r] >= 0 && ep.command_reader_tool[r] != tool) {
+          // Protected domain: the writer was permitted this reader's tool partition only.
+          cnt.rejected.fetch_add(1);
+          spdlog::debug("command for tool '{}' in the partition of '{}' rejected", c->tool,
+                        m.tools[ep.command_reader_tool[r]].name);
+          continue;
+        }
+        ToolPose pose;
+        for (int k = 0; k < 3; ++k) pose.position[k] = c->position[k];
+        for (int k = 0; k < 4; ++k) pose.orientation[k] = c->orientation[k];
+        pose.jaw = c->jaw;
+        pose.buttons = c->buttons;
+        // Speed check over the client's own clock (arrival times bunch up under network jitter);
+        // the arrival clock only when the client's timestamps do not advance.
+        const auto now = std::chrono::steady_clock::now();
+        double dt = 0.0;
+        if (have_last[tool]) {
+          const int64_t dc = c->client_time_ns - last_client_ns[tool];
+          dt = dc > 0 ? static_cast<double>(dc) * 1e-9
+                      : std::chrono::duration<double>(now - last_time[tool]).count();
+        }
+        const ToolCheck chk = validate_tool_command(m.tools[tool], last[tool], dt, pose);
+        if (chk.result == ToolCheck::Rejected) {
+          cnt.rejected.fetch_add(1);
+          spdlog::debug("tool '{}' command {} rejected: {}", c->tool, c->seq, chk.reason);
+          continue;
+        }
+        (chk.result == ToolCheck::Clamped ? cnt.clamped : cnt.accepted).fetch_add(1);
+        last[tool] = chk.pose;
+        last_time[tool] = now;
+        last_client_ns[tool] = c->client_time_ns;
+        have_last[tool] = true;
+        ToolInput& slot = loop.tool_in[tool]->write_slot();
+        slot.tool = tool;
+        slot.seq = c->seq;
+        slot.client_time_ns = c->client_time_ns;
+        slot.pose = chk.pose;
+        slot.arrival_ns = monotonic_ns();  // the loop's clock (CLOCK_MONOTONIC)
+        loop.tool_in[tool]->publish();
       }
-      if (ep.command_reader_tool[r] >= 0 && ep.command_reader_tool[r] != tool) {
-        // Protected domain: the writer was permitted this reader's tool partition only.
-        cnt.rejected.fetch_add(1);
-        spdlog::debug("command for tool '{}' in the partition of '{}' rejected", c->tool,
-                      m.tools[ep.command_reader_tool[r]].name);
-        continue;
-      }
-      ToolPose pose;
-      for (int k = 0; k < 3; ++k) pose.position[k] = c->position[k];
-      for (int k = 0; k < 4; ++k) pose.orientation[k] = c->orientation[k];
-      pose.jaw = c->jaw;
-      pose.buttons = c->buttons;
-      // Speed check over the client's own clock (arrival times bunch up under network jitter);
-      // the arrival clock only when the client's timestamps do not advance.
-      const auto now = std::chrono::steady_clock::now();
-      double dt = 0.0;
-      if (have_last[tool]) {
-        const int64_t dc = c->client_time_ns - last_client_ns[tool];
-        dt = dc > 0 ? static_cast<double>(dc) * 1e-9
-                    : std::chrono::duration<double>(now - last_time[tool]).count();
-      }
-      const ToolCheck chk = validate_tool_command(m.tools[tool], last[tool], dt, pose);
-      if (chk.result == ToolCheck::Rejected) {
-        cnt.rejected.fetch_add(1);
-        spdlog::debug("tool '{}' command {} rejected: {}", c->tool, c->seq, chk.reason);
-        continue;
-      }
-      (chk.result == ToolCheck::Clamped ? cnt.clamped : cnt.accepted).fetch_add(1);
-      last[tool] = chk.pose;
-      last_time[tool] = now;
-      last_client_ns[tool] = c->client_time_ns;
-      have_last[tool] = true;
-      ToolInput& slot = loop.tool_in[tool]->write_slot();
-      slot.tool = tool;
-      slot.seq = c->seq;
-      slot.client_time_ns = c->client_time_ns;
-      slot.pose = chk.pose;
-      slot.arrival_ns = monotonic_ns();  // the loop's clock (CLOCK_MONOTONIC)
-      loop.tool_in[tool]->publish();
-    }
-    if (n > 0) dds_return_loan(reader, samples, n);
+      if (n > 0) dds_return_loan(reader, samples, n);
     }
   }
 }
