@@ -2,6 +2,8 @@
 
 #include <time.h>
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 namespace stroma::render {
@@ -12,8 +14,11 @@ int64_t monotonic_ns() {
   return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
 }
 
-FrameWriter::FrameWriter(std::string dir, int level, int buffers)
-    : dir_(std::move(dir)), level_(level), pool_(static_cast<size_t>(std::max(1, buffers))) {
+FrameWriter::FrameWriter(std::string dir, int level, int buffers, WrittenCallback on_written)
+    : dir_(std::move(dir)),
+      level_(level),
+      pool_(static_cast<size_t>(std::max(1, buffers))),
+      on_written_(std::move(on_written)) {
   for (Image& i : pool_) free_.push_back(&i);
   thread_ = std::thread([this] { run(); });
 }
@@ -58,6 +63,11 @@ void FrameWriter::finish() {
   if (thread_.joinable()) thread_.join();
 }
 
+uint64_t FrameWriter::written() const {
+  std::lock_guard lock(mutex_);
+  return written_;
+}
+
 std::string FrameWriter::error() const {
   std::lock_guard lock(mutex_);
   return error_;
@@ -77,14 +87,18 @@ void FrameWriter::run() {
     }
     std::string err;
     const bool ok = !failed && write_png(path(job.info.index), *job.image, level_, &err);
-    std::lock_guard lock(mutex_);
-    free_.push_back(job.image);
-    if (ok) {
-      job.info.written_ns = monotonic_ns();
-      written_.push_back(job.info);
-    } else if (error_.empty()) {
-      error_ = err;
+    if (ok) job.info.written_ns = monotonic_ns();
+    {
+      std::lock_guard lock(mutex_);
+      free_.push_back(job.image);
+      if (ok) {
+        ++written_;
+      } else if (error_.empty()) {
+        error_ = err;
+      }
     }
+    // Outside the lock: the callback may do I/O (a frames.csv row) while the renderer acquires.
+    if (ok && on_written_) on_written_(job.info);
   }
 }
 

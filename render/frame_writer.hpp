@@ -3,10 +3,13 @@
 /// Writes rendered frames to numbered PNG files on a thread of its own, so encoding never holds
 /// up rendering. A fixed pool of image buffers: when every buffer is waiting to be written the
 /// renderer gets none and drops that frame (counted) rather than falling behind.
+/// The writer keeps nothing per frame: each finished frame goes to an `on_written` callback (on
+/// the writer thread), so memory stays constant over a recording of any length.
 
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -29,8 +32,12 @@ struct WrittenFrame {
 /// Background PNG writer with a bounded pool of buffers.
 class FrameWriter {
  public:
-  /// Frames go to `dir`/frame_NNNNNN.png at zlib `level`; `buffers` images in flight at most.
-  FrameWriter(std::string dir, int level = 1, int buffers = 6);
+  /// Called on the writer thread once per frame when its file is complete, in frame order.
+  using WrittenCallback = std::function<void(const WrittenFrame&)>;
+
+  /// Frames go to `dir`/frame_NNNNNN.png at zlib `level`; `buffers` images in flight at most;
+  /// `on_written` (may be empty) hears of each frame on disk.
+  FrameWriter(std::string dir, int level = 1, int buffers = 6, WrittenCallback on_written = {});
   ~FrameWriter();
   FrameWriter(const FrameWriter&) = delete;
   FrameWriter& operator=(const FrameWriter&) = delete;
@@ -44,8 +51,8 @@ class FrameWriter {
   /// Waits until every queued frame is on disk and stops the thread.
   void finish();
 
-  /// Frames written so far, in order (read after finish(), or under no concurrent use).
-  const std::vector<WrittenFrame>& written() const { return written_; }
+  /// How many frames are on disk so far.
+  uint64_t written() const;
   uint64_t submitted() const { return next_index_; }
   /// The first write error ("" if none); writing stops at the first error.
   std::string error() const;
@@ -63,7 +70,8 @@ class FrameWriter {
   std::vector<Image> pool_;
   std::vector<Image*> free_;
   std::deque<Job> queue_;
-  std::vector<WrittenFrame> written_;
+  WrittenCallback on_written_;
+  uint64_t written_ = 0;
   uint64_t next_index_ = 0;
   bool stopping_ = false;
   std::string error_;

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "engine/log_histogram.hpp"
 #include "engine/output_dir.hpp"
 #include "render/frame_writer.hpp"
 #include "render/gl_context.hpp"
@@ -139,13 +140,6 @@ std::string encode_video(const std::string& ffmpeg, const std::string& dir, doub
   waitpid(pid, &status, 0);
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return "ffmpeg failed (see its message above)";
   return "";
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
 }
 
 render::Vec3f vec3f(const double* d) {
@@ -408,7 +402,7 @@ WaitResult wait_for_server(Follower& f, const sigset_t& stop_signals) {
 struct Recording {
   int64_t start = 0, end = 0;  // CLOCK_MONOTONIC ns
   uint64_t late_drops = 0, writer_drops = 0;
-  std::vector<double> render_ms;
+  LogHistogram render_ms;  // fixed size: a recording of any length costs no more memory
 
   double seconds() const { return static_cast<double>(end - start) * 1e-9; }
 };
@@ -438,15 +432,16 @@ void show_tools(Follower& f) {
 
 /// Renders the scene as it is now into a buffer of the PNG writer and queues it; false when the
 /// writer had no free buffer (all still being written, or it failed).
-bool render_frame(Follower& f, FrameWriter& writer, std::vector<double>& render_ms) {
+bool render_frame(Follower& f, FrameWriter& writer, LogHistogram& render_ms) {
   update_camera(f);
   show_tools(f);
   Image* img = writer.acquire();
   if (!img) return false;
   const int64_t t0 = monotonic_ns();
   f.renderer.render(*img);
-  render_ms.push_back(static_cast<double>(monotonic_ns() - t0) * 1e-6);
-  writer.submit(img, f.st.newest_publish_ns, f.st.sim_time, f.st.state_frame, render_ms.back());
+  const double ms = static_cast<double>(monotonic_ns() - t0) * 1e-6;
+  render_ms.record(ms);
+  writer.submit(img, f.st.newest_publish_ns, f.st.sim_time, f.st.state_frame, ms);
   f.st.newest_publish_ns = 0;  // the same state in a later frame has no new latency to measure
   return true;
 }
@@ -489,22 +484,32 @@ double publish_to_disk_ms(const render::WrittenFrame& w) {
   return w.stamp_ns > 0 ? static_cast<double>(w.written_ns - w.stamp_ns) * 1e-6 : -1.0;
 }
 
-std::vector<double> publish_to_disk_ms(const std::vector<render::WrittenFrame>& frames) {
-  std::vector<double> latency_ms;
-  for (const auto& w : frames)
-    if (const double lat = publish_to_disk_ms(w); lat >= 0) latency_ms.push_back(lat);
-  return latency_ms;
-}
-
-void write_frames_csv(const std::string& dir, const std::vector<render::WrittenFrame>& frames) {
-  std::ofstream csv(fs::path(dir) / "frames.csv");
-  csv << "frame,sim_time,state_frame,render_ms,latency_ms\n";
-  for (const auto& w : frames) {
-    const double lat = publish_to_disk_ms(w);
-    csv << fmt::format("{},{:.6f},{},{:.3f},{}\n", w.index, w.sim_time, w.state_frame, w.render_ms,
-                       lat >= 0 ? fmt::format("{:.3f}", lat) : "");
+/// frames.csv, written a row at a time as each PNG is complete, and the publish-to-disk
+/// latencies: what the recording keeps per frame is on disk, never in memory. Used by the
+/// writer thread only until FrameWriter::finish() returns.
+class FrameLog {
+ public:
+  explicit FrameLog(const std::string& dir) : path_((fs::path(dir) / "frames.csv").string()), csv_(path_) {
+    csv_ << "frame,sim_time,state_frame,render_ms,latency_ms\n";
   }
-}
+  void add(const render::WrittenFrame& w) {
+    const double lat = publish_to_disk_ms(w);
+    if (lat >= 0) latency_ms_.record(lat);
+    csv_ << fmt::format("{},{:.6f},{},{:.3f},{}\n", w.index, w.sim_time, w.state_frame, w.render_ms,
+                        lat >= 0 ? fmt::format("{:.3f}", lat) : "");
+  }
+  /// Flushes and closes frames.csv; "" or what went wrong with it.
+  std::string close() {
+    csv_.close();
+    return csv_ ? "" : "cannot write " + path_;
+  }
+  const LogHistogram& latency_ms() const { return latency_ms_; }
+
+ private:
+  std::string path_;
+  std::ofstream csv_;
+  LogHistogram latency_ms_;
+};
 
 double fps_achieved(const Recording& rec, size_t written) {
   const double wall = rec.seconds();
@@ -512,8 +517,8 @@ double fps_achieved(const Recording& rec, size_t written) {
 }
 
 nlohmann::ordered_json make_stats(const RenderOptions& o, const render::GlContext& gl, const SceneState& st,
-                                  const Recording& rec, size_t written, const std::vector<double>& latency_ms) {
-  const std::vector<double>& render_ms = rec.render_ms;
+                                  const Recording& rec, size_t written, const LogHistogram& latency_ms) {
+  const LogHistogram& render_ms = rec.render_ms;
   nlohmann::ordered_json stats;
   stats["frames_written"] = written;
   stats["frames_dropped_late"] = rec.late_drops;
@@ -523,10 +528,11 @@ nlohmann::ordered_json make_stats(const RenderOptions& o, const render::GlContex
   stats["size"] = {o.width, o.height};
   stats["msaa"] = o.msaa;
   stats["gl"] = {{"version", gl.version()}, {"renderer", gl.renderer()}};
-  stats["render_ms"] = {{"p50", percentile(render_ms, 0.5)}, {"p99", percentile(render_ms, 0.99)},
-                        {"max", render_ms.empty() ? 0.0 : *std::max_element(render_ms.begin(), render_ms.end())}};
-  stats["publish_to_disk_ms"] = {{"frames", latency_ms.size()}, {"p50", percentile(latency_ms, 0.5)},
-                                 {"p99", percentile(latency_ms, 0.99)}};
+  // Percentiles from fixed histograms: at most 0.5 % above the exact value (engine/log_histogram.hpp).
+  stats["render_ms"] = {{"p50", render_ms.percentile_ms(0.5)}, {"p99", render_ms.percentile_ms(0.99)},
+                        {"max", render_ms.max_ms()}};
+  stats["publish_to_disk_ms"] = {{"frames", latency_ms.count()}, {"p50", latency_ms.percentile_ms(0.5)},
+                                 {"p99", latency_ms.percentile_ms(0.99)}};
   stats["states_received"] = st.states;
   stats["states_ignored"] = st.stale_states + st.bad_states;
   stats["server_restarts"] = st.restarts;
@@ -535,11 +541,11 @@ nlohmann::ordered_json make_stats(const RenderOptions& o, const render::GlContex
   return stats;
 }
 
-void log_summary(const Recording& rec, size_t written, const std::vector<double>& latency_ms) {
+void log_summary(const Recording& rec, size_t written, const LogHistogram& latency_ms) {
   spdlog::info("{} frames written in {:.1f} s ({:.1f} FPS), dropped {} late + {} writer-busy; render p50 {:.1f} ms; "
                "publish-to-disk p50 {:.1f} ms p99 {:.1f} ms",
                written, rec.seconds(), fps_achieved(rec, written), rec.late_drops, rec.writer_drops,
-               percentile(rec.render_ms, 0.5), percentile(latency_ms, 0.5), percentile(latency_ms, 0.99));
+               rec.render_ms.percentile_ms(0.5), latency_ms.percentile_ms(0.5), latency_ms.percentile_ms(0.99));
 }
 
 /// Encodes the frames into the video and names it in `stats`; false (logged) if that failed.
@@ -570,19 +576,21 @@ bool write_stats(const std::string& file, const nlohmann::ordered_json& stats) {
 /// Waits for the last PNGs, then writes frames.csv, the video and the statistics; returns the
 /// exit code. No frame at all is a failure unless a signal ended the wait for the server.
 int finish_recording(const RenderOptions& o, const OutputPaths& out, const render::GlContext& gl, const SceneState& st,
-                     const Recording& rec, FrameWriter& writer, bool stopped) {
-  writer.finish();
+                     const Recording& rec, FrameWriter& writer, FrameLog& log, bool stopped) {
+  writer.finish();  // after this the writer thread no longer touches `log`
   int exit_code = 0;
   const std::string werr = writer.error();
   if (!werr.empty()) {
     spdlog::error("writing frames failed: {}", werr);
     exit_code = 1;
   }
-  write_frames_csv(o.out_dir, writer.written());
-  const std::vector<double> latency_ms = publish_to_disk_ms(writer.written());
-  const size_t written = writer.written().size();
-  nlohmann::ordered_json stats = make_stats(o, gl, st, rec, written, latency_ms);
-  log_summary(rec, written, latency_ms);
+  if (const std::string csv_err = log.close(); !csv_err.empty()) {
+    spdlog::error("{}", csv_err);
+    exit_code = 1;
+  }
+  const size_t written = writer.written();
+  nlohmann::ordered_json stats = make_stats(o, gl, st, rec, written, log.latency_ms());
+  log_summary(rec, written, log.latency_ms());
   if (!out.ffmpeg.empty() && written > 0 && exit_code == 0 && !add_video(o, out, stats)) exit_code = 1;
   if (!write_stats(out.stats_file, stats)) exit_code = 1;
   if (written == 0 && !stopped) exit_code = 1;
@@ -601,10 +609,11 @@ int follow_and_record(const RenderOptions& o, const OutputPaths& out, const rend
   // would otherwise cost the first frames of the recording.
   update_camera(f);
   renderer.warm_up();
-  FrameWriter writer(o.out_dir, o.png_level);
+  FrameLog log(o.out_dir);
+  FrameWriter writer(o.out_dir, o.png_level, 6, [&log](const render::WrittenFrame& w) { log.add(w); });
   const bool stopped = waited == WaitResult::Stopped;
   const Recording rec = record(f, writer, stop_signals, stopped);
-  return finish_recording(o, out, gl, st, rec, writer, stopped);
+  return finish_recording(o, out, gl, st, rec, writer, log, stopped);
 }
 
 }  // namespace
