@@ -18,6 +18,7 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
   const Lame lame = lame_from_young_poisson(b.young_modulus, b.poisson_ratio);
   BodyRange br;
   br.name = b.name;
+  br.density = b.density;
   br.node_begin = node_off;
   br.node_end = node_off + static_cast<int32_t>(mesh.nodes.size());
   br.element_begin = static_cast<int32_t>(m.elements.size());
@@ -135,7 +136,15 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
     add_body(m, b, gravity, any_qr, node_off, all_tets);
     node_off += static_cast<int32_t>(b.mesh->mesh.nodes.size());
   }
+  finish_fem_model(m, all_tets);
+  return m;
+}
+
+void finish_fem_model(FemModel& m, const std::vector<Tet>& all_tets) {
+  const int32_t nn = m.num_nodes;
   m.inv_mass.resize(nn);
+  m.constrained_nodes.clear();
+  m.constrained_offdiag.clear();
   for (int32_t i = 0; i < nn; ++i) {
     if (m.constrained[i]) m.constrained_nodes.push_back(i);
     m.inv_mass[i] = m.mass[i] <= 0 ? 0.0 : 1.0 / m.mass[i];
@@ -144,7 +153,6 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
   build_node_elements(m);
   m.any_stiffness_damping =
       std::any_of(m.elements.begin(), m.elements.end(), [](const ElementParams& e) { return e.beta != 0.0; });
-  return m;
 }
 
 }  // namespace stroma

@@ -26,4 +26,11 @@ struct FemBodyInput {
 /// Lumped mass: each tetrahedron gives ρV/4 to each of its nodes. Gravity enters f_ext as m·g.
 FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity);
 
+/// The derived parts of a model whose nodes, elements, ranges, masses, constraints and loads are
+/// set (`all_tets`: each element's nodes): inverse masses, the constrained-node list, the BSR
+/// pattern with the element slots and constrained off-diagonal blocks, node → element lists,
+/// and whether any element has stiffness damping. build_fem_model ends with it; a cut model
+/// (cut_model.hpp) is finished by it too.
+void finish_fem_model(FemModel& m, const std::vector<Tet>& all_tets);
+
 }  // namespace stroma

@@ -45,6 +45,7 @@ struct ElementRange {
 /// One body's slice of the global arrays.
 struct BodyRange {
   std::string name;
+  double density = 0;                          ///< kg/m³ (a cut model re-lumps its masses with it)
   int32_t node_begin = 0, node_end = 0;        ///< global node indices [begin, end)
   int32_t element_begin = 0, element_end = 0;  ///< global element indices
   std::vector<Tri> boundary;                   ///< surface triangles, global node indices

@@ -1,0 +1,33 @@
+#pragma once
+/// \file cut_blade.hpp
+/// Where a blade cuts: the surface its edge sweeps over one step, against the mesh's edges in
+/// their current positions. A crossed edge records the crossing as a parameter along the edge —
+/// a material point (the same parameter in the rest shape), so the cut follows the tissue
+/// however it has deformed. An edge is cut once; later crossings leave it as it is.
+
+#include <cstdint>
+#include <vector>
+
+#include "tissue/cut_topology.hpp"
+#include "tissue/tet_mesh.hpp"
+
+namespace stroma {
+
+/// The blade's cutting edge at the start (a0 → b0) and end (a1 → b1) of a step. The swept
+/// surface is the ruled quad a0 b0 b1 a1, taken as the triangles (a0, b0, b1) and (a0, b1, a1).
+struct SweptBlade {
+  Vec3 a0, b0, a1, b1;
+};
+
+/// Cuts every uncut edge of `adj` that the swept surface crosses, the nodes at `x` (3 per
+/// node): edge_cut[e] becomes the crossing's parameter from the edge's lower node, kept in
+/// [kCutMinFraction, 1 − kCutMinFraction]. An edge lying in the surface's plane is not cut (the
+/// blade slides along it). Returns the number of edges it cut. No allocation.
+int cut_edges(const double* x, const TetAdjacency& adj, const SweptBlade& blade, std::vector<double>& edge_cut);
+
+/// Where segment p → q crosses triangle (a, b, c): the parameter along the segment in [0, 1],
+/// or a negative number when it does not (or lies in the triangle's plane). Points on the
+/// triangle's edges count as inside, so a blade passing exactly through a node or an edge cuts.
+double segment_triangle(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c);
+
+}  // namespace stroma

@@ -1,0 +1,115 @@
+#include "tissue/cut_model.hpp"
+
+#include "tissue/fem_build.hpp"
+
+namespace stroma {
+
+CutBase make_cut_base(const FemModel& uncut) {
+  CutBase b;
+  b.tets.reserve(uncut.elements.size());
+  for (const ElementParams& e : uncut.elements) b.tets.push_back(e.node);
+  b.adj = build_tet_adjacency(b.tets, uncut.num_nodes);
+  for (const BodyRange& r : uncut.bodies) b.node_ranges.push_back(r.node_begin);
+  b.node_ranges.push_back(uncut.num_nodes);
+  return b;
+}
+
+FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
+  FemModel m;
+  const int32_t nd = topo.num_dofs;
+  m.num_nodes = nd;
+  m.gravity = u.gravity;
+  m.rest.resize(3 * static_cast<size_t>(nd));
+  m.mass.assign(nd, 0.0);
+  m.alpha.resize(nd);
+  m.constrained.resize(nd);
+  m.f_ext.assign(3 * static_cast<size_t>(nd), 0.0);
+  for (int32_t d = 0; d < nd; ++d) {
+    const int32_t g = topo.dof_node[d];
+    for (int k = 0; k < 3; ++k) m.rest[3 * d + k] = u.rest[3 * g + k];
+    m.alpha[d] = u.alpha[g];
+    m.constrained[d] = u.constrained[g];
+  }
+  m.elements.reserve(topo.copies.size());
+  if (!u.rest_frame.empty()) m.rest_frame.reserve(topo.copies.size());
+  for (const ElementCopy& c : topo.copies) {
+    ElementParams ep = u.elements[c.tet];
+    ep.node = c.dof;
+    ep.volume *= c.fraction;
+    m.elements.push_back(ep);
+    if (!u.rest_frame.empty()) m.rest_frame.push_back(u.rest_frame[c.tet]);
+  }
+  for (const ElementRange& r : u.ranges)
+    m.ranges.push_back({topo.tet_copy_begin[r.begin], topo.tet_copy_begin[r.end], r.kernel, r.fixed});
+  for (size_t b = 0; b < u.bodies.size(); ++b) {
+    const BodyRange& ub = u.bodies[b];
+    BodyRange br;
+    br.name = ub.name;
+    br.density = ub.density;
+    br.node_begin = topo.range_dof_begin[b];
+    br.node_end = topo.range_dof_begin[b + 1];
+    br.element_begin = topo.tet_copy_begin[ub.element_begin];
+    br.element_end = topo.tet_copy_begin[ub.element_end];
+    for (const Tri& t : ub.boundary) br.boundary.push_back({topo.node_dof[t[0]], topo.node_dof[t[1]], topo.node_dof[t[2]]});
+    // Lumped masses as build_fem_model makes them (ρV/4 per node, elements in order): an uncut
+    // topology gives the uncut masses bit for bit.
+    for (int32_t e = br.element_begin; e < br.element_end; ++e) {
+      const double mq = br.density * m.elements[e].volume / 4.0;
+      for (int32_t n : m.elements[e].node) m.mass[n] += mq;
+    }
+    m.bodies.push_back(std::move(br));
+  }
+  for (int32_t d = 0; d < nd; ++d) {
+    const int32_t g = topo.dof_node[d];
+    const bool primary = topo.node_dof[g] == d;
+    for (int k = 0; k < 3; ++k) {
+      if (primary && m.mass[d] == u.mass[g]) {  // an uncut node: its force as it was, to the bit
+        m.f_ext[3 * d + k] = u.f_ext[3 * g + k];
+        continue;
+      }
+      const double load = primary ? u.f_ext[3 * g + k] - u.mass[g] * u.gravity[k] : 0.0;
+      m.f_ext[3 * d + k] = m.mass[d] * u.gravity[k] + load;
+    }
+  }
+  std::vector<Tet> all_tets;
+  all_tets.reserve(m.elements.size());
+  for (const ElementParams& e : m.elements) all_tets.push_back(e.node);
+  finish_fem_model(m, all_tets);
+  return m;
+}
+
+std::vector<int32_t> continued_dofs(const CutTopology& from, const CutTopology& to) {
+  std::vector<int32_t> map(static_cast<size_t>(to.num_dofs), -1);
+  for (const ElementCopy& c : to.copies) {
+    // The copy of the same tetrahedron whose material holds this one's (refinement: one does).
+    const ElementCopy* src = &from.copies[from.tet_copy_begin[c.tet]];
+    for (int32_t i = from.tet_copy_begin[c.tet]; i < from.tet_copy_begin[c.tet + 1]; ++i)
+      if ((from.copies[i].material & c.material) == c.material) {
+        src = &from.copies[i];
+        break;
+      }
+    for (int k = 0; k < 4; ++k)
+      if (map[c.dof[k]] < 0) map[c.dof[k]] = src->dof[k];
+  }
+  for (size_t g = 0; g < to.node_dof.size(); ++g)
+    if (map[to.node_dof[g]] < 0) map[to.node_dof[g]] = from.node_dof[g];  // nodes of no element
+  return map;
+}
+
+void transfer_state(const TissueState& from, const std::vector<int32_t>& from_dof, TissueState& to) {
+  const size_t n = from_dof.size();
+  to.x.resize(3 * n);
+  to.v.resize(3 * n);
+  to.dv.resize(3 * n);
+  to.dv_prev.resize(3 * n);
+  for (size_t d = 0; d < n; ++d)
+    for (int k = 0; k < 3; ++k) {
+      const size_t i = 3 * d + k, j = 3 * static_cast<size_t>(from_dof[d]) + k;
+      to.x[i] = from.x[j];
+      to.v[i] = from.v[j];
+      to.dv[i] = from.dv[j];
+      to.dv_prev[i] = from.dv_prev[j];
+    }
+}
+
+}  // namespace stroma

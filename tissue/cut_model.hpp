@@ -1,0 +1,46 @@
+#pragma once
+/// \file cut_model.hpp
+/// A cut mesh as a FemModel, and a state carried from one topology to the next.
+///
+/// The cut model is built off the physics thread from the uncut model and a CutTopology
+/// (cut_topology.hpp): each copy is its tetrahedron's element (same shape gradients, Lamé
+/// parameters, damping) with its volume share; masses are re-lumped from the copies' volumes,
+/// so the total mass is the uncut model's to rounding; a DOF keeps its node's rest position,
+/// constraint, Rayleigh α; a node's load goes to its primary DOF. The pattern, slots and node
+/// lists are rebuilt (finish_fem_model), so nothing of the old pattern survives.
+
+#include <vector>
+
+#include "tissue/cut_topology.hpp"
+#include "tissue/fem_model.hpp"
+#include "tissue/tissue_state.hpp"
+
+namespace stroma {
+
+/// What cutting needs of an uncut model, computed once: its elements' nodes, their adjacency,
+/// and the bodies' node ranges.
+struct CutBase {
+  std::vector<Tet> tets;
+  TetAdjacency adj;
+  std::vector<int32_t> node_ranges;  ///< {bodies[0].node_begin, …, bodies.back().node_end}
+};
+
+/// The cut base of an uncut model.
+CutBase make_cut_base(const FemModel& uncut);
+
+/// The FemModel of `uncut` cut to `topo` (a topology of the same mesh). With no cut it equals
+/// `uncut` in every array.
+FemModel build_cut_fem_model(const FemModel& uncut, const CutTopology& topo);
+
+/// For each DOF of `to`, the DOF of `from` it continues: `to` must refine `from` (its cuts a
+/// superset of from's), so every copy of `to` lies in one copy of `from` and every DOF of `to`
+/// in one DOF of `from`.
+std::vector<int32_t> continued_dofs(const CutTopology& from, const CutTopology& to);
+
+/// The state on the new DOFs: each takes the position, velocity and solver warm start of the
+/// DOF it continues (`from_dof`, continued_dofs()). A cut moves nothing: the two lips start
+/// where the material was, at its velocity. Writes into `to` (resized once, so a caller may
+/// keep its capacity).
+void transfer_state(const TissueState& from, const std::vector<int32_t>& from_dof, TissueState& to);
+
+}  // namespace stroma
