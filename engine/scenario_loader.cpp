@@ -418,6 +418,13 @@ const Choices<ToolShape> kToolShapes = {{"sphere", ToolShape::Sphere},
                                         {"blade", ToolShape::Blade},
                                         {"grasper", ToolShape::Grasper}};
 
+/// Tool quantities, whatever the scene's units (SI or mm-tonne-s): bounded, so no value the
+/// loader accepts overflows the contact, coupling or speed arithmetic at tick 0 (issue 15).
+const Range kToolLength = physical_range(1e-9, 1e9, "a length: instruments are ~1e-4..1e-1 m (0.1..100 mm)");
+const Range kToolStiffness = physical_range(1e-9, 1e12, "N/m: tissue contact is ~1e1..1e5 N/m (1e-2..1e2 N/mm)");
+const Range kToolDamping = physical_range(0, 1e9, "N*s/m");
+const Range kToolForce = physical_range(1e-9, 1e9, "N: haptic devices render ~1..40 N");
+
 ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   ToolEntry t;
   t.where = location_of(m);
@@ -429,22 +436,22 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
     t.spec.workspace_min = b.min;
     t.spec.workspace_max = b.max;
   }
-  m.read("max_speed", t.spec.max_speed, greater_than(0));
-  m.read("timeout", t.spec.timeout, greater_than(0));
+  m.read("max_speed", t.spec.max_speed, physical_range(1e-9, 1e9, "a speed: hands move ~0.01..1 m/s (10..1000 mm/s)"));
+  m.read("timeout", t.spec.timeout, physical_range(1e-6, 1e6, "s: how long a silent client's pose is held"));
   m.read("on_invalid", t.spec.on_invalid, kInvalidPolicies);
   if (auto f = m.opt("shape")) {
     const MapReader sm = f->map({"type", "radius", "shaft_radius", "length"});
     sm.require("type", t.spec.shape, kToolShapes);
-    sm.require("radius", t.spec.radius, greater_than(0));
+    sm.require("radius", t.spec.radius, kToolLength);
     if (t.spec.shape == ToolShape::Probe) {
-      sm.require("length", t.spec.shaft_length, greater_than(0));
+      sm.require("length", t.spec.shaft_length, kToolLength);
       t.spec.shaft_radius = t.spec.radius;
-      sm.read("shaft_radius", t.spec.shaft_radius, greater_than(0));
+      sm.read("shaft_radius", t.spec.shaft_radius, kToolLength);
       if (t.spec.shaft_radius > t.spec.radius)
         sm.req("shaft_radius").fail("shaft_radius = " + format_number(t.spec.shaft_radius) +
                                     " must not exceed the tip radius " + format_number(t.spec.radius));
     } else if (t.spec.shape == ToolShape::Blade || t.spec.shape == ToolShape::Grasper) {
-      sm.require("length", t.spec.shaft_length, greater_than(0));
+      sm.require("length", t.spec.shaft_length, kToolLength);
       if (sm.opt("shaft_radius")) sm.req("shaft_radius").fail("'shaft_radius' belongs to type probe");
     } else if (sm.opt("length") || sm.opt("shaft_radius")) {
       sm.fail("'length' and 'shaft_radius' belong to types probe, blade, grasper (a sphere has only a radius)");
@@ -452,25 +459,25 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
   }
   if (auto f = m.opt("contact")) {
     const MapReader cm = f->map({"stiffness", "damping", "friction"});
-    cm.read("stiffness", t.spec.contact_stiffness, greater_than(0));
-    cm.read("damping", t.spec.contact_damping, at_least(0));
-    cm.read("friction", t.spec.friction, at_least(0));
+    cm.read("stiffness", t.spec.contact_stiffness, kToolStiffness);
+    cm.read("damping", t.spec.contact_damping, kToolDamping);
+    cm.read("friction", t.spec.friction, physical_range(0, 10, "a Coulomb coefficient: tissue on steel is ~0.1..1"));
   }
-  m.read("max_force", t.spec.max_force, greater_than(0));
+  m.read("max_force", t.spec.max_force, kToolForce);
   if (auto f = m.opt("coupling")) {
     const MapReader cm = f->map({"stiffness", "damping"});
-    cm.require("stiffness", t.spec.coupling_stiffness, greater_than(0));
-    cm.read("damping", t.spec.coupling_damping, at_least(0));
+    cm.require("stiffness", t.spec.coupling_stiffness, kToolStiffness);
+    cm.read("damping", t.spec.coupling_damping, kToolDamping);
     if (t.spec.shape == ToolShape::None)
       f->fail("a coupled tool needs a shape (the proxy is what touches the tissue)");
   }
   if (auto f = m.opt("grasp")) {
     const MapReader gm = f->map({"close", "open", "reach", "stiffness"});
     t.spec.can_grasp = true;
-    gm.read("close", t.spec.grasp_close, at_least(0));
-    gm.read("open", t.spec.grasp_open, greater_than(0));
-    gm.read("reach", t.spec.grasp_reach, greater_than(0));
-    gm.read("stiffness", t.spec.grasp_stiffness, greater_than(0));
+    gm.read("close", t.spec.grasp_close, physical_range(0, 6.3, "rad: a jaw angle, 0 closed .. ~1.5 wide open"));
+    gm.read("open", t.spec.grasp_open, physical_range(1e-9, 6.3, "rad: a jaw angle, 0 closed .. ~1.5 wide open"));
+    gm.read("reach", t.spec.grasp_reach, physical_range(1e-9, 1e3, "a multiple of the tool's radius"));
+    gm.read("stiffness", t.spec.grasp_stiffness, kToolStiffness);
     if (t.spec.grasp_open <= t.spec.grasp_close)
       gm.req("open").fail("open must be greater than close (hysteresis), got open = " +
                           format_number(t.spec.grasp_open) + ", close = " + format_number(t.spec.grasp_close));

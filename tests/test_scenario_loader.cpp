@@ -719,6 +719,26 @@ TEST(ScenarioLoaderTools, ToolErrors) {
                "tools[0].contact.stiffness", {"out of range"});
 }
 
+// Finite but absurd tool values loaded and overflowed the contact or speed arithmetic at tick 0
+// (issue 15): every tool quantity now has a bound, with the reason in the message.
+TEST(ScenarioLoaderTools, ToolQuantitiesHaveBounds) {
+  const std::string tool = kMinimal + "tools:\n  - name: probe\n";
+  expect_error(tool + "    max_speed: 1e300\n", 11, "tools[0].max_speed", {"1e300 is out of range", "m/s"});
+  expect_error(tool + "    timeout: 1e30\n", 11, "tools[0].timeout", {"out of range"});
+  expect_error(tool + "    shape: {type: sphere, radius: 1e200}\n", 11, "tools[0].shape.radius", {"out of range"});
+  expect_error(tool + "    contact: {stiffness: 1e300}\n", 11, "tools[0].contact.stiffness", {"out of range", "N/m"});
+  expect_error(tool + "    contact: {friction: 1e6}\n", 11, "tools[0].contact.friction", {"out of range", "Coulomb"});
+  expect_error(tool + "    max_force: 1e300\n", 11, "tools[0].max_force", {"out of range"});
+  expect_error(tool + "    shape: {type: sphere, radius: 0.01}\n    coupling: {stiffness: 1e300}\n", 12,
+               "tools[0].coupling.stiffness", {"out of range"});
+  expect_error(tool + "    shape: {type: sphere, radius: 0.01}\n    grasp: {stiffness: 1e300}\n", 12,
+               "tools[0].grasp.stiffness", {"out of range"});
+  // mm-tonne-s values stay legal: 500 mm/s, 50 N/mm.
+  EXPECT_NO_THROW(parse_scenario(tool + "    max_speed: 500\n    shape: {type: sphere, radius: 2}\n"
+                                        "    contact: {stiffness: 50}\n",
+                                 "mm.yaml", "."));
+}
+
 TEST(ScenarioLoaderTools, FixedAxes) {
   const ScenarioSpec s = parse_scenario(kMinimal + "    fixed:\n      - {box: {min: [0, 0, 0], max: [1, 1, 1]}, axes: [x, z]}\n      - {nodes: [3]}\n",
                                         "a.yaml", "");
