@@ -2,6 +2,8 @@
 /// `stroma security init DIR`: a test PKI and signed DDS Security documents for a protected
 /// domain (server/dds_security.hpp; SECURITY.md).
 
+#include <algorithm>
+
 #include <spdlog/spdlog.h>
 
 #include "cli/commands.hpp"
@@ -23,8 +25,12 @@ void add_security(CLI::App& app, std::vector<Command>& out) {
   init->add_option("--client", *clients,
                    "A tool client identity and the tools it may command: NAME=TOOL[,TOOL...] (repeatable; "
                    "default: tool=probe)");
+  auto operators = std::make_shared<std::vector<std::string>>();
+  init->add_option("--operator", *operators,
+                   "A client (named by --client) that may also write stroma_Control: pause, step, reset, stop "
+                   "(repeatable; default: none when --client is given, the default client otherwise)");
   init->add_option("--days", opt->days, "Validity of the certificates")->capture_default_str()->check(CLI::PositiveNumber);
-  out.push_back({init, [opt, clients]() {
+  out.push_back({init, [opt, clients, operators]() {
                    if (!clients->empty()) {
                      opt->clients.clear();
                      for (const std::string& c : *clients) {
@@ -44,12 +50,20 @@ void add_security(CLI::App& app, std::vector<Command>& out) {
                        opt->clients.push_back(sc);
                      }
                    }
+                   for (const std::string& name : *operators) {
+                     auto it = std::find_if(opt->clients.begin(), opt->clients.end(),
+                                            [&](const SecurityClient& c) { return c.name == name; });
+                     if (it == opt->clients.end())
+                       throw std::runtime_error("--operator '" + name + "': no such client (name it with --client)");
+                     it->control = true;
+                   }
                    spdlog::info("security init: creating {} (RSA 2048 keys, {} days)", opt->dir, opt->days);
                    init_security_dir(*opt);
                    std::string who;
                    for (const SecurityClient& c : opt->clients) {
                      who += (who.empty() ? "" : "; ") + c.name + ": ";
                      for (size_t i = 0; i < c.tools.size(); ++i) who += (i ? "," : "") + c.tools[i];
+                     if (c.control) who += " (operator)";
                    }
                    spdlog::info("security init: done. Identities: server, renderer, and clients ({}). Run: stroma serve "
                                 "SCENARIO --security {} & stroma tool --security {} --identity NAME --name TOOL",

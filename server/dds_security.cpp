@@ -230,9 +230,10 @@ void init_security_dir(const SecurityInitOptions& o) {
 
     for (const SecurityClient& c : o.clients) {
       make_identity(tmp, c.name, o.days);
-      // Commands only in its tools' partitions; controls (pause, step, reset) as the operator.
-      const std::string rules = allow_rule(o, {"stroma_ToolCommand"}, c.tools, {"stroma_ToolFeedback", "stroma_SimStatus"}) +
-                                allow_rule(o, {"stroma_Control"}, {}, {});
+      // Commands only in its tools' partitions; Control (pause, step, reset, stop) only for an
+      // operator: a trainee's client cannot stop the session.
+      std::string rules = allow_rule(o, {"stroma_ToolCommand"}, c.tools, {"stroma_ToolFeedback", "stroma_SimStatus"});
+      if (c.control) rules += allow_rule(o, {"stroma_Control"}, {}, {});
       write_file(tmp / ("permissions_" + c.name + ".xml"), permissions_xml(o, c.name, rules));
       sign(tmp, "permissions_" + c.name + ".xml", "permissions_" + c.name + ".p7s");
     }

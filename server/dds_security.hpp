@@ -27,13 +27,15 @@ namespace stroma {
 struct SecurityClient {
   std::string name;                ///< file names NAME.pem, NAME_key.pem, permissions_NAME.p7s
   std::vector<std::string> tools;  ///< tool names (ToolCommand partitions) it may write
+  bool control = false;            ///< an operator: may also write Control (pause, step, reset, stop)
 };
 
 /// What `stroma security init` makes. Invariants: names are [A-Za-z0-9_-], unique, and none is
 /// "server", "renderer" or a CA's name; every client has at least one tool.
 struct SecurityInitOptions {
   std::string dir;                  ///< must not exist yet (nothing is overwritten)
-  std::vector<SecurityClient> clients{{"tool", {"probe"}}};
+  /// The default: one client that commands `probe` and operates the session (its owner's).
+  std::vector<SecurityClient> clients{{"tool", {"probe"}, true}};
   int days = 3650;                  ///< certificate and permission validity
   int domain_min = 0, domain_max = 230;  ///< the domains the documents cover (DDS Security: at most 230)
 };

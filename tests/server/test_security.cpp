@@ -24,14 +24,14 @@ namespace {
 const std::string kLiver = std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml";
 const std::string kPress = std::string(STROMA_SOURCE_DIR) + "/scenarios/trajectories/liver_press.yaml";
 
-/// A security directory for this test binary: clients 'tool' (may command probe) and
-/// 'intruder' (may command scalpel only). Made once.
+/// A security directory for this test binary: clients 'tool' (may command probe, and operate the
+/// session) and 'intruder' (may command scalpel only). Made once.
 const fs::path& security_dir() {
   static const fs::path dir = [] {
     const fs::path d = fs::temp_directory_path() / ("stroma_security_" + std::to_string(getpid()));
     fs::remove_all(d);
     Process init({STROMA_BINARY, "security", "init", d.string(), "--client", "tool=probe", "--client",
-                  "intruder=scalpel"});
+                  "intruder=scalpel", "--operator", "tool"});
     EXPECT_EQ(init.wait_exit(60), 0) << "stroma security init failed";
     return d;
   }();
@@ -66,12 +66,18 @@ TEST(Security, InitMakesEveryIdentityAndSignedDocumentAndOverwritesNothing) {
   EXPECT_NE(perm.find("<partition>probe</partition>"), std::string::npos) << perm;
   EXPECT_EQ(perm.find("<partition>scalpel</partition>"), std::string::npos);
   EXPECT_NE(perm.find("<default>DENY</default>"), std::string::npos);
+  // Control (pause, step, reset, stop) is the operator's only.
+  EXPECT_NE(perm.find("stroma_Control"), std::string::npos) << perm;
+  EXPECT_EQ(read_file(d / "permissions_intruder.xml").find("stroma_Control"), std::string::npos);
   // Nothing is overwritten; a bad request leaves nothing behind.
   Process again({STROMA_BINARY, "security", "init", d.string()});
   EXPECT_EQ(again.wait_exit(30), 2);
   const fs::path bad = fs::temp_directory_path() / ("stroma_security_bad_" + std::to_string(getpid()));
   Process bad_init({STROMA_BINARY, "security", "init", bad.string(), "--client", "server=probe"});
   EXPECT_EQ(bad_init.wait_exit(30), 2);
+  EXPECT_FALSE(fs::exists(bad));
+  Process bad_operator({STROMA_BINARY, "security", "init", bad.string(), "--client", "a=probe", "--operator", "b"});
+  EXPECT_EQ(bad_operator.wait_exit(30), 2);
   EXPECT_FALSE(fs::exists(bad));
 }
 
