@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
   int runs = 5, ticks = 300;
   double depth = 0.25;
   bool markdown = false;
-  app.add_option("scenario", scenario, "scenario YAML (its first body is cut)")->required();
+  app.add_option("scenario", scenario, "scenario YAML (every body the blade crosses is cut)")->required();
   app.add_option("--runs", runs, "repetitions (medians reported)")->check(CLI::Range(1, 1000));
   app.add_option("--ticks", ticks, "ticks of the incision")->check(CLI::Range(10, 100000));
   app.add_option("--depth", depth, "blade depth as a fraction of the body's height")->check(CLI::Range(0.01, 1.0));
@@ -116,7 +116,10 @@ int main(int argc, char** argv) {
       t0 = std::chrono::steady_clock::now();
       CutTopology next = build_cut_topology(base.tets, fem.rest, base.adj, edge_cut, base.node_ranges);
       t_topo.push_back(ms_since(t0));
-      if (next.num_dofs == topo.num_dofs && next.split_tets == topo.split_tets) continue;  // nothing separated yet
+      if (next.num_dofs == topo.num_dofs && next.split_tets == topo.split_tets) {  // nothing separated yet
+        topo = std::move(next);
+        continue;
+      }
       t0 = std::chrono::steady_clock::now();
       const FemModel cut = build_cut_fem_model(fem, next);
       t_model.push_back(ms_since(t0));

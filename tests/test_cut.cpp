@@ -21,6 +21,8 @@
 #include <map>
 #include <numeric>
 #include <random>
+#include <set>
+#include <string>
 
 #include "test_meshes.hpp"
 #include "tissue/cut_blade.hpp"
@@ -191,6 +193,79 @@ TEST(CutTopology, AnUncutMeshIsItself) {
   EXPECT_EQ(m.pattern.col, c.uncut.pattern.col);
   EXPECT_EQ(m.slots, c.uncut.slots);
   EXPECT_EQ(m.constrained, c.uncut.constrained);
+  EXPECT_EQ(m.rest, c.uncut.rest);
+  EXPECT_EQ(m.pattern.row_ptr, c.uncut.pattern.row_ptr);
+  EXPECT_EQ(m.node_element, c.uncut.node_element);
+  EXPECT_EQ(m.constrained_offdiag, c.uncut.constrained_offdiag);
+  ASSERT_EQ(m.elements.size(), c.uncut.elements.size());
+  for (size_t e = 0; e < m.elements.size(); ++e) {
+    EXPECT_EQ(m.elements[e].node, c.uncut.elements[e].node);
+    EXPECT_EQ(m.elements[e].volume, c.uncut.elements[e].volume);
+  }
+  ASSERT_EQ(m.bodies.size(), 1u);
+  EXPECT_EQ(m.bodies[0].boundary, c.uncut.bodies[0].boundary);
+  // The surface is the boundary, triangle for triangle (as vertex sets, orientation included).
+  std::set<std::array<int32_t, 3>> want, got;
+  const auto canon = [](std::array<int32_t, 3> v) {
+    while (v[0] > v[1] || v[0] > v[2]) v = {v[1], v[2], v[0]};
+    return v;
+  };
+  for (const Tri& tri : c.mesh.boundary) want.insert(canon(tri));
+  for (const CutTriangle& tri : t.triangles)
+    got.insert(canon({t.vertices[tri.v[0]].a, t.vertices[tri.v[1]].a, t.vertices[tri.v[2]].a}));
+  EXPECT_EQ(got, want);
+}
+
+// The topology is a pure function of its inputs: built twice (and after other work), the same
+// copies, DOFs, vertices and triangles in the same order.
+TEST(CutTopology, IsDeterministic) {
+  Cuttable c(box_mesh(3, 3, 2, {0.03, 0.03, 0.02}, {0, 0, 0}, 0.2, 77));
+  c.cut({{-0.01, 0.013, -0.01}, {0.04, 0.017, -0.01}, {-0.01, 0.011, 0.03}, {0.04, 0.019, 0.03}});
+  c.cut(plane_x(0.017, -0.01, 0.02, -0.01, 0.03));
+  const CutTopology a = c.topology();
+  { Cuttable other(box_mesh(4, 4, 4)); other.cut(plane_x(0.5, -1, 2, -1, 2)); other.topology(); }
+  const CutTopology b = c.topology();
+  ASSERT_GT(a.split_tets, 0);
+  ASSERT_EQ(a.copies.size(), b.copies.size());
+  for (size_t i = 0; i < a.copies.size(); ++i) {
+    EXPECT_EQ(a.copies[i].dof, b.copies[i].dof);
+    EXPECT_EQ(a.copies[i].material, b.copies[i].material);
+    EXPECT_EQ(a.copies[i].fraction, b.copies[i].fraction);
+  }
+  EXPECT_EQ(a.dof_node, b.dof_node);
+  ASSERT_EQ(a.vertices.size(), b.vertices.size());
+  for (size_t i = 0; i < a.vertices.size(); ++i)
+    EXPECT_TRUE(a.vertices[i].a == b.vertices[i].a && a.vertices[i].b == b.vertices[i].b && a.vertices[i].t == b.vertices[i].t);
+  ASSERT_EQ(a.triangles.size(), b.triangles.size());
+  for (size_t i = 0; i < a.triangles.size(); ++i) EXPECT_EQ(a.triangles[i].v, b.triangles[i].v);
+}
+
+// A blade on a plane of nodes (x = 20 mm, a grid plane) or through one node: a node on the
+// blade goes to one side, so no sliver of nodes is cut out between the sides.
+TEST(CutTopology, ABladeThroughNodesCutsNoChipOut) {
+  Cuttable c(block());
+  c.cut(plane_x(0.02, -0.01, 0.03, -0.01, 0.03));
+  const CutTopology t = c.topology();
+  const FemModel m = build_cut_fem_model(c.uncut, t);
+  int count = 0;
+  const std::vector<int> piece = pieces(m, &count);
+  ASSERT_EQ(count, 2);
+  // The cut lies kCutMinFraction of a 10 mm cell off the plane, on one side: 19.5 | 20.5 mm.
+  std::array<double, 2> mass{};
+  for (int32_t d = 0; d < m.num_nodes; ++d) mass[piece[d]] += m.mass[d];
+  const double section = 0.02 * 0.02, off = kCutMinFraction * 0.01;
+  const double lighter = std::min(mass[0], mass[1]), heavier = std::max(mass[0], mass[1]);
+  EXPECT_NEAR(lighter, kRho * (0.02 - off) * section, 1e-12 * kRho * 0.04 * section);
+  EXPECT_NEAR(heavier, kRho * (0.02 + off) * section, 1e-12 * kRho * 0.04 * section);
+  // A small blade whose edge passes through the single interior node (2, 1, 1) and stops in
+  // the cells around it: one piece.
+  Cuttable d(block());
+  const double xn = 0.02, yn = 0.01, zn = 0.01;
+  d.cut({{xn - 0.004, yn, zn - 0.004}, {xn + 0.004, yn, zn + 0.004}, {xn - 0.004, yn + 0.002, zn - 0.004},
+         {xn + 0.004, yn + 0.002, zn + 0.004}});
+  int count_d = 0;
+  pieces(build_cut_fem_model(d.uncut, d.topology()), &count_d);
+  EXPECT_EQ(count_d, 1);
 }
 
 TEST(CutTopology, APlaneCutThroughABlockMakesTwoPiecesWithTheirExactMass) {
@@ -247,11 +322,13 @@ TEST(CutTopology, APartialCutOpensACrackButKeepsOnePiece) {
   EXPECT_NEAR(total(m.mass), total(c.uncut.mass), 1e-12 * total(c.uncut.mass));
 }
 
-TEST(CutModel, AClampedBlockCutThroughDropsItsFreePieceAsARigidBody) {
+/// A block clamped at x = 0, cut through at x = x_cut; the free piece's fall is checked.
+void check_free_fall_after_cut(double x_cut) {
+  SCOPED_TRACE("cut at x = " + std::to_string(x_cut));
   const double g = 9.81, h = 1e-3;
   Cuttable c(block(), {0, 0, -g}, true);
   const CutTopology t0 = c.topology();
-  c.cut(plane_x(0.023, -0.01, 0.03, -0.01, 0.03));
+  c.cut(plane_x(x_cut, -0.01, 0.03, -0.01, 0.03));
   const CutTopology t = c.topology();
   const FemModel m = build_cut_fem_model(c.uncut, t);
   int count = 0;
@@ -283,10 +360,17 @@ TEST(CutModel, AClampedBlockCutThroughDropsItsFreePieceAsARigidBody) {
   EXPECT_NEAR(dz_min, z_expected, 1e-6 * std::abs(z_expected));
   EXPECT_NEAR(dz_max, z_expected, 1e-6 * std::abs(z_expected));
   EXPECT_LT(dxy, 1e-9 * std::abs(z_expected));
-  // The clamped piece hangs: its free end sags far less than the free fall.
-  const double stub_tip = s.x[3 * t.node_dof[2] + 2] - m.rest[3 * t.node_dof[2] + 2];  // x = 20 mm
-  EXPECT_GT(stub_tip, 0.1 * z_expected);
+  // The clamped piece hangs: nothing of it falls as far as the free piece.
+  for (int32_t d = 0; d < m.num_nodes; ++d)
+    if (piece[d] != free_piece) EXPECT_GT(s.x[3 * d + 2] - m.rest[3 * d + 2], 0.5 * z_expected) << "DOF " << d;
 }
+
+TEST(CutModel, AClampedBlockCutThroughDropsItsFreePieceAsARigidBody) { check_free_fall_after_cut(0.023); }
+
+// Cut through the first layer of elements, whose tetrahedra hold clamped nodes: the virtual
+// copies of those nodes on the free side are not clamped (a clamp holds material), so the piece
+// still falls freely.
+TEST(CutModel, ACutNextToTheClampFreesThePieceBeyondIt) { check_free_fall_after_cut(0.005); }
 
 TEST(CutModel, StateCarriesOverToARefinedTopology) {
   Cuttable c(box_mesh(3, 3, 2, {0.03, 0.03, 0.02}, {0, 0, 0}, 0.1));
@@ -311,6 +395,20 @@ TEST(CutModel, StateCarriesOverToARefinedTopology) {
     EXPECT_EQ(s2.v[3 * d], static_cast<double>(map[d]));
   }
   EXPECT_EQ(s2.x, m2.rest);
+  // Each lip continues its own side: every copy of t2 lies in the t1 copy of its tetrahedron
+  // whose material holds its material, and its DOFs continue that copy's, node by node.
+  int separated = 0;
+  for (const ElementCopy& c2 : t2.copies) {
+    const ElementCopy* c1 = nullptr;
+    for (int32_t i = t1.tet_copy_begin[c2.tet]; i < t1.tet_copy_begin[c2.tet + 1]; ++i)
+      if ((t1.copies[i].material & c2.material) == c2.material) c1 = &t1.copies[i];
+    ASSERT_NE(c1, nullptr) << "tet " << c2.tet;
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(map[c2.dof[k]], c1->dof[k]) << "tet " << c2.tet << " node " << k;
+    separated += c1->material != c2.material;
+  }
+  EXPECT_GT(separated, 0);  // the second cut did split copies of the first
+  // A topology that does not refine the source is refused, not silently mapped.
+  EXPECT_THROW(continued_dofs(t2, t0), std::logic_error);
 }
 
 // 1,000 seeded blade paths on jittered blocks: random planes, blades through nodes, along

@@ -13,24 +13,24 @@ Vec3 cross(const Vec3& a, const Vec3& b) {
 double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 }  // namespace
 
-double segment_triangle(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
-  // Möller–Trumbore, with a relative tolerance so crossings exactly on the triangle's edges or
-  // at the segment's ends count.
-  const Vec3 d = sub(q, p), e1 = sub(b, a), e2 = sub(c, a);
-  const Vec3 h = cross(d, e2);
-  const double det = dot(e1, h);
-  const double scale = std::sqrt(dot(d, d) * dot(e1, e1) * dot(e2, e2));
-  if (!(std::abs(det) > 1e-12 * scale)) return -1;  // parallel (in or beside the plane), or degenerate
-  const double inv = 1.0 / det;
-  const Vec3 s = sub(p, a);
-  const double u = inv * dot(s, h);
+double edge_crossing(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 n = cross(sub(b, a), sub(c, a));
+  if (!(dot(n, n) > 0)) return -1;  // a degenerate (or non-finite) triangle cuts nothing
+  // Sides of the plane, a point on it counting as the positive side: a node is on one side of
+  // the blade, never both, so a blade through a node does not cut it out of its neighbours.
+  const double sp = dot(n, sub(p, a)), sq = dot(n, sub(q, a));
+  if ((sp >= 0) == (sq >= 0)) return -1;
+  const double t = sp / (sp - sq);  // sp, sq of opposite signs: t ∈ [0, 1]
+  const Vec3 x{p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), p[2] + t * (q[2] - p[2])};
+  // Inside the triangle (its edges included): the three edge functions agree with n.
   constexpr double kEps = 1e-12;
-  if (u < -kEps || u > 1 + kEps) return -1;
-  const Vec3 qv = cross(s, e1);
-  const double v = inv * dot(d, qv);
-  if (v < -kEps || u + v > 1 + kEps) return -1;
-  const double t = inv * dot(e2, qv);
-  if (t < -kEps || t > 1 + kEps) return -1;
+  const double nn = dot(n, n);
+  const Vec3* v[3] = {&a, &b, &c};
+  for (int i = 0; i < 3; ++i) {
+    const Vec3& u = *v[i];
+    const Vec3& w = *v[(i + 1) % 3];
+    if (dot(cross(sub(w, u), sub(x, u)), n) < -kEps * nn) return -1;
+  }
   return std::clamp(t, 0.0, 1.0);
 }
 
@@ -53,7 +53,7 @@ int cut_edges(const double* x, const TetAdjacency& adj, const SweptBlade& blade,
     if (outside) continue;
     const Vec3 p{pa[0], pa[1], pa[2]}, q{pb[0], pb[1], pb[2]};
     for (const auto& t : tri) {
-      const double s = segment_triangle(p, q, t[0], t[1], t[2]);
+      const double s = edge_crossing(p, q, t[0], t[1], t[2]);
       if (s < 0) continue;
       edge_cut[e] = std::clamp(s, kCutMinFraction, 1.0 - kCutMinFraction);
       ++cut;

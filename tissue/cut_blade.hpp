@@ -21,13 +21,15 @@ struct SweptBlade {
 
 /// Cuts every uncut edge of `adj` that the swept surface crosses, the nodes at `x` (3 per
 /// node): edge_cut[e] becomes the crossing's parameter from the edge's lower node, kept in
-/// [kCutMinFraction, 1 − kCutMinFraction]. An edge lying in the surface's plane is not cut (the
-/// blade slides along it). Returns the number of edges it cut. No allocation.
+/// [kCutMinFraction, 1 − kCutMinFraction]. Returns the number of edges it cut. No allocation.
 int cut_edges(const double* x, const TetAdjacency& adj, const SweptBlade& blade, std::vector<double>& edge_cut);
 
-/// Where segment p → q crosses triangle (a, b, c): the parameter along the segment in [0, 1],
-/// or a negative number when it does not (or lies in the triangle's plane). Points on the
-/// triangle's edges count as inside, so a blade passing exactly through a node or an edge cuts.
-double segment_triangle(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c);
+/// Where segment p → q crosses triangle (a, b, c): the parameter along the segment in [0, 1], or
+/// a negative number when it does not. p and q must lie strictly on opposite sides of the
+/// triangle's plane, a point *on* the plane counting as the side its normal points to: so an
+/// edge lying in the plane is not cut, and a blade passing exactly through a node cuts the
+/// node's edges to one side only (it does not cut the node out as a chip). The crossing may lie
+/// on the triangle's edges.
+double edge_crossing(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c);
 
 }  // namespace stroma

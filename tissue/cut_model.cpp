@@ -1,5 +1,8 @@
 #include "tissue/cut_model.hpp"
 
+#include <stdexcept>
+#include <string>
+
 #include "tissue/fem_build.hpp"
 
 namespace stroma {
@@ -15,8 +18,22 @@ CutBase make_cut_base(const FemModel& uncut) {
 }
 
 FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
+  if (topo.tet_copy_begin.size() != u.elements.size() + 1 || topo.range_dof_begin.size() != u.bodies.size() + 1 ||
+      topo.node_dof.size() != static_cast<size_t>(u.num_nodes))
+    throw std::invalid_argument("cut model: the topology is not one of this model's mesh");
   FemModel m;
   const int32_t nd = topo.num_dofs;
+  // A fully fixed body (an obstacle) stays fixed in all its DOFs; elsewhere a clamp holds the
+  // material, not the virtual copies of a clamped node on the far side of a cut.
+  std::vector<uint8_t> dof_in_fixed_body(static_cast<size_t>(nd), 0);
+  for (size_t b = 0; b < u.bodies.size(); ++b) {
+    bool fixed = false;
+    for (const ElementRange& r : u.ranges)
+      if (r.fixed && r.begin >= u.bodies[b].element_begin && r.end <= u.bodies[b].element_end && r.end > r.begin)
+        fixed = true;
+    if (fixed)
+      for (int32_t d = topo.range_dof_begin[b]; d < topo.range_dof_begin[b + 1]; ++d) dof_in_fixed_body[d] = 1;
+  }
   m.num_nodes = nd;
   m.gravity = u.gravity;
   m.rest.resize(3 * static_cast<size_t>(nd));
@@ -28,7 +45,7 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
     const int32_t g = topo.dof_node[d];
     for (int k = 0; k < 3; ++k) m.rest[3 * d + k] = u.rest[3 * g + k];
     m.alpha[d] = u.alpha[g];
-    m.constrained[d] = u.constrained[g];
+    m.constrained[d] = (topo.dof_material[d] || dof_in_fixed_body[d]) ? u.constrained[g] : uint8_t{0};
   }
   m.elements.reserve(topo.copies.size());
   if (!u.rest_frame.empty()) m.rest_frame.reserve(topo.copies.size());
@@ -50,7 +67,18 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
     br.node_end = topo.range_dof_begin[b + 1];
     br.element_begin = topo.tet_copy_begin[ub.element_begin];
     br.element_end = topo.tet_copy_begin[ub.element_end];
-    for (const Tri& t : ub.boundary) br.boundary.push_back({topo.node_dof[t[0]], topo.node_dof[t[1]], topo.node_dof[t[2]]});
+    // The uncut part of the surface whose corners are nodes (a clipped or cut face's corners are
+    // points inside copies: the whole surface is topo.triangles, not this).
+    if (topo.split_tets == 0)  // nothing separated: the uncut boundary, as it was
+      for (const Tri& t : ub.boundary) br.boundary.push_back({topo.node_dof[t[0]], topo.node_dof[t[1]], topo.node_dof[t[2]]});
+    for (const CutTriangle& t : topo.triangles) {
+      if (topo.split_tets == 0) break;
+      const int32_t tet = topo.copies[t.copy].tet;
+      if (t.cut || tet < ub.element_begin || tet >= ub.element_end) continue;
+      bool nodes = true;
+      for (int32_t v : t.v) nodes &= topo.vertices[v].a == topo.vertices[v].b;
+      if (nodes) br.boundary.push_back({topo.vertices[t.v[0]].a, topo.vertices[t.v[1]].a, topo.vertices[t.v[2]].a});
+    }
     // Lumped masses as build_fem_model makes them (ρV/4 per node, elements in order): an uncut
     // topology gives the uncut masses bit for bit.
     for (int32_t e = br.element_begin; e < br.element_end; ++e) {
@@ -82,12 +110,15 @@ std::vector<int32_t> continued_dofs(const CutTopology& from, const CutTopology& 
   std::vector<int32_t> map(static_cast<size_t>(to.num_dofs), -1);
   for (const ElementCopy& c : to.copies) {
     // The copy of the same tetrahedron whose material holds this one's (refinement: one does).
-    const ElementCopy* src = &from.copies[from.tet_copy_begin[c.tet]];
+    const ElementCopy* src = nullptr;
     for (int32_t i = from.tet_copy_begin[c.tet]; i < from.tet_copy_begin[c.tet + 1]; ++i)
       if ((from.copies[i].material & c.material) == c.material) {
         src = &from.copies[i];
         break;
       }
+    if (!src)
+      throw std::logic_error("continued_dofs: the new topology does not refine the old one (tetrahedron " +
+                             std::to_string(c.tet) + ")");
     for (int k = 0; k < 4; ++k)
       if (map[c.dof[k]] < 0) map[c.dof[k]] = src->dof[k];
   }

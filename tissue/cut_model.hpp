@@ -29,12 +29,15 @@ struct CutBase {
 CutBase make_cut_base(const FemModel& uncut);
 
 /// The FemModel of `uncut` cut to `topo` (a topology of the same mesh). With no cut it equals
-/// `uncut` in every array.
+/// `uncut` in every array. A DOF takes its node's constraint only if it holds the node as
+/// material (CutTopology::dof_material) or its body is fully fixed. bodies[b].boundary is the
+/// uncut part of the surface with node corners; the whole surface is topo.triangles. Throws
+/// std::invalid_argument if `topo` is not a topology of this model's mesh.
 FemModel build_cut_fem_model(const FemModel& uncut, const CutTopology& topo);
 
 /// For each DOF of `to`, the DOF of `from` it continues: `to` must refine `from` (its cuts a
 /// superset of from's), so every copy of `to` lies in one copy of `from` and every DOF of `to`
-/// in one DOF of `from`.
+/// in one DOF of `from`. Throws std::logic_error if it does not.
 std::vector<int32_t> continued_dofs(const CutTopology& from, const CutTopology& to);
 
 /// The state on the new DOFs: each takes the position, velocity and solver warm start of the

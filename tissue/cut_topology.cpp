@@ -235,8 +235,11 @@ void copy_boundary(const TetView& v, uint8_t m, std::vector<LocalTri>& out) {
 }
 
 double enclosed_volume(const TetView& v, const std::vector<LocalTri>& tris) {
+  // Relative to a node of the tetrahedron: absolute coordinates far from the origin would cost
+  // the volume shares their precision.
   double vol = 0;
-  for (const LocalTri& t : tris) vol += dot(v.at(t.r[0]), cross(v.at(t.r[1]), v.at(t.r[2])));
+  for (const LocalTri& t : tris)
+    vol += dot(sub(v.at(t.r[0]), v.x[0]), cross(sub(v.at(t.r[1]), v.x[0]), sub(v.at(t.r[2]), v.x[0])));
   return vol / 6.0;
 }
 
@@ -470,6 +473,15 @@ CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<d
   CutTopology topo;
   const int32_t num_nodes = static_cast<int32_t>(rest.size() / 3);
   const int32_t nt = static_cast<int32_t>(tets.size());
+  if (adj.tet_edges.size() != tets.size() || adj.face_neighbor.size() != tets.size() ||
+      edge_cut.size() != adj.edges.size())
+    throw std::invalid_argument("cut topology: the adjacency or the edge cuts do not belong to these tetrahedra");
+  if (node_ranges.size() < 2 || node_ranges.front() != 0 || node_ranges.back() != num_nodes ||
+      !std::is_sorted(node_ranges.begin(), node_ranges.end()))
+    throw std::invalid_argument("cut topology: node ranges must run from 0 to the node count in order");
+  for (const Tet& t : tets)
+    for (int32_t n : t)
+      if (n < 0 || n >= num_nodes) throw std::invalid_argument("cut topology: a tetrahedron's node is out of range");
   for (double t : edge_cut) topo.cut_edges += t >= 0;
 
   // 1. Copies: one per component of each tetrahedron's nodes; volume shares of split ones.
@@ -558,10 +570,15 @@ CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<d
   topo.range_dof_begin.push_back(next);
   topo.num_dofs = next;
   topo.dof_node.assign(static_cast<size_t>(next), -1);
+  topo.dof_material.assign(static_cast<size_t>(next), 0);
   for (int32_t g = 0; g < num_nodes; ++g) {
     topo.dof_node[topo.node_dof[g]] = g;
+    topo.dof_material[topo.node_dof[g]] = 1;  // a primary DOF holds material (or is an unused node)
     for (int32_t r : node_classes[g]) topo.dof_node[dof_of_class[r]] = g;
   }
+  for (int32_t c = 0; c < ncopies; ++c)
+    for (int k = 0; k < 4; ++k)
+      if (has(topo.copies[c].material, k)) topo.dof_material[dof_of_class[class_of[4 * c + k]]] = 1;
   for (int32_t c = 0; c < ncopies; ++c)
     for (int k = 0; k < 4; ++k) topo.copies[c].dof[k] = dof_of_class[class_of[4 * c + k]];
 
@@ -612,6 +629,18 @@ CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<d
     else topo.triangles.push_back({{e.sorted[0], e.sorted[2], e.sorted[1]}, e.copy_neg, e.cut_neg});
   }
   topo.nonmanifold_edges = make_manifold(topo, glued);
+  // Keep only the vertices a triangle uses (those of cancelled faces go), in order of first use.
+  std::vector<int32_t> renumber(topo.vertices.size(), -1);
+  std::vector<CutVertex> used;
+  for (CutTriangle& t : topo.triangles)
+    for (int32_t& v : t.v) {
+      if (renumber[v] < 0) {
+        renumber[v] = static_cast<int32_t>(used.size());
+        used.push_back(topo.vertices[v]);
+      }
+      v = renumber[v];
+    }
+  topo.vertices = std::move(used);
   return topo;
 }
 

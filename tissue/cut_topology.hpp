@@ -87,6 +87,9 @@ struct CutTopology {
   int32_t num_dofs = 0;
   std::vector<int32_t> dof_node;
   std::vector<int32_t> node_dof;
+  /// 1 when the DOF holds its node as material in some copy (or is an unused node's), 0 for a
+  /// purely virtual node copy: a clamp holds the material, not its virtual copies across a cut.
+  std::vector<uint8_t> dof_material;
   std::vector<int32_t> range_dof_begin;  ///< per node range, its first DOF (and num_dofs last)
   std::vector<CutVertex> vertices;
   std::vector<CutTriangle> triangles;
@@ -103,7 +106,9 @@ struct CutTopology {
 /// The topology of the mesh (`tets` over `rest`, 3 per node) cut at `edge_cut` (per edge of
 /// `adj`: the parameter along it from its lower node, in [kCutMinFraction, 1 − kCutMinFraction],
 /// or kEdgeUncut). `node_ranges` split the nodes into consecutive ranges (the bodies) whose DOFs
-/// stay together: {0, n₁, …, num_nodes}; {0, num_nodes} for one body.
+/// stay together: {0, n₁, …, num_nodes}; {0, num_nodes} for one body. Throws
+/// std::invalid_argument when the arrays do not fit together (sizes, ranges not covering the
+/// nodes in order). Surface vertices are numbered in order of first use by a triangle.
 CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<double>& rest,
                                const TetAdjacency& adj, const std::vector<double>& edge_cut,
                                const std::vector<int32_t>& node_ranges);
