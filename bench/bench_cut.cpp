@@ -19,6 +19,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "bench/bench_stats.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "tissue/cut_blade.hpp"
@@ -27,15 +28,10 @@
 
 using namespace stroma;
 
-namespace {
+using bench::median;
+using bench::percentile;
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
-}
-double median(std::vector<double> v) { return percentile(std::move(v), 0.5); }
+namespace {
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

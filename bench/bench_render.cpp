@@ -20,6 +20,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "bench/bench_stats.hpp"
 #include "render/gl_context.hpp"
 #include "render/png_io.hpp"
 #include "render/renderer.hpp"
@@ -30,14 +31,11 @@
 using namespace stroma;
 using namespace stroma::render;
 
+using bench::median;
+using bench::percentile;
+
 namespace {
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
-}
 
 double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();

@@ -17,6 +17,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "bench/bench_stats.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
@@ -24,15 +25,8 @@
 
 using namespace stroma;
 
-namespace {
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[k];
-}
-double median(std::vector<double> v) { return percentile(std::move(v), 0.5); }
-}  // namespace
+using bench::median;
+using bench::percentile;
 
 int main(int argc, char** argv) {
   CLI::App app{"Tick timing of a scenario over repeated runs (median of per-run percentiles)"};
