@@ -25,15 +25,11 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
   const int32_t nd = topo.num_dofs;
   // A fully fixed body (an obstacle) stays fixed in all its DOFs; elsewhere a clamp holds the
   // material, not the virtual copies of a clamped node on the far side of a cut.
+  // (build_fem_model makes one element range per body, in body order.)
   std::vector<uint8_t> dof_in_fixed_body(static_cast<size_t>(nd), 0);
-  for (size_t b = 0; b < u.bodies.size(); ++b) {
-    bool fixed = false;
-    for (const ElementRange& r : u.ranges)
-      if (r.fixed && r.begin >= u.bodies[b].element_begin && r.end <= u.bodies[b].element_end && r.end > r.begin)
-        fixed = true;
-    if (fixed)
+  for (size_t b = 0; b < u.bodies.size() && b < u.ranges.size(); ++b)
+    if (u.ranges[b].fixed)
       for (int32_t d = topo.range_dof_begin[b]; d < topo.range_dof_begin[b + 1]; ++d) dof_in_fixed_body[d] = 1;
-  }
   m.num_nodes = nd;
   m.gravity = u.gravity;
   m.rest.resize(3 * static_cast<size_t>(nd));

@@ -8,6 +8,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "tissue/vec3.hpp"
+
 namespace stroma {
 
 namespace {
@@ -39,12 +41,10 @@ struct UnionFind {
   }
 };
 
-using P3 = std::array<double, 3>;
-P3 sub(const P3& a, const P3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-P3 cross(const P3& a, const P3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-double dot(const P3& a, const P3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+using P3 = Vec3;
+using v3::cross;
+using v3::dot;
+using v3::sub;
 
 /// A reference to a point of one tetrahedron: 0..3 its nodes, 4..9 the cut point of local
 /// edge (ref − 4).
