@@ -37,8 +37,7 @@ inline double depth_at(const double* x, int32_t vertex, const std::array<int32_t
 }  // namespace
 
 void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const TriangleBvh& bvh,
-                  const double* x, const double* v, double h, const double* g, const uint8_t* constrained,
-                  double* boxes,
+                  const double* x, const double* v, double h, const double* g, double* boxes,
                   std::vector<ContactSpring>& springs, std::vector<BodyContactPair>& pairs, BodyContactOutput& out) {
   out = BodyContactOutput{};
   pairs.clear();
@@ -72,7 +71,7 @@ void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const 
     if (!any) continue;
     for (int32_t i = bc.body_vertex_begin[a]; i < bc.body_vertex_begin[a + 1]; ++i) {
       const int32_t vi = bc.vertex[i];
-      if (constrained[vi] == 7) continue;  // cannot move: the other side's vertices do the work
+      if (bc.vertex_fixed[i]) continue;  // cannot move: the other side's vertices do the work
       const double* p = x + 3 * vi;
       // Where the vertex is headed this step (its own velocity; the face's motion is seen from
       // the other side, whose vertices are tested against this body's faces).
@@ -162,14 +161,8 @@ void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const 
         out.max_depth = std::max(out.max_depth, depth);
       }
       ContactSpring sv, st;  // vertex side: +f; triangle side: −f; both stiffness kA·nnᵀ
-      sv.node[0] = sv.node[1] = sv.node[2] = vi;
-      sv.w[0] = 1, sv.w[1] = sv.w[2] = 0;
-      for (int s = 0; s < 9; ++s) sv.slot[s] = bc.vertex_slot[i];
-      for (int c = 0; c < 3; ++c) {
-        st.node[c] = tri[c];
-        st.w[c] = best_w[c];
-      }
-      for (int s = 0; s < 9; ++s) st.slot[s] = surf.slots[best][s];
+      set_spring_point(bc.vertex_dofs[i], sv);
+      set_spring_point(surf.dofs[best], best_w[0], best_w[1], best_w[2], st);
       for (int k = 0; k < 3; ++k) {
         sv.force[k] = kA * depth * n[k];  // attractive (δ < 0) for a speculative contact: the
         st.force[k] = -sv.force[k];       // linearised spring only pushes once the face is reached
@@ -177,10 +170,8 @@ void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const 
       }
       BodyContactPair pr;
       pr.spring = static_cast<int32_t>(springs.size());
-      pr.vertex = vi;
-      pr.tri = tri;
       pr.speculative = depth <= 0;
-      for (int k = 0; k < 3; ++k) pr.w[k] = best_w[k], pr.n[k] = n[k];
+      for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
       pairs.push_back(pr);
       springs.push_back(sv);
       springs.push_back(st);
@@ -192,7 +183,14 @@ int release_pulling_contacts(const double* x, std::vector<BodyContactPair>& pair
                              std::vector<ContactSpring>& springs) {
   int released = 0;
   for (BodyContactPair& pr : pairs) {
-    if (!pr.active || !pr.speculative || depth_at(x, pr.vertex, pr.tri, pr.w, pr.n) >= 0) continue;
+    if (!pr.active || !pr.speculative) continue;
+    // δ = (c − p)·n from the pair's own springs: the face point (triangle side) and the vertex.
+    double c[3], p[3];
+    spring_point(springs[pr.spring + 1], x, c);
+    spring_point(springs[pr.spring], x, p);
+    double depth = 0;
+    for (int k = 0; k < 3; ++k) depth += (c[k] - p[k]) * pr.n[k];
+    if (depth >= 0) continue;
     pr.active = false;
     for (int s = 0; s < 2; ++s) {
       ContactSpring& sp = springs[pr.spring + s];

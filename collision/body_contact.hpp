@@ -31,22 +31,24 @@
 namespace stroma {
 
 /// Compiled body–body contact. Invariants: stiffness > 0; body_depth has one entry per body;
-/// vertex, vertex_area, vertex_slot are parallel and grouped by body (body_vertex_begin has
-/// bodies + 1 entries); vertex_tri_begin has vertices + 1; triangle_body parallels the
-/// collision triangles.
+/// vertex, vertex_area, vertex_dofs, vertex_fixed are parallel and grouped by body
+/// (body_vertex_begin has bodies + 1 entries); vertex_tri_begin has vertices + 1; triangle_body
+/// parallels the collision triangles. Vertices and triangles are surface points
+/// (collision/contact_surface.hpp).
 struct BodyContactModel {
   double stiffness = 0;  ///< Pa/m: contact pressure per metre of penetration
   /// m, per body: deepest penetration into that body that is found (the BVH query radius for
   /// its triangles). Automatic: a quarter of the body's smallest extent, so a vertex found inside
   /// can never be nearer the opposite side.
   std::vector<double> body_depth;
-  std::vector<int32_t> vertex;           ///< surface vertices (global ids), grouped by body
+  std::vector<int32_t> vertex;           ///< surface vertices (surface point ids), grouped by body
   std::vector<double> vertex_area;       ///< m²: a third of the adjacent rest surface triangles
-  std::vector<int32_t> vertex_slot;      ///< BSR slot of the vertex's diagonal block
+  std::vector<SurfacePointDofs> vertex_dofs;  ///< how each vertex acts on the DOFs (its spring)
+  std::vector<uint8_t> vertex_fixed;     ///< 1: every DOF of the vertex is fully constrained
   std::vector<int32_t> body_vertex_begin;  ///< body b's vertices: [begin[b], begin[b + 1])
   std::vector<int32_t> triangle_body;    ///< body of each collision triangle
   /// Rest-boundary triangles around each vertex (for its normal): vertex i's are
-  /// vertex_tris[vertex_tri_begin[i] .. vertex_tri_begin[i + 1]), outward, global node ids.
+  /// vertex_tris[vertex_tri_begin[i] .. vertex_tri_begin[i + 1]), outward, surface point ids.
   std::vector<int32_t> vertex_tri_begin;
   std::vector<std::array<int32_t, 3>> vertex_tris;
 };
@@ -56,13 +58,11 @@ struct BodyContactModel {
 inline constexpr double kFacingCos = 0.25;
 
 /// One vertex–face contact of this tick: its two springs (vertex side at `spring`, triangle side
-/// at `spring + 1`) and the plane it is measured against, so the tick can test it at the end of
-/// the step (see release_pulling_contacts).
+/// at `spring + 1`: their points are the vertex and its closest point on the face) and the plane
+/// it is measured against, so the tick can test it at the end of the step (see
+/// release_pulling_contacts).
 struct BodyContactPair {
   int32_t spring = 0;
-  int32_t vertex = 0;
-  std::array<int32_t, 3> tri{};
-  double w[3] = {0, 0, 0};  ///< closest point's barycentric weights on the face
   double n[3] = {0, 0, 0};  ///< the face's outward unit normal at the start of the step
   bool speculative = false;  ///< in front of the face at the start of the step
   bool active = true;
@@ -76,12 +76,11 @@ struct BodyContactOutput {
   double max_depth = 0;  ///< m: deepest penetration this tick
 };
 
-/// Contacts between bodies at positions x (BVH already refitted). `constrained` (3 bits per
-/// node, 7: does not move) skips vertices that cannot move; `boxes` is scratch of 6 doubles per
-/// body. Appends two springs per contact (vertex side, triangle side) and its pair, up to the
-/// vectors' capacity.
+/// Contacts between bodies at surface point positions x (BVH already refitted), skipping
+/// vertices that cannot move; `boxes` is scratch of 6 doubles per body. Appends two springs per
+/// contact (vertex side, triangle side; on the DOFs) and its pair, up to the vectors' capacity.
 ///
-/// Speculative: with velocities v, the step h and the body acceleration g (gravity), a vertex also
+/// Speculative: with surface point velocities v, the step h and the body acceleration g (gravity), a vertex also
 /// gets a contact when it is in front of a facing face now but (within a quarter of its step)
 /// behind it at x + h·v + h²·g, where implicit Euler would take it without contact (it would
 /// pass through the face during the step). Its spring is the same linear one, k·A·(δ − n·Δp): the implicit step then stops it
@@ -90,11 +89,10 @@ struct BodyContactOutput {
 /// 20 mm at dt = 1 ms). A speculative contact that ends the step pulling (the vertex did not
 /// reach the face) is released by the tick and the step redone. v = nullptr: penetration only.
 void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const TriangleBvh& bvh,
-                  const double* x, const double* v, double h, const double* g, const uint8_t* constrained,
-                  double* boxes,
+                  const double* x, const double* v, double h, const double* g, double* boxes,
                   std::vector<ContactSpring>& springs, std::vector<BodyContactPair>& pairs, BodyContactOutput& out);
 
-/// After a step to positions x: the speculative contacts whose spring pulls at the end of the
+/// After a step to DOF positions x: the speculative contacts whose spring pulls at the end of the
 /// step (the vertex stayed in front of its face, δ < 0) are switched off (their springs zeroed).
 /// Returns how many. (Contacts that started penetrating stay: a penalty contact may overshoot.)
 int release_pulling_contacts(const double* x, std::vector<BodyContactPair>& pairs,

@@ -1,21 +1,117 @@
 #pragma once
 /// \file contact_surface.hpp
 /// The compiled contact surface of all bodies, as tools and other bodies touch it.
+///
+/// The surface's vertices are *surface points*: the DOFs themselves (point i < num_dofs is DOF
+/// i), then, on a cut mesh, the embedded points where the cut crossed an element copy's edges
+/// (point num_dofs + j is (1 − t)·x[a] + t·x[b] of embedded[j]). The collide stage fills their
+/// positions once per tick (surface_positions: on an uncut mesh there are none and the DOF
+/// array itself is used, no copy); the BVH, tool contact and body contact read them, and every
+/// contact spring is expanded back onto the DOFs through the triangle's SurfaceTriangleDofs.
 
 #include <array>
 #include <cstdint>
 #include <vector>
 
+#include "tissue/contact_spring.hpp"
+#include "tissue/cut_topology.hpp"
+
 namespace stroma {
 
-/// The contact surface of all bodies, as compiled: outward triangles (global node ids), the
-/// BSR slots of each triangle's node pairs, and each triangle's longest rest edge.
+/// How a point of a surface triangle acts on the DOFs: the triangle's distinct DOFs (≤ 4: a
+/// triangle lies in one element copy), the weight of each for each triangle vertex (the point
+/// with barycentric b has weight Σ_v b_v·W[v][d] on dof[d]), and the BSR slots of the DOF pairs
+/// (4a + b, as ContactSpring::slot). Invariants: 1 ≤ n ≤ 4; each row W[v][0..n) sums to 1;
+/// slot[4a + b] for a, b < n is the stored block (dof[a], dof[b]) or −1 for the lower triangle.
+/// An uncut triangle: its three nodes, W the identity.
+struct SurfaceTriangleDofs {
+  int32_t n = 3;
+  int32_t dof[kSpringMaxNodes] = {0, 0, 0, 0};
+  double W[3][kSpringMaxNodes] = {};
+  int32_t slot[kSpringMaxNodes * kSpringMaxNodes] = {};
+};
+
+/// How a single surface point acts on the DOFs (body contact's vertex side): one DOF, w = 1
+/// (a node, or an embedded point's material end: see triangle_dofs). Same slot layout as
+/// ContactSpring.
+struct SurfacePointDofs {
+  int32_t n = 1;
+  int32_t dof[2] = {0, 0};
+  double w[2] = {1, 0};
+  int32_t slot[kSpringMaxNodes * kSpringMaxNodes] = {};
+};
+
+/// The contact surface of all bodies, as compiled: outward triangles over surface points, how
+/// each acts on the DOFs, and each triangle's longest rest edge.
 struct ContactSurface {
   const std::vector<std::array<int32_t, 3>>& triangles;
-  const std::vector<std::array<int32_t, 9>>& slots;
+  const std::vector<SurfaceTriangleDofs>& dofs;
   const std::vector<double>& longest_edge;
   /// Per face 0 inactive / 1 active / 2 active with reversed orientation; null: all active.
   const uint8_t* active = nullptr;
+  /// Per face 1 on a cut (a wound's lip), 0 not; null: no cut faces (an uncut mesh).
+  const uint8_t* cut_face = nullptr;
 };
+
+/// Sets sp's DOFs, weights and slots to the point with barycentric (b0, b1, b2) on a triangle.
+inline void set_spring_point(const SurfaceTriangleDofs& td, double b0, double b1, double b2, ContactSpring& sp) {
+  sp.n = td.n;
+  for (int d = 0; d < td.n; ++d) {
+    sp.node[d] = td.dof[d];
+    sp.w[d] = b0 * td.W[0][d] + b1 * td.W[1][d] + b2 * td.W[2][d];
+  }
+  for (int i = 0; i < kSpringMaxNodes * kSpringMaxNodes; ++i) sp.slot[i] = td.slot[i];
+}
+
+/// Sets sp's DOFs, weights and slots to a single surface point.
+inline void set_spring_point(const SurfacePointDofs& pd, ContactSpring& sp) {
+  sp.n = pd.n;
+  for (int d = 0; d < pd.n; ++d) {
+    sp.node[d] = pd.dof[d];
+    sp.w[d] = pd.w[d];
+  }
+  for (int i = 0; i < kSpringMaxNodes * kSpringMaxNodes; ++i) sp.slot[i] = pd.slot[i];
+}
+
+/// Positions (or velocities) of the surface points: the DOFs' values `x` (3·num_dofs), then the
+/// embedded points' lerps, into `out` (3·(num_dofs + embedded.size()), sized by the caller).
+inline void surface_positions(const double* x, int32_t num_dofs, const std::vector<CutVertex>& embedded,
+                              double* out) {
+  for (int32_t i = 0; i < 3 * num_dofs; ++i) out[i] = x[i];
+  double* e = out + 3 * static_cast<size_t>(num_dofs);
+  for (const CutVertex& p : embedded) {
+    const double* a = x + 3 * p.a;
+    const double* b = x + 3 * p.b;
+    for (int k = 0; k < 3; ++k) e[k] = (1.0 - p.t) * a[k] + p.t * b[k];
+    e += 3;
+  }
+}
+
+}  // namespace stroma
+
+namespace stroma {
+
+struct BsrPattern;
+
+/// The DOF map of the triangle over surface points `tri` (points ≥ num_dofs are
+/// embedded[p − num_dofs]). DOFs are listed in the order the vertices first name them (an uncut
+/// triangle: its nodes in order, W the identity). An embedded point acts on one DOF,
+/// embedded_dof[p − num_dofs]: the material end of its copy edge (see below). A DOF pair
+/// missing from the pattern joins nodes of a fully fixed body (whose elements are not in it):
+/// its row is projected to identity, so the first DOF's diagonal block is a harmless place for
+/// what contact adds. Throws std::invalid_argument if the triangle involves more than four DOFs.
+///
+/// Why an embedded point's force goes to its material end only: the other end is a virtual
+/// node, held by its copy alone — a copy whose share of the tetrahedron may be 5 % — so a
+/// contact spread by the point's weights moved virtual nodes by up to 1/t times the push
+/// (measured: a blade 0.5 mm thick pushing the lips of a beam's cut moved them 3–20 mm and
+/// inverted copies). On the material end the push meets the tissue's full stiffness; the lip
+/// follows its material node.
+SurfaceTriangleDofs triangle_dofs(const BsrPattern& pattern, const std::array<int32_t, 3>& tri, int32_t num_dofs,
+                                  const std::vector<CutVertex>& embedded, const std::vector<int32_t>& embedded_dof);
+
+/// The DOF map of one surface point (body contact's vertex side), slots as triangle_dofs.
+SurfacePointDofs point_dofs(const BsrPattern& pattern, int32_t point, int32_t num_dofs,
+                            const std::vector<int32_t>& embedded_dof);
 
 }  // namespace stroma

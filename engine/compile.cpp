@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "engine/compiled_scenario.hpp"
+#include "engine/cut_compile.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "tissue/bounding_box.hpp"
@@ -172,7 +173,8 @@ void compile_body_contact(const BodyContactSpec& spec, const ScenarioSpec& scena
       if (on_surface[i]) {
         bc.vertex.push_back(i);
         bc.vertex_area.push_back(area[i]);
-        bc.vertex_slot.push_back(fem.pattern.find(i, i));
+        bc.vertex_dofs.push_back(point_dofs(fem.pattern, i, fem.num_nodes, {}));
+        bc.vertex_fixed.push_back(fem.constrained[i] == 7 ? 1 : 0);
       }
   }
   bc.body_vertex_begin.push_back(static_cast<int32_t>(bc.vertex.size()));
@@ -318,8 +320,11 @@ void compile_tools(const ScenarioSpec& spec, Model& model, std::vector<Trajector
                          "min must not exceed max");
     if (ts.shape != ToolShape::None) {
       model.has_contact = true;
-      // Automatic: stiff against the stiffest body at this size.
-      if (ts.contact_stiffness == 0) ts.contact_stiffness = 100.0 * e_max / ts.radius;
+      if (ts.cuts && ts.blade_height == 0) ts.blade_height = 0.5 * ts.shaft_length;
+      // Automatic: stiff against the stiffest body at this size — a cutting blade's size is
+      // its body's height, not its half-thickness (100·E/thickness made the lips' pushes 10⁴ N
+      // on a 20 µm blade).
+      if (ts.contact_stiffness == 0) ts.contact_stiffness = 100.0 * e_max / (ts.cuts ? ts.blade_height : ts.radius);
       if (ts.can_grasp && ts.grasp_stiffness == 0) ts.grasp_stiffness = 0.25 * ts.contact_stiffness * ts.radius * ts.radius;
     }
     model.tools.push_back(ts);
@@ -343,22 +348,7 @@ void compile_collision_faces(Model& model) {
   auto add_face = [&](const Tri& t, int32_t ea, int32_t eb) {
     model.collision_face_elem.push_back({ea, eb});
     model.collision_triangles.push_back({t[0], t[1], t[2]});
-    std::array<int32_t, 9> sl;
-    for (int a = 0; a < 3; ++a)
-      for (int c = 0; c < 3; ++c) {
-        // A pair missing from the pattern joins two nodes of a fully fixed body (whose elements
-        // are not in it): its row is projected to identity, so its diagonal block is a harmless
-        // place for what contact would add there.
-        // Upper-triangle storage: the pair (a, c) with t[a] > t[c] is the transpose of (c, a),
-        // which the symmetric contact block already adds: -1, skipped.
-        if (t[a] > t[c]) {
-          sl[3 * a + c] = -1;
-          continue;
-        }
-        const int32_t slot = fem.pattern.find(t[a], t[c]);
-        sl[3 * a + c] = slot >= 0 ? slot : fem.pattern.diag[t[a]];
-      }
-    model.collision_slots.push_back(sl);
+    model.collision_dofs.push_back(triangle_dofs(fem.pattern, {t[0], t[1], t[2]}, fem.num_nodes, {}, {}));
     double e = 0;
     for (int a = 0; a < 3; ++a) {
       const int32_t p = t[a], q = t[(a + 1) % 3];
@@ -421,6 +411,24 @@ void check_multirate(const ScenarioSpec& spec) {
                        s.fem_every, t.spec.name));
 }
 
+/// A cutting blade needs ticks (a static run has no sweep between them) and, for now, the
+/// tissue stepped every tick (a multirate haptic model would outlive the topology it came from).
+void check_cutting(const ScenarioSpec& spec) {
+  for (size_t ti = 0; ti < spec.tools.size(); ++ti) {
+    const ToolEntry& t = spec.tools[ti];
+    if (!t.spec.cuts) continue;
+    const std::string field = fmt::format("tools[{}].cut", ti);
+    if (spec.solver.integrator == Integrator::Static)
+      throw InputError(t.where.file, t.where.line, field,
+                       "a cutting blade needs a dynamic integrator (a static run has no ticks for the blade to sweep "
+                       "between)");
+    if (spec.solver.fem_every != 1)
+      throw InputError(t.where.file, t.where.line, field,
+                       fmt::format("cutting with solver.fem_every {} is not supported yet (use fem_every 1)",
+                                   spec.solver.fem_every));
+  }
+}
+
 }  // namespace
 
 CompiledScenario compile_scenario(const ScenarioSpec& spec) {
@@ -431,6 +439,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
   model->time_step = spec.time_step;
   const SolverSpec& s = spec.solver;
   check_multirate(spec);
+  check_cutting(spec);
   model->fem_every = s.fem_every;
   model->fem_step = spec.time_step * s.fem_every;
   model->haptic_secant = s.haptic_secant;
@@ -458,6 +467,8 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
   if (spec.body_contact) model->has_contact = true;
   if (model->has_contact) compile_collision_faces(*model);
   if (spec.body_contact) compile_body_contact(*spec.body_contact, spec, *model);
+  if (std::any_of(model->tools.begin(), model->tools.end(), [](const ToolSpec& t) { return t.cuts; }))
+    enable_cutting(*model);
   out.model = std::move(model);
   return out;
 }

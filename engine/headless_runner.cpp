@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "engine/cut_swap.hpp"
 #include "engine/session_log.hpp"
 #include "engine/state_io.hpp"
 #include "engine/static_run.hpp"
@@ -56,7 +57,7 @@ TimingSummary summarize(std::vector<double> v) {
 /// Streams metrics.csv rows; buffered, flushed in large chunks.
 class MetricsWriter {
  public:
-  MetricsWriter(const std::string& path, const Model& m) : m_(m), f_(std::fopen(path.c_str(), "w")) {
+  MetricsWriter(const std::string& path, const Model& m) : m_(&m), f_(std::fopen(path.c_str(), "w")) {
     if (!f_) throw std::runtime_error(fmt::format("cannot write '{}'", path));
     buf_ = "step,time,step_ms,cg_iterations,cg_residual,kinetic_energy,elastic_energy,"
            "external_potential,total_energy,status";
@@ -66,8 +67,11 @@ class MetricsWriter {
       buf_ += fmt::format(",{0}_fx,{0}_fy,{0}_fz,{0}_contacts,{0}_feedback_fx,{0}_feedback_fy,{0}_feedback_fz", t.name);
     if (m.has_damage) buf_ += ",elements_warned,elements_damaged,elements_ruptured";
     buf_ += ",over_budget,degradation,error_energy,error_position,energy_removed";
+    if (m.cutting) buf_ += ",cut_edges,topology_version,elements_split,nodes_created,faces_created,cut_area";
     buf_ += '\n';
   }
+  /// The model rows are written against from now on (a cut model swapped in: same columns).
+  void set_model(const Model& m) { m_ = &m; }
   ~MetricsWriter() {
     flush();
     std::fclose(f_);
@@ -82,16 +86,21 @@ class MetricsWriter {
     fmt::format_to(out, "{},{:.9g},{:.6f},{},{:.3e},{:.9e},{:.9e},{:.9e},{:.9e},{}", s.step, s.time, ms, iterations,
                    residual, ke, ee, pe, ke + ee + pe, status);
     for (int st = 0; st < kStageCount; ++st) fmt::format_to(out, ",{:.6f}", static_cast<double>(r.stage_ns[st]) * 1e-6);
-    for (const ProbeModel& p : m_.probes) {
-      const Vec3 d = probe_displacement(m_, s, p);
+    for (const ProbeModel& p : m_->probes) {
+      const Vec3 d = probe_displacement(*m_, s, p);
       fmt::format_to(out, ",{:.12e},{:.12e},{:.12e}", d[0], d[1], d[2]);
     }
     for (const ToolOutput& t : r.tools)
       fmt::format_to(out, ",{:.9e},{:.9e},{:.9e},{},{:.9e},{:.9e},{:.9e}", t.force[0], t.force[1], t.force[2], t.contacts,
                      t.feedback.force[0], t.feedback.force[1], t.feedback.force[2]);
-    if (m_.has_damage) fmt::format_to(out, ",{},{},{}", s.damage_count[1], s.damage_count[2], s.damage_count[3]);
+    if (m_->has_damage) fmt::format_to(out, ",{},{},{}", s.damage_count[1], s.damage_count[2], s.damage_count[3]);
     fmt::format_to(out, ",{},{},{:.3e},{:.3e},{:.3e}", r.over_budget ? 1 : 0, degradation_name(r.degradation),
                    r.solve.error_energy, r.solve.error_position, r.energy_removed);
+    if (m_->cutting) {
+      const CutStats& c = m_->cut_stats;
+      fmt::format_to(out, ",{},{},{},{},{},{:.6e}", r.cut_edges, m_->topology_version, c.elements_split,
+                     c.nodes_created, c.faces_created, c.cut_area);
+    }
     buf_ += '\n';
     if (buf_.size() > (1 << 20)) flush();
   }
@@ -102,7 +111,7 @@ class MetricsWriter {
   }
 
  private:
-  const Model& m_;
+  const Model* m_;
   std::FILE* f_;
   std::string buf_;
 };
@@ -124,7 +133,8 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 /// Everything a run writes, in one place.
 class RunOutputs {
  public:
-  RunOutputs(const CompiledScenario& sc, const RunOptions& o, RunLog& log) : sc_(sc), o_(o), log_(log) {
+  RunOutputs(const CompiledScenario& sc, const RunOptions& o, RunLog& log)
+      : sc_(sc), o_(o), log_(log), model_(sc.model.get()) {
     if (o.out_dir.empty()) return;
     const auto t0 = Clock::now();
     fs::create_directories(o.out_dir);
@@ -133,11 +143,16 @@ class RunOutputs {
   }
   std::unique_ptr<MetricsWriter> metrics;
   bool writing() const { return !o_.out_dir.empty(); }
+  /// Outputs follow the model the run is on (a cut model swapped in).
+  void set_model(const Model& m) {
+    model_ = &m;
+    if (metrics) metrics->set_model(m);
+  }
   void frame(const State& s, long k) {
     if (!writing() || o_.vtu_every <= 0 || k % o_.vtu_every != 0) return;
     const auto t0 = Clock::now();
     const std::string name = fmt::format("state_{:06d}.vtu", k);
-    write_vtu((fs::path(o_.out_dir) / name).string(), *sc_.model, s);
+    write_vtu((fs::path(o_.out_dir) / name).string(), *model_, s);
     log_.series.emplace_back(s.time, name);
     log_.io_ms += ms_since(t0);
   }
@@ -148,11 +163,12 @@ class RunOutputs {
   const CompiledScenario& sc_;
   const RunOptions& o_;
   RunLog& log_;
+  const Model* model_;
 };
 
 void RunOutputs::finish(RunResult& res) {
   if (!writing()) return;
-  const Model& m = *sc_.model;
+  const Model& m = *model_;
   const fs::path dir(o_.out_dir);
   const auto t0 = Clock::now();
   metrics.reset();
@@ -223,6 +239,17 @@ void RunOutputs::finish(RunResult& res) {
                               {"feedback_clamped", fb.clamped}};
   }
   j["tools"] = tools;
+  if (m.cutting) {
+    const CutStats& c = m.cut_stats;
+    j["cutting"] = {{"edges_cut", c.edges_cut},
+                    {"elements_split", c.elements_split},
+                    {"nodes_created", c.nodes_created},
+                    {"faces_created", c.faces_created},
+                    {"cut_area", c.cut_area},
+                    {"topology_version", m.topology_version},
+                    {"topology_swaps", res.topology_swaps},
+                    {"build_ms", {{"total", res.cut_build_ms_total}, {"max", res.cut_build_ms_max}}}};
+  }
   if (m.has_damage)
     j["damage"] = {{"elements_warned", s.damage_count[1]},
                    {"elements_damaged", s.damage_count[2]},
@@ -300,9 +327,10 @@ void run_static(const CompiledScenario& sc, const RunOptions& o, long steps, Sta
 }
 
 /// Dynamic run: ticks with the tools' scripted (or replayed) commands.
-void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, State& s, TickWorkspace& w,
-                 RunOutputs& out, RunLog& log, RunResult& res) {
-  const Model& m = *sc.model;
+void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, State& s,
+                 std::shared_ptr<const Model>& model, std::unique_ptr<TickWorkspace>& wp, RunOutputs& out, RunLog& log,
+                 RunResult& res) {
+  const Model& m = *sc.model;  // the scenario's (cut models keep its tools and time step)
   // Tool inputs: a replayed session, else each scripted tool sampled at the tick's start time.
   std::vector<SessionEvent> replay;
   if (!o.replay.empty()) {
@@ -327,6 +355,11 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
       for (; next_event < replay.size() && replay[next_event].tick == k; ++next_event) {
         const SessionEvent& e = replay[next_event];
         if (e.kind == SessionEvent::Reset) {
+          if (model != sc.model) {  // back to the uncut scenario
+            model = sc.model;
+            wp = std::make_unique<TickWorkspace>(*model);
+            out.set_model(*model);
+          }
           s = State::initial(m);
           inputs.clear();  // commands before a reset in the same tick were overwritten
         } else if (e.kind == SessionEvent::Tool) {
@@ -341,7 +374,8 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
           inputs.push_back(ToolInput{static_cast<int32_t>(t), static_cast<uint64_t>(k + 1), 0,
                                      sc.tool_scripts[t].sample(s.time)});
     }
-    const TickReport& r = tick(m, s, w, inputs.data(), static_cast<int>(inputs.size()), deadline);
+    TickWorkspace& w = *wp;
+    const TickReport& r = tick(*model, s, w, inputs.data(), static_cast<int>(inputs.size()), deadline);
     const double ms = static_cast<double>(r.total_ns) * 1e-6;
     log.step_ms.push_back(ms);
     log.add_stages(r);
@@ -372,6 +406,21 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
       out.metrics->row(s, w.stepper(), ms, r.solve.iterations, r.solve.relative_residual, static_cast<int>(r.status), r);
       log.io_ms += ms_since(t0);
     }
+    if (r.cut_edges > 0) {
+      // The blade cut edges: the topology follows before the next tick (headless: built here,
+      // synchronously, so a run is a function of its inputs; `serve` builds off the thread).
+      CutBuild b = build_cut(*model, s.edge_cut);
+      res.cut_build_ms_total += b.build_ms;
+      res.cut_build_ms_max = std::max(res.cut_build_ms_max, b.build_ms);
+      if (apply_cut(b, model, wp, s)) {
+        ++res.topology_swaps;
+        out.set_model(*model);
+        spdlog::debug("tick {}: topology {} swapped in ({} elements split, {} nodes created, cut area {:.3g} m^2; "
+                      "built in {:.2f} ms)",
+                      k, model->topology_version, model->cut_stats.elements_split, model->cut_stats.nodes_created,
+                      model->cut_stats.cut_area, b.build_ms);
+      }
+    }
     out.frame(s, k + 1);
     const auto now = Clock::now();
     if (o.progress && now - last_progress > std::chrono::seconds(2)) {
@@ -391,14 +440,17 @@ RunResult run_headless(const CompiledScenario& sc, const RunOptions& o) {
   const Model& m = *sc.model;
   RunResult res;
   State s = State::initial(m);
-  TickWorkspace w(m);
+  std::shared_ptr<const Model> model = sc.model;  // the model the run is on (cut models swap in)
+  auto wp = std::make_unique<TickWorkspace>(m);
   const long steps = resolve_steps(sc, o);
   RunLog log;
   log.step_ms.reserve(static_cast<size_t>(std::max(0L, steps)) + 1);
   RunOutputs out(sc, o, log);
   const auto wall0 = Clock::now();
-  if (m.stepper.integrator == Integrator::Static) run_static(sc, o, steps, s, w, out, log, res);
-  else run_dynamic(sc, o, steps, s, w, out, log, res);
+  if (m.stepper.integrator == Integrator::Static) run_static(sc, o, steps, s, *wp, out, log, res);
+  else run_dynamic(sc, o, steps, s, model, wp, out, log, res);
+  TickWorkspace& w = *wp;
+  res.final_model = model;
   res.wall_seconds = std::chrono::duration<double>(Clock::now() - wall0).count();
   res.sim_time = s.time;
   res.step_ms = summarize(log.step_ms);

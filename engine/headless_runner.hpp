@@ -70,6 +70,11 @@ struct RunResult {
   double static_residual = 0;
   bool static_converged = true;
   int static_increments = 0;
+  /// Cutting: the model the run ended on (the scenario's, or the last cut model swapped in),
+  /// cut models swapped in, and their builds' wall time (ms; synchronous in a headless run).
+  std::shared_ptr<const Model> final_model;
+  int topology_swaps = 0;
+  double cut_build_ms_total = 0, cut_build_ms_max = 0;
 };
 
 /// Number of ticks a run makes: options first, then the scenario's `run:`. Dynamic default

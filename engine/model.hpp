@@ -15,6 +15,7 @@
 #include "engine/scenario_spec.hpp"
 #include "haptics/tool.hpp"
 #include "tissue/barycentric.hpp"
+#include "tissue/cut_topology.hpp"
 #include "tissue/fem_model.hpp"
 #include "tissue/time_stepper.hpp"
 
@@ -24,7 +25,18 @@ namespace stroma {
 struct ProbeModel {
   std::string name;
   int body = 0;
-  BarycentricPoint where;  ///< node indices are global
+  BarycentricPoint where;  ///< node indices are global (DOFs of the copy holding it, once cut)
+};
+
+struct CutSupport;  // engine/cut_compile.hpp
+
+/// What the cuts of a model's topology made (zero on an uncut model).
+struct CutStats {
+  int32_t elements_split = 0;   ///< tetrahedra of the uncut mesh in more than one copy
+  int32_t edges_cut = 0;        ///< edges of the uncut mesh the blade crossed
+  int32_t nodes_created = 0;    ///< DOFs beyond the uncut mesh's nodes (virtual nodes)
+  int32_t faces_created = 0;    ///< surface triangles on cut faces (both lips)
+  double cut_area = 0;          ///< m²: the wound's area (one lip's rest area)
 };
 
 /// The compiled scenario model.
@@ -66,15 +78,33 @@ struct Model {
   /// Some tool has a shape, or the scenario has body contact: the collide stage and BVH exist.
   bool has_contact = false;
   std::optional<BodyContactModel> body_contact;  ///< scenario `body_contact:` (none: not computed)
-  std::vector<std::array<int32_t, 3>> collision_triangles;  ///< all bodies' surfaces (outward)
-  std::vector<std::array<int32_t, 9>> collision_slots;      ///< BSR slots of each triangle's node pairs
+  /// All bodies' surfaces (outward), over surface points: the DOFs, then collision_embedded
+  /// (collision/contact_surface.hpp). An uncut model has no embedded points.
+  std::vector<std::array<int32_t, 3>> collision_triangles;
+  std::vector<CutVertex> collision_embedded;  ///< points on element copies' edges (cut surfaces)
+  /// Per embedded point, the DOF its contact forces act on: its copy edge's material end
+  /// (collision/contact_surface.hpp, triangle_dofs, says why).
+  std::vector<int32_t> collision_embedded_dof;
+  std::vector<SurfaceTriangleDofs> collision_dofs;  ///< how each triangle acts on the DOFs (slots)
   std::vector<double> collision_edge;  ///< longest rest edge of each collision triangle
+  std::vector<uint8_t> collision_cut_face;  ///< per triangle 1: a cut face (empty when uncut)
   /// The elements on either side of each collision face (−1: none). Faces of bodies without a
   /// damage model are their boundary ({−1, −1}: always active); bodies with one get every tet
   /// face, active when exactly one side is intact (a tear exposes the inner faces).
   std::vector<std::array<int32_t, 2>> collision_face_elem;
   std::vector<std::array<int32_t, 4>> element_faces;  ///< collision face of each tet face (−1: none)
   std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
+
+  // Cutting (docs/CUTTING.md). A scenario with a cutting tool compiles its uncut model with
+  // `cutting` set; each topology change compiles a new Model (engine/cut_compile.hpp) that the
+  // runner swaps in at a tick boundary (engine/cut_swap.hpp).
+  std::shared_ptr<const CutSupport> cutting;  ///< null: no tool cuts (no edge state, no scan)
+  std::shared_ptr<const CutTopology> topology;  ///< this model's topology (the uncut one's too)
+  int32_t topology_version = 0;  ///< 0: uncut; +1 per swapped-in cut model
+  /// Per edge of the uncut mesh, the two DOFs whose positions the blade tests it at (the edge's
+  /// nodes when uncut; a copy holding the edge as material once cut).
+  std::vector<std::array<int32_t, 2>> cut_edge_dofs;
+  CutStats cut_stats;
 };
 
 /// Loads every mesh, validates materials and selections against them, and compiles the model

@@ -484,6 +484,16 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
     if (t.spec.shape == ToolShape::None)
       f->fail("a grasping tool needs a shape (shape: {type: sphere, radius: ...})");
   }
+  if (auto f = m.opt("cut")) {
+    const MapReader cm = f->map({"toughness", "height"});
+    t.spec.cuts = true;
+    cm.read("toughness", t.spec.cut_toughness,
+            physical_range(0, 1e6, "J/m^2: energy per cut area, liver ~1e2..3e2, skin ~1e3..3e3"));
+    cm.read("height", t.spec.blade_height, kToolLength);
+    if (t.spec.shape != ToolShape::Blade)
+      f->fail("only a blade cuts (shape: {type: blade, radius: ..., length: ...}): its edge is what sweeps the cut");
+    if (t.spec.can_grasp) f->fail("a cutting blade cannot also grasp");
+  }
   return t;
 }
 
@@ -539,7 +549,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   std::map<std::string, int> tool_names;
   for (const auto& item : m.list("tools")) {
     const MapReader tm = item.map({"name", "script", "workspace", "max_speed", "timeout", "on_invalid",
-                                   "shape", "contact", "max_force", "grasp", "coupling"});
+                                   "shape", "contact", "max_force", "grasp", "coupling", "cut"});
     s.tools.push_back(parse_tool(tm, ctx));
     check_unique_name(tool_names, s.tools.back().spec.name, tm.req("name"), "tool");
   }

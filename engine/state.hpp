@@ -29,6 +29,10 @@ struct State {
   /// 2 active reversed (its first element ruptured, the second is intact). Empty unless a body
   /// with a damage model can be touched by a tool.
   std::vector<uint8_t> face_active;
+  /// Cutting (Model::cutting): per edge of the uncut mesh, where the blade crossed it
+  /// (kEdgeUncut: not cut). It only grows; the model's topology lags it until the runner swaps
+  /// in the cut model built from it (engine/cut_swap.hpp). Empty without a cutting tool.
+  std::vector<double> edge_cut;
   double time = 0;     ///< simulated time (s)
   int64_t step = 0;    ///< ticks done
 
@@ -37,6 +41,7 @@ struct State {
     State s;
     s.tissue = TissueState::at_rest(m.fem);
     s.tools.assign(m.tools.size(), ToolState{});
+    if (m.cutting) s.edge_cut.assign(m.cut_edge_dofs.size(), kEdgeUncut);
     if (m.has_damage) {
       s.damage.assign(m.fem.elements.size(), 0.0f);
       s.damage_level.assign(m.fem.elements.size(), 0);

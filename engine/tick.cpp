@@ -1,7 +1,9 @@
 #include "engine/tick.hpp"
 
 #include <algorithm>
+#include <cmath>
 
+#include "engine/cut_compile.hpp"
 #include "engine/damage.hpp"
 #include "engine/multirate.hpp"
 #include "engine/stage_timer.hpp"
@@ -9,6 +11,7 @@
 #include "haptics/contact.hpp"
 #include "haptics/feedback.hpp"
 #include "haptics/tool_shape.hpp"
+#include "tissue/cut_blade.hpp"
 #include "tissue/fem_forces.hpp"
 
 namespace stroma {
@@ -46,12 +49,27 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
   report.tools.resize(m.tools.size());
   if (m.has_damage) report.damage_records.reserve(kMaxDamageRecords);
   if (m.has_contact) {  // pay only for use: no tool shape, no BVH
-    bvh.build(m.collision_triangles, m.fem.rest.data());
+    if (m.collision_embedded.empty()) {
+      bvh.build(m.collision_triangles, m.fem.rest.data());
+    } else {  // a cut surface: its points beyond the DOFs are filled per tick (collide)
+      const size_t points = static_cast<size_t>(m.fem.num_nodes) + m.collision_embedded.size();
+      surface_x.resize(3 * points);
+      if (m.body_contact) surface_v.resize(3 * points);
+      surface_positions(m.fem.rest.data(), m.fem.num_nodes, m.collision_embedded, surface_x.data());
+      bvh.build(m.collision_triangles, surface_x.data());
+    }
     springs.reserve(kMaxContacts);
+    // Touch the capacity now (construct, then clear: no reallocation), so the first ticks with
+    // many contacts do not page-fault their way through it — a cut model's workspace is made
+    // off the physics thread and its first tick is a served one (measured: 7–11 ms first ticks
+    // after a swap).
+    springs.resize(kMaxContacts);
+    springs.clear();
   }
   if (m.body_contact) {
     body_boxes.resize(6 * m.fem.bodies.size());
-    body_pairs.reserve(kMaxContacts / 2);
+    body_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
+    body_pairs.clear();
   }
   if (m.stepper.integrator == Integrator::ImplicitEuler && !m.fem.elements.empty()) {
     ElasticPass p;  // what the guard runs: elastic energy only (plus O(n) potential terms)
@@ -80,18 +98,95 @@ StepInputs step_inputs(const Model& m, const State& s, const TickWorkspace& w) {
 /// Collide stage: refit the surface BVH, then each tool's coupling, grasp and contact
 /// (haptics/contact.hpp) and body–body contact (collision/body_contact.hpp); the springs are
 /// this tick's step inputs.
+namespace {
+
+/// Cutting (in the collide stage): each cutting blade's edge, swept from where it was at the end
+/// of the last tick to where it is now, cuts the uncut edges it crosses (s.edge_cut; the
+/// runner swaps in the new topology: engine/cut_swap.hpp). Its resistance — toughness × the
+/// area cut (estimated from the edges: CutSupport::edges_per_area) per unit of blade travel,
+/// against the travel — is smoothed over kCutForceTime into the tool's state.
+void cut_with_blades(const Model& m, State& s, TickWorkspace& w) {
+  const CutSupport& cs = *m.cutting;
+  for (size_t k = 0; k < m.tools.size(); ++k) {
+    const ToolSpec& spec = m.tools[k];
+    ToolState& ts = s.tools[k];
+    ToolOutput& out = w.report.tools[k];
+    out.cut_edges = 0;
+    if (!spec.cuts) continue;
+    if (!ts.active || ts.last_command_time < 0) {
+      ts.has_blade = false;
+      ts.cut_force = {0, 0, 0};
+      continue;
+    }
+    Capsule cap[kMaxCapsules];
+    tool_capsules(spec, ts.pose, tool_center(spec, ts).data(), cap);
+    const Vec3 a{cap[0].a[0], cap[0].a[1], cap[0].a[2]}, b{cap[0].b[0], cap[0].b[1], cap[0].b[2]};
+    Vec3 f_now{0, 0, 0};
+    if (ts.has_blade) {
+      double travel[3], len2 = 0;
+      for (int i = 0; i < 3; ++i) {
+        travel[i] = 0.5 * (a[i] + b[i] - ts.blade_a[i] - ts.blade_b[i]);
+        len2 += travel[i] * travel[i];
+      }
+      // The swept surface starts behind where the edge was — by its half-thickness or half a
+      // tick's travel, whichever is more: each tick tests the mesh where it is now, so tissue
+      // that moved back across the edge's last position between two ticks would fall between
+      // two sweeps (measured: a node of a sagging beam 0.1 mm behind the edge left the beam
+      // joined). An edge is cut once: the overlap cuts nothing twice.
+      Vec3 a0 = ts.blade_a, b0 = ts.blade_b;
+      if (len2 > 0) {
+        const double back = std::max(spec.radius / std::sqrt(len2), 0.5);
+        for (int i = 0; i < 3; ++i) {
+          a0[i] -= back * travel[i];
+          b0[i] -= back * travel[i];
+        }
+      }
+      const SweptBlade sweep{a0, b0, a, b};
+      const int n = cut_edges(s.tissue.x.data(), cs.base.adj, m.cut_edge_dofs, sweep, s.edge_cut);
+      out.cut_edges = n;
+      w.report.cut_edges += n;
+      if (n > 0 && spec.cut_toughness > 0 && cs.edges_per_area > 0 && len2 > 0) {
+        const double area = n / cs.edges_per_area;
+        const double len = std::sqrt(len2);
+        for (int i = 0; i < 3; ++i) f_now[i] = -spec.cut_toughness * area / len * (travel[i] / len);
+      }
+    }
+    const double alpha = std::min(1.0, m.fem_step / kCutForceTime);
+    for (int i = 0; i < 3; ++i) ts.cut_force[i] += alpha * (f_now[i] - ts.cut_force[i]);
+    ts.blade_a = a;
+    ts.blade_b = b;
+    ts.has_blade = true;
+  }
+}
+
+}  // namespace
+
 void collide(const Model& m, State& s, TickWorkspace& w) {
+  // Surface points (collision/contact_surface.hpp): the DOFs themselves on an uncut mesh; on a
+  // cut one, the DOFs then the embedded points of the cut faces, filled here once per tick.
   const double* x = s.tissue.x.data();
-  w.bvh.refit(x);
+  const double* v = s.tissue.v.data();
+  const double* px = x;
+  const double* pv = v;
+  if (!m.collision_embedded.empty()) {
+    surface_positions(x, m.fem.num_nodes, m.collision_embedded, w.surface_x.data());
+    px = w.surface_x.data();
+    if (m.body_contact) {
+      surface_positions(v, m.fem.num_nodes, m.collision_embedded, w.surface_v.data());
+      pv = w.surface_v.data();
+    }
+  }
+  w.bvh.refit(px);
   w.springs.clear();  // keeps its capacity: no allocation
-  const ContactSurface surf{m.collision_triangles, m.collision_slots, m.collision_edge,
-                            s.face_active.empty() ? nullptr : s.face_active.data()};
+  const ContactSurface surf{m.collision_triangles, m.collision_dofs, m.collision_edge,
+                            s.face_active.empty() ? nullptr : s.face_active.data(),
+                            m.collision_cut_face.empty() ? nullptr : m.collision_cut_face.data()};
   for (size_t k = 0; k < m.tools.size(); ++k)
-    tool_contact(m.tools[k], s.tools[k], w.report.tools[k], surf, w.bvh, x, s.tissue.v.data(), m.fem_step,
-                 w.springs);
+    tool_contact(m.tools[k], s.tools[k], w.report.tools[k], surf, w.bvh, px, v, m.fem_step, w.springs);
   if (m.body_contact)
-    body_contact(*m.body_contact, surf, w.bvh, x, s.tissue.v.data(), m.fem_step, m.fem.gravity.data(),
-                 m.fem.constrained.data(), w.body_boxes.data(), w.springs, w.body_pairs, w.report.body_contact);
+    body_contact(*m.body_contact, surf, w.bvh, px, pv, m.fem_step, m.fem.gravity.data(), w.body_boxes.data(),
+                 w.springs, w.body_pairs, w.report.body_contact);
+  if (m.cutting) cut_with_blades(m, s, w);
 }
 
 namespace {
@@ -132,6 +227,8 @@ void hand_off(const Model& m, State& s, TickWorkspace& w) {
     ToolState& ts = s.tools[k];
     tool_force_after_step(w.springs.data(), w.backup_x.data(), s.tissue.x.data(), s.tissue.v.data(),
                           tool_center(m.tools[k], ts), out);
+    if (m.tools[k].cuts)  // the cutting resistance (no torque: it acts along the edge's middle)
+      for (int i = 0; i < 3; ++i) out.force[i] += ts.cut_force[i];
     ts.force = out.force;
     ts.stiffness = out.stiffness;
     out.feedback = device_feedback(m.tools[k], ts, out, m.time_step);
@@ -155,6 +252,7 @@ void begin_report(TickReport& r) {
   r.damage_records.clear();
   r.deadline_check = -1;
   r.tissue_stepped = false;
+  r.cut_edges = 0;
 }
 
 void apply_tool_inputs(const Model& m, State& s, TickReport& r, const ToolInput* inputs, int input_count) {

@@ -95,6 +95,9 @@ struct TickReport {
   std::vector<ToolOutput> tools;    ///< per scenario tool: contact, end-of-step force, feedback
   BodyContactOutput body_contact;   ///< body–body contacts (zero without `body_contact:`)
   int damage_events = 0;            ///< elements reaching a new damage level this tick
+  /// Edges of the uncut mesh the blades cut this tick (in s.edge_cut; the topology follows when
+  /// the runner swaps in the cut model).
+  int cut_edges = 0;
   /// Multirate (solver.fem_every > 1): whether this tick stepped the tissue (always true
   /// otherwise).
   bool tissue_stepped = true;
@@ -118,6 +121,9 @@ class TickWorkspace {
   std::vector<ContactSpring> springs;   ///< this tick's contacts (capacity fixed at load)
   std::vector<double> body_boxes;       ///< body contact's per-body boxes (sized at load)
   std::vector<BodyContactPair> body_pairs;  ///< this tick's body contacts (capacity fixed at load)
+  /// Surface point positions and velocities of a cut surface (sized at load; empty when the
+  /// surface has no embedded points: the DOF arrays are used directly).
+  std::vector<double> surface_x, surface_v;
   /// Positions and velocities at the start of the tick, for rollback (sized once).
   std::vector<double> backup_x, backup_v;
   TickReport report;  ///< the last tick's outputs

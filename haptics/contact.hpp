@@ -30,11 +30,16 @@ namespace stroma {
 /// sample spacing stays a fraction of the tool's size whatever the mesh (smooth while sliding).
 inline constexpr double kContactSamplesPerRadius = 4.0;
 
-/// Coupling, grasp and contact of one tool at positions x (BVH already refitted): moves the
-/// proxy (coupling), fills `out` (contacts, energy, and force, torque and stiffness as found at
-/// x) and appends the tool's springs — recording their range in out — dropping, and counting,
-/// beyond capacity. `v` (node velocities) and `dt` are for friction (relative sliding
-/// velocity); v may be null when the tool has no friction. A tool never commanded, or idle
+/// A cutting blade's bevel: its half-thickness reaches `radius` this many radii behind the edge
+/// (a wedge of half-angle atan(1/8) ≈ 7°, as a scalpel's grind).
+inline constexpr double kBladeBevel = 8.0;
+
+/// Coupling, grasp and contact of one tool at surface point positions x (collision/
+/// contact_surface.hpp; the BVH already refitted to them): moves the proxy (coupling), fills
+/// `out` (contacts, energy, and force, torque and stiffness as found at x) and appends the
+/// tool's springs (on the DOFs) — recording their range in out — dropping, and counting, beyond
+/// capacity. `v` (DOF velocities) and `dt` are for friction (relative sliding velocity); v may
+/// be null when the tool has no friction. A tool never commanded, or idle
 /// (ToolState::active false: silent past its `timeout`), touches nothing and releases its grasp.
 void tool_contact(const ToolSpec& spec, ToolState& ts, ToolOutput& out, const ContactSurface& surf,
                   const TriangleBvh& bvh, const double* x, const double* v, double dt,

@@ -57,6 +57,7 @@ struct ToolSpec {
   double shaft_length = 0;       ///< probe: shaft length; blade: edge length; grasper: jaw length (m)
   double contact_stiffness = 0;  ///< contact pressure per penetration (Pa/m = N/m³);
                                  ///< 0 = automatic: 100·E/radius of the stiffest body
+                                 ///< (a cutting blade: 100·E/blade_height)
   double contact_damping = 0;    ///< pressure per penetration rate (Pa·s/m), normal direction
   /// Coulomb friction coefficient μ (0: frictionless). Regularised: below a slip speed of
   /// 1 % of the radius per second the friction is viscous (a stick that creeps), above it the
@@ -77,10 +78,23 @@ struct ToolSpec {
   double grasp_open = 0.1;       ///< rad (hysteresis: > grasp_close)
   double grasp_reach = 1.2;      ///< × radius
   double grasp_stiffness = 0;    ///< N/m per point; 0 = automatic (contact stiffness × radius² / 4)
+  // Cutting (`cut:` section, blades only): the blade's edge — the capsule's axis — cuts the
+  // tissue edges it sweeps over between two ticks (docs/CUTTING.md). It passes through uncut
+  // tissue; its sides push the wound's lips apart (contact on cut faces only, along the blade's
+  // normal, its local y); the cutting resistance is
+  // the toughness times the area cut per unit of blade travel, against the blade's motion.
+  bool cuts = false;
+  double cut_toughness = 0;      ///< J/m²: energy per unit of cut area (0: cuts without resistance)
+  /// m: the blade's body behind its edge (local −z), which holds the wound open; 0 = half the
+  /// edge's length (a scalpel blade is about twice as long as it is tall).
+  double blade_height = 0;
 };
 
 /// Surface points a tool can hold at once (fixed so the state has no heap memory per grasp).
 inline constexpr int kMaxGrasped = 64;
+/// s: time constant over which the cutting resistance follows the cut rate (the cut advances
+/// edge by edge: unsmoothed, the force would come in spikes a device renders as buzz).
+inline constexpr double kCutForceTime = 0.005;
 
 /// Outcome of validating one command.
 struct ToolCheck {
@@ -141,6 +155,11 @@ struct ToolState {
   std::array<int32_t, kMaxGrasped> grasp_triangle{};
   std::array<std::array<double, 2>, kMaxGrasped> grasp_uv{};
   std::array<Vec3, kMaxGrasped> grasp_offset{};
+  // Cutting: the blade's edge at the end of the last tick (the swept surface starts there) and
+  // the cutting resistance felt (N, smoothed over kCutForceTime).
+  bool has_blade = false;
+  Vec3 blade_a{0, 0, 0}, blade_b{0, 0, 0};
+  Vec3 cut_force{0, 0, 0};
   // Multirate (fem_every > 1): the model rendered now, and the one the last tissue step made,
   // which takes over when the next step starts (the step it came from took that long to run).
   HapticModel haptic, haptic_next;
@@ -166,6 +185,7 @@ struct ToolOutput {
   int contacts_dropped = 0;           ///< beyond the per-tick capacity (should stay 0)
   double contact_energy = 0;          ///< penalty potential Σ ½ k δ² where contacts were found (J)
   bool grasping = false;              ///< holding tissue (its springs are grasp springs)
+  int cut_edges = 0;                  ///< mesh edges its blade cut this tick
   int32_t spring_begin = 0, spring_end = 0;  ///< its springs in the tick's spring list
 };
 

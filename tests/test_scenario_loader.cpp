@@ -821,6 +821,20 @@ TEST(ScenarioLoaderTools, BladeAndGrasperShapes) {
                {"missing required field 'length'"});
 }
 
+TEST(ScenarioLoaderTools, CutSection) {
+  const std::string blade = "tools:\n  - name: s\n    shape: {type: blade, radius: 0.0005, length: 0.02}\n";
+  const ScenarioSpec s = parse_scenario(kMinimal + blade + "    cut: {toughness: 200, height: 0.008}\n", "a.yaml", "");
+  EXPECT_TRUE(s.tools.at(0).spec.cuts);
+  EXPECT_DOUBLE_EQ(s.tools.at(0).spec.cut_toughness, 200);
+  EXPECT_DOUBLE_EQ(s.tools.at(0).spec.blade_height, 0.008);
+  EXPECT_TRUE(parse_scenario(kMinimal + blade + "    cut: {}\n", "a.yaml", "").tools.at(0).spec.cuts);
+  EXPECT_FALSE(parse_scenario(kMinimal + blade, "a.yaml", "").tools.at(0).spec.cuts);
+  expect_error(kMinimal + "tools:\n  - name: s\n    shape: {type: sphere, radius: 0.003}\n    cut: {}\n", 12,
+               "tools[0].cut", {"only a blade cuts"});
+  expect_error(kMinimal + blade + "    cut: {toughness: -1}\n", 12, "tools[0].cut.toughness", {"-1"});
+  expect_error(kMinimal + blade + "    cut: {sharpness: 3}\n", 12, "tools[0].cut.sharpness", {"unknown key"});
+}
+
 }  // namespace
 TEST(ScenarioLoader, MultirateFemEveryAndHapticModel) {
   EXPECT_EQ(parse(kMinimal).solver.fem_every, 1);

@@ -4,6 +4,8 @@
 /// refs/e (quarter model, symmetry planes sliding, bottom bonded) with a scripted sphere, and a
 /// helper that writes a temporary file.
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -12,7 +14,12 @@ namespace stroma::test_scenarios {
 
 /// Writes `text` to a file `name` in the temporary directory; returns its path.
 inline std::string write_temp(const std::string& name, const std::string& text) {
-  const std::filesystem::path p = std::filesystem::temp_directory_path() / name;
+  // In a directory of this process's own: ctest runs tests in parallel processes, and two
+  // tests writing one fixed path read each other's files (SessionLog's bad-log tests did).
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("stroma_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path p = dir / name;
   std::ofstream(p) << text;
   return p.string();
 }

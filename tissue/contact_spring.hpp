@@ -1,23 +1,30 @@
 #pragma once
 /// \file contact_spring.hpp
-/// A penalty contact acting at one point of a surface triangle for one tick: the point is
-/// Σ w_a x_a over the triangle's nodes, its force is spread as w_a·f, and its stiffness and
-/// damping enter the implicit system as the blocks w_a w_b K (so contact stays stable at 1 kHz
-/// with implicit Euler). The BSR slots of the 3×3 node pairs are precomputed at load time.
+/// A penalty contact acting at one point of the surface for one tick: the point is Σ w_a x_a
+/// over up to four DOFs (a surface triangle's three nodes; on a cut surface, the four DOFs of
+/// the element copy whose cut face it is — its vertices are points on that copy's edges), its
+/// force is spread as w_a·f, and its stiffness and damping enter the implicit system as the
+/// blocks w_a w_b K (so contact stays stable at 1 kHz with implicit Euler). The BSR slots of the
+/// DOF pairs are precomputed at load time.
 
 #include <cstdint>
 
 namespace stroma {
 
+/// Most DOFs one contact point involves (a point of one element copy).
+inline constexpr int kSpringMaxNodes = 4;
+
 /// f = force on the tissue at the contact point; ∂f/∂x ≈ −K, ∂f/∂v ≈ −C (symmetric PSD,
-/// row-major), both for the contact point. Invariants: w sums to 1 (w ≥ 0); slot[3a + b] is the
-/// stored (upper-triangle) BSR block (node[a], node[b]) when node[a] ≤ node[b], −1 for the
-/// lower-triangle pairs (their blocks are the transposes of (b, a)'s, and K, C are symmetric),
-/// or a harmless diagonal block for nodes that never move.
+/// row-major), both for the contact point. Invariants: 1 ≤ n ≤ kSpringMaxNodes; w[0..n) sums
+/// to 1 (w ≥ 0); slot[4a + b] (a, b < n) is the stored (upper-triangle) BSR block
+/// (node[a], node[b]) when node[a] ≤ node[b], −1 for the lower-triangle pairs (their blocks are
+/// the transposes of (b, a)'s, and K, C are symmetric), or a harmless diagonal block for nodes
+/// that never move.
 struct ContactSpring {
-  int32_t node[3] = {0, 0, 0};
-  double w[3] = {1, 0, 0};
-  int32_t slot[9] = {};  ///< BSR slot of block (node[a], node[b]) at 3a+b; −1: lower, skipped
+  int32_t n = 3;  ///< DOFs in use
+  int32_t node[kSpringMaxNodes] = {0, 0, 0, 0};
+  double w[kSpringMaxNodes] = {1, 0, 0, 0};
+  int32_t slot[kSpringMaxNodes * kSpringMaxNodes] = {};  ///< block (node[a], node[b]) at 4a+b; −1: lower
   double force[3] = {0, 0, 0};
   double K[9] = {};
   double C[9] = {};
@@ -25,8 +32,11 @@ struct ContactSpring {
 
 /// The contact point Σ w_a x_a of spring `sp` at positions x.
 inline void spring_point(const ContactSpring& sp, const double* x, double* p) {
-  for (int k = 0; k < 3; ++k)
-    p[k] = sp.w[0] * x[3 * sp.node[0] + k] + sp.w[1] * x[3 * sp.node[1] + k] + sp.w[2] * x[3 * sp.node[2] + k];
+  for (int k = 0; k < 3; ++k) {
+    double s = sp.w[0] * x[3 * sp.node[0] + k];
+    for (int a = 1; a < sp.n; ++a) s += sp.w[a] * x[3 * sp.node[a] + k];
+    p[k] = s;
+  }
 }
 
 /// The force on the tissue of spring `sp` as the implicit step applied it, at the end of a step

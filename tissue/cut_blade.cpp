@@ -34,8 +34,35 @@ double edge_crossing(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b,
   return std::clamp(t, 0.0, 1.0);
 }
 
-int cut_edges(const double* x, const TetAdjacency& adj, const SweptBlade& blade, std::vector<double>& edge_cut) {
-  const Vec3 tri[2][3] = {{blade.a0, blade.b0, blade.b1}, {blade.a0, blade.b1, blade.a1}};
+namespace {
+
+/// Whether x lies in triangle (a, b, c) (its edges included), x on the triangle's plane.
+bool in_triangle(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 n = cross(sub(b, a), sub(c, a));
+  const double nn = dot(n, n);
+  if (!(nn > 0)) return false;
+  constexpr double kEps = 1e-12;
+  const Vec3* v[3] = {&a, &b, &c};
+  for (int i = 0; i < 3; ++i) {
+    const Vec3& u = *v[i];
+    const Vec3& w = *v[(i + 1) % 3];
+    if (dot(cross(sub(w, u), sub(x, u)), n) < -kEps * nn) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+int cut_edges(const double* x, const TetAdjacency& adj, const std::vector<std::array<int32_t, 2>>& edge_points,
+              const SweptBlade& blade, std::vector<double>& edge_cut) {
+  // One side function for the whole swept quad (its mean plane: normal from the diagonals,
+  // through the centroid), so every node has one side this tick — the two triangles' own planes
+  // disagree in the last bit for a node on them, which split a node's edges between the sides
+  // and left the cut bridged (measured: a beam mesh with nodes on the blade's plane).
+  const Vec3 n = cross(sub(blade.b1, blade.a0), sub(blade.a1, blade.b0));
+  if (!(dot(n, n) > 0)) return 0;  // a blade that did not move (or degenerate): nothing swept
+  Vec3 c;
+  for (int k = 0; k < 3; ++k) c[k] = 0.25 * (blade.a0[k] + blade.b0[k] + blade.a1[k] + blade.b1[k]);
   Vec3 lo = blade.a0, hi = blade.a0;
   for (const Vec3& p : {blade.b0, blade.a1, blade.b1})
     for (int k = 0; k < 3; ++k) {
@@ -45,20 +72,26 @@ int cut_edges(const double* x, const TetAdjacency& adj, const SweptBlade& blade,
   int cut = 0;
   for (size_t e = 0; e < adj.edges.size(); ++e) {
     if (edge_cut[e] >= 0) continue;
-    const double* pa = x + 3 * static_cast<size_t>(adj.edges[e][0]);
-    const double* pb = x + 3 * static_cast<size_t>(adj.edges[e][1]);
+    const double* pa = x + 3 * static_cast<size_t>(edge_points[e][0]);
+    const double* pb = x + 3 * static_cast<size_t>(edge_points[e][1]);
     bool outside = false;  // the edge's box misses the blade's
     for (int k = 0; k < 3 && !outside; ++k)
       outside = std::max(pa[k], pb[k]) < lo[k] || std::min(pa[k], pb[k]) > hi[k];
     if (outside) continue;
     const Vec3 p{pa[0], pa[1], pa[2]}, q{pb[0], pb[1], pb[2]};
-    for (const auto& t : tri) {
-      const double s = edge_crossing(p, q, t[0], t[1], t[2]);
-      if (s < 0) continue;
-      edge_cut[e] = std::clamp(s, kCutMinFraction, 1.0 - kCutMinFraction);
-      ++cut;
-      break;
-    }
+    // Sides of the plane, a point on it counting as the side n points to: a node is on one side
+    // of the blade, never both, so a blade through a node does not cut it out of its neighbours.
+    const double sp = dot(n, sub(p, c)), sq = dot(n, sub(q, c));
+    if ((sp >= 0) == (sq >= 0)) continue;
+    const double t = sp / (sp - sq);
+    Vec3 xc;
+    for (int k = 0; k < 3; ++k) xc[k] = p[k] + t * (q[k] - p[k]);
+    // Within the swept quad: its projection onto the mean plane lies in one of its triangles.
+    const double off = dot(n, sub(xc, c)) / dot(n, n);
+    for (int k = 0; k < 3; ++k) xc[k] -= off * n[k];
+    if (!in_triangle(xc, blade.a0, blade.b0, blade.b1) && !in_triangle(xc, blade.a0, blade.b1, blade.a1)) continue;
+    edge_cut[e] = std::clamp(t, kCutMinFraction, 1.0 - kCutMinFraction);
+    ++cut;
   }
   return cut;
 }

@@ -5,6 +5,7 @@
 /// a material point (the same parameter in the rest shape), so the cut follows the tissue
 /// however it has deformed. An edge is cut once; later crossings leave it as it is.
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -19,10 +20,17 @@ struct SweptBlade {
   Vec3 a0, b0, a1, b1;
 };
 
-/// Cuts every uncut edge of `adj` that the swept surface crosses, the nodes at `x` (3 per
-/// node): edge_cut[e] becomes the crossing's parameter from the edge's lower node, kept in
-/// [kCutMinFraction, 1 − kCutMinFraction]. Returns the number of edges it cut. No allocation.
-int cut_edges(const double* x, const TetAdjacency& adj, const SweptBlade& blade, std::vector<double>& edge_cut);
+/// Cuts every uncut edge of `adj` that the swept surface crosses: edge_cut[e] becomes the
+/// crossing's parameter from the edge's lower node, kept in [kCutMinFraction,
+/// 1 − kCutMinFraction]. The edge's ends are the points edge_points[e] of `x` (3 per point): on
+/// the uncut mesh its nodes (adj.edges); on a cut one, the DOFs of a copy holding the (uncut)
+/// edge as material. Returns the number of edges it cut. No allocation.
+int cut_edges(const double* x, const TetAdjacency& adj, const std::vector<std::array<int32_t, 2>>& edge_points,
+              const SweptBlade& blade, std::vector<double>& edge_cut);
+/// The same on the uncut mesh (edge ends: its nodes).
+inline int cut_edges(const double* x, const TetAdjacency& adj, const SweptBlade& blade, std::vector<double>& edge_cut) {
+  return cut_edges(x, adj, adj.edges, blade, edge_cut);
+}
 
 /// Where segment p → q crosses triangle (a, b, c): the parameter along the segment in [0, 1], or
 /// a negative number when it does not. p and q must lie strictly on opposite sides of the

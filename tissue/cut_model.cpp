@@ -102,6 +102,22 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
   return m;
 }
 
+std::vector<int32_t> continued_copies(const CutTopology& from, const CutTopology& to) {
+  std::vector<int32_t> map(to.copies.size(), -1);
+  for (size_t i = 0; i < to.copies.size(); ++i) {
+    const ElementCopy& c = to.copies[i];
+    for (int32_t j = from.tet_copy_begin[c.tet]; j < from.tet_copy_begin[c.tet + 1]; ++j)
+      if ((from.copies[j].material & c.material) == c.material) {
+        map[i] = j;
+        break;
+      }
+    if (map[i] < 0)
+      throw std::logic_error("continued_copies: the new topology does not refine the old one (tetrahedron " +
+                             std::to_string(c.tet) + ")");
+  }
+  return map;
+}
+
 std::vector<int32_t> continued_dofs(const CutTopology& from, const CutTopology& to) {
   std::vector<int32_t> map(static_cast<size_t>(to.num_dofs), -1);
   for (const ElementCopy& c : to.copies) {

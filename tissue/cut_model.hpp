@@ -40,6 +40,10 @@ FemModel build_cut_fem_model(const FemModel& uncut, const CutTopology& topo);
 /// in one DOF of `from`. Throws std::logic_error if it does not.
 std::vector<int32_t> continued_dofs(const CutTopology& from, const CutTopology& to);
 
+/// For each copy (element) of `to`, the copy of `from` whose material holds it (`to` must refine
+/// `from`; std::logic_error if not): per-element state such as damage carries over through it.
+std::vector<int32_t> continued_copies(const CutTopology& from, const CutTopology& to);
+
 /// The state on the new DOFs: each takes the position, velocity and solver warm start of the
 /// DOF it continues (`from_dof`, continued_dofs()). A cut moves nothing: the two lips start
 /// where the material was, at its velocity. Writes into `to` (resized once, so a caller may

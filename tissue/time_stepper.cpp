@@ -59,18 +59,18 @@ void TimeStepper::scatter_springs(double* force, double* A, double k_scale, doub
     double f[3] = {sp.force[0], sp.force[1], sp.force[2]};
     if (v) {  // explicit damping at the contact point's velocity
       double vc[3] = {0, 0, 0};
-      for (int a = 0; a < 3; ++a)
+      for (int a = 0; a < sp.n; ++a)
         for (int k = 0; k < 3; ++k) vc[k] += sp.w[a] * v[3 * sp.node[a] + k];
       for (int k = 0; k < 3; ++k) f[k] -= sp.C[3 * k] * vc[0] + sp.C[3 * k + 1] * vc[1] + sp.C[3 * k + 2] * vc[2];
     }
-    for (int a = 0; a < 3; ++a)
+    for (int a = 0; a < sp.n; ++a)
       for (int k = 0; k < 3; ++k) force[3 * sp.node[a] + k] += sp.w[a] * f[k];
     if (!A) continue;
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) {
-        if (sp.slot[3 * a + b] < 0) continue;  // lower triangle: the symmetric (b, a) adds it
+    for (int a = 0; a < sp.n; ++a)
+      for (int b = 0; b < sp.n; ++b) {
+        if (sp.slot[4 * a + b] < 0) continue;  // lower triangle: the symmetric (b, a) adds it
         const double ww = sp.w[a] * sp.w[b];
-        double* B = A + 9 * sp.slot[3 * a + b];
+        double* B = A + 9 * sp.slot[4 * a + b];
         for (int k = 0; k < 9; ++k) B[k] += ww * (k_scale * sp.K[k] + c_scale * sp.C[k]);
       }
   }
@@ -268,13 +268,13 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
   for (int c = 0; c < in_.spring_count; ++c) {
     const ContactSpring& sp = in_.springs[c];
     double vc[3] = {0, 0, 0};
-    for (int a = 0; a < 3; ++a)
+    for (int a = 0; a < sp.n; ++a)
       for (int k = 0; k < 3; ++k) vc[k] += sp.w[a] * vk[3 * sp.node[a] + k];
     double lin[3];
     for (int k = 0; k < 3; ++k)
       lin[k] = (h * h * sp.K[3 * k] + h * sp.C[3 * k]) * vc[0] + (h * h * sp.K[3 * k + 1] + h * sp.C[3 * k + 1]) * vc[1] +
                (h * h * sp.K[3 * k + 2] + h * sp.C[3 * k + 2]) * vc[2];
-    for (int a = 0; a < 3; ++a)
+    for (int a = 0; a < sp.n; ++a)
       for (int k = 0; k < 3; ++k) tmp_[3 * sp.node[a] + k] += sp.w[a] * lin[k];
     for (int k = 0; k < 3; ++k) contact_merit += -h * sp.force[k] * vc[k] + 0.5 * vc[k] * lin[k];
   }

@@ -69,8 +69,9 @@ double contact_energy(const Model& m, const State& s, TickWorkspace& w) {
   springs.clear();
   springs.reserve(TickWorkspace::kMaxContacts);
   pairs.reserve(TickWorkspace::kMaxContacts / 2);
+  // Surface points of an uncut mesh are its nodes (the suite's scenes are not cut).
   w.bvh.refit(s.tissue.x.data());  // (the next tick's collide refits again)
-  const ContactSurface surf{m.collision_triangles, m.collision_slots, m.collision_edge,
+  const ContactSurface surf{m.collision_triangles, m.collision_dofs, m.collision_edge,
                             s.face_active.empty() ? nullptr : s.face_active.data()};
   double energy = 0;
   for (size_t k = 0; k < m.tools.size(); ++k) {
@@ -83,8 +84,8 @@ double contact_energy(const Model& m, const State& s, TickWorkspace& w) {
   if (m.body_contact) {
     springs.clear();
     BodyContactOutput out;
-    body_contact(*m.body_contact, surf, w.bvh, s.tissue.x.data(), nullptr, 0.0, nullptr, m.fem.constrained.data(),
-                 w.body_boxes.data(), springs, pairs, out);
+    body_contact(*m.body_contact, surf, w.bvh, s.tissue.x.data(), nullptr, 0.0, nullptr, w.body_boxes.data(), springs,
+                 pairs, out);
     energy += out.energy;
   }
   return energy;

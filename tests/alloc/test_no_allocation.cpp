@@ -15,6 +15,7 @@
 #include <string>
 
 #include "engine/compiled_scenario.hpp"
+#include "engine/cut_swap.hpp"
 #include "engine/damage.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
@@ -217,6 +218,40 @@ TEST(NoAllocation, BodyContactStage) {
   const Watched w = run(s, 5, 100, [](const CompiledScenario&, const State&, int) { return ToolPose{}; });
   EXPECT_EQ(w.allocations, 0);
   EXPECT_GT(w.body_contact_ticks, 50);
+}
+
+// Cutting: the scalpel's ticks (the blade's sweep against the edges, contact on the cut
+// surface's embedded points) and the swap of each cut model at the tick boundary (the state
+// carried into the pre-sized new arrays) — but not the build, which runs off the physics thread.
+TEST(NoAllocation, CuttingTicksAndTheTopologySwap) {
+  const CompiledScenario sc = compile_scenario(load_scenario(kDir + "regression/liver_incision.yaml"));
+  std::shared_ptr<const Model> m = sc.model;
+  auto w = std::make_unique<TickWorkspace>(*m);
+  State s = State::initial(*m);
+  ToolInput in;
+  long allocations = 0;
+  int swaps = 0, cut_ticks = 0, contact_ticks = 0;
+  for (int i = 0; i < 1400; ++i) {
+    in.seq = static_cast<uint64_t>(i + 1);
+    in.pose = sc.tool_scripts[0].sample(s.time);
+    const bool counted = i >= 5;  // after a warm-up
+    const long before = t_allocations;
+    const TickReport& r = tick(*m, s, *w, &in, 1);
+    const int cut = r.cut_edges;
+    contact_ticks += counted && r.tools[0].contacts > 0;
+    if (counted) allocations += t_allocations - before;
+    if (cut == 0) continue;
+    ++cut_ticks;
+    CutBuild b = build_cut(*m, s.edge_cut);  // off the physics thread in `serve`: not counted
+    const long before_swap = t_allocations;
+    swaps += apply_cut(b, m, w, s);
+    if (counted) allocations += t_allocations - before_swap;
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_GT(swaps, 5) << "the counted ticks must include topology swaps";
+  EXPECT_GT(cut_ticks, 20);
+  EXPECT_GT(contact_ticks, 100) << "and contact on the cut surface";
+  EXPECT_GT(m->collision_embedded.size(), 0u);
 }
 
 // The counters work (so a zero above means something): operator new, malloc and calloc.

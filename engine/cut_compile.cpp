@@ -1,0 +1,227 @@
+#include "engine/cut_compile.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "collision/contact_surface.hpp"
+
+namespace stroma {
+
+namespace {
+
+double distance(const double* a, const double* b) {
+  const double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+  return std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+}
+
+double triangle_area(const double* a, const double* b, const double* c) {
+  const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  const double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+  return 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+}
+
+/// Body of a DOF (bodies own consecutive DOF ranges).
+int32_t body_of_dof(const FemModel& f, int32_t d) {
+  int32_t b = 0;
+  while (b + 1 < static_cast<int32_t>(f.bodies.size()) && d >= f.bodies[b].node_end) ++b;
+  return b;
+}
+
+/// The collision surface of a cut model: topo's triangles over surface points (node corners are
+/// DOFs, cut points embedded), their DOF maps and longest rest edges; every face always active
+/// (a cut model's surface is exactly its material's boundary).
+void compile_cut_surface(const CutTopology& topo, Model& m, std::vector<double>& rest_points) {
+  const FemModel& f = m.fem;
+  std::vector<int32_t> point(topo.vertices.size());
+  for (size_t v = 0; v < topo.vertices.size(); ++v) {
+    const CutVertex& cv = topo.vertices[v];
+    if (cv.a == cv.b || cv.t == 0.0) {
+      point[v] = cv.a;
+    } else {
+      point[v] = f.num_nodes + static_cast<int32_t>(m.collision_embedded.size());
+      m.collision_embedded.push_back(cv);
+    }
+  }
+  rest_points.resize(3 * (static_cast<size_t>(f.num_nodes) + m.collision_embedded.size()));
+  surface_positions(f.rest.data(), f.num_nodes, m.collision_embedded, rest_points.data());
+  // Each embedded point's material end: the end its copy holds as material (a cut vertex lies
+  // on an edge between one of its copy's material nodes and one virtual node).
+  m.collision_embedded_dof.assign(m.collision_embedded.size(), -1);
+  for (const CutTriangle& t : topo.triangles) {
+    const ElementCopy& c = topo.copies[t.copy];
+    for (int32_t v : t.v) {
+      if (point[v] < f.num_nodes) continue;
+      int32_t& d = m.collision_embedded_dof[point[v] - f.num_nodes];
+      if (d >= 0) continue;
+      const CutVertex& cv = topo.vertices[v];
+      d = cv.a;  // (if neither end were material — never on a consistent topology — keep one)
+      for (int k = 0; k < 4; ++k)
+        if ((c.material >> k & 1) && (c.dof[k] == cv.a || c.dof[k] == cv.b)) d = c.dof[k];
+    }
+  }
+  for (const CutTriangle& t : topo.triangles) {
+    const std::array<int32_t, 3> tri{point[t.v[0]], point[t.v[1]], point[t.v[2]]};
+    m.collision_triangles.push_back(tri);
+    m.collision_dofs.push_back(
+        triangle_dofs(f.pattern, tri, f.num_nodes, m.collision_embedded, m.collision_embedded_dof));
+    double e = 0;
+    for (int a = 0; a < 3; ++a) e = std::max(e, distance(&rest_points[3 * tri[a]], &rest_points[3 * tri[(a + 1) % 3]]));
+    m.collision_edge.push_back(e);
+    m.collision_face_elem.push_back({-1, -1});
+    m.collision_cut_face.push_back(t.cut ? 1 : 0);
+  }
+  m.element_faces.assign(f.elements.size(), {-1, -1, -1, -1});
+}
+
+/// Body contact over the cut surface: the scenario's stiffness and depths, the surface points
+/// as vertices (grouped by body), their areas, DOF maps and normals' triangles.
+void compile_cut_body_contact(const BodyContactModel& uncut, const CutTopology& topo,
+                              const std::vector<double>& rest_points, Model& m) {
+  const FemModel& f = m.fem;
+  BodyContactModel bc;
+  bc.stiffness = uncut.stiffness;
+  bc.body_depth = uncut.body_depth;
+  const size_t points = rest_points.size() / 3;
+  std::vector<double> area(points, 0.0);
+  std::vector<std::vector<int32_t>> tris_of(points);
+  for (size_t t = 0; t < m.collision_triangles.size(); ++t) {
+    const auto& tri = m.collision_triangles[t];
+    const double third =
+        triangle_area(&rest_points[3 * tri[0]], &rest_points[3 * tri[1]], &rest_points[3 * tri[2]]) / 3.0;
+    for (int32_t p : tri) {
+      area[p] += third;
+      tris_of[p].push_back(static_cast<int32_t>(t));
+    }
+  }
+  auto point_body = [&](size_t p) {
+    const int32_t d = p < static_cast<size_t>(f.num_nodes) ? static_cast<int32_t>(p)
+                                                           : m.collision_embedded[p - f.num_nodes].a;
+    return body_of_dof(f, d);
+  };
+  for (size_t b = 0; b < f.bodies.size(); ++b) {
+    bc.body_vertex_begin.push_back(static_cast<int32_t>(bc.vertex.size()));
+    for (size_t p = 0; p < points; ++p) {
+      if (tris_of[p].empty() || point_body(p) != static_cast<int32_t>(b)) continue;
+      const SurfacePointDofs pd = point_dofs(f.pattern, static_cast<int32_t>(p), f.num_nodes, m.collision_embedded_dof);
+      bool fixed = true;
+      for (int i = 0; i < pd.n; ++i) fixed = fixed && f.constrained[pd.dof[i]] == 7;
+      bc.vertex.push_back(static_cast<int32_t>(p));
+      bc.vertex_area.push_back(area[p]);
+      bc.vertex_dofs.push_back(pd);
+      bc.vertex_fixed.push_back(fixed ? 1 : 0);
+    }
+  }
+  bc.body_vertex_begin.push_back(static_cast<int32_t>(bc.vertex.size()));
+  for (int32_t v : bc.vertex) {
+    bc.vertex_tri_begin.push_back(static_cast<int32_t>(bc.vertex_tris.size()));
+    for (int32_t t : tris_of[v]) bc.vertex_tris.push_back(m.collision_triangles[t]);
+  }
+  bc.vertex_tri_begin.push_back(static_cast<int32_t>(bc.vertex_tris.size()));
+  for (const CutTriangle& t : topo.triangles) bc.triangle_body.push_back(body_of_dof(f, topo.copies[t.copy].dof[0]));
+  m.body_contact = std::move(bc);
+}
+
+/// Per uncut edge, the DOFs of a copy holding it as material (its ends, lower node first).
+std::vector<std::array<int32_t, 2>> edge_dofs(const CutBase& base, const CutTopology& topo) {
+  std::vector<std::array<int32_t, 2>> out = base.adj.edges;  // uncut: the nodes themselves
+  for (const ElementCopy& c : topo.copies) {
+    const Tet& tet = base.tets[c.tet];
+    for (int k = 0; k < 6; ++k) {
+      const int a = kTetEdge[k][0], b = kTetEdge[k][1];
+      if (!(c.material >> a & 1) || !(c.material >> b & 1)) continue;
+      const int32_t e = base.adj.tet_edges[c.tet][k];
+      const bool a_low = tet[a] == base.adj.edges[e][0];
+      out[e] = a_low ? std::array<int32_t, 2>{c.dof[a], c.dof[b]} : std::array<int32_t, 2>{c.dof[b], c.dof[a]};
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+void enable_cutting(Model& m) {
+  auto cs = std::make_shared<CutSupport>();
+  cs->uncut = m.fem;
+  cs->base = make_cut_base(m.fem);
+  cs->probes = m.probes;
+  const std::vector<double> none(cs->base.adj.edges.size(), kEdgeUncut);
+  cs->uncut_topology = std::make_shared<const CutTopology>(
+      build_cut_topology(cs->base.tets, m.fem.rest, cs->base.adj, none, cs->base.node_ranges));
+  double length = 0, volume = 0;
+  for (const auto& e : cs->base.adj.edges) length += distance(&m.fem.rest[3 * e[0]], &m.fem.rest[3 * e[1]]);
+  for (const ElementParams& e : m.fem.elements) volume += e.volume;
+  cs->edges_per_area = volume > 0 ? 0.5 * length / volume : 0.0;
+  m.topology = cs->uncut_topology;
+  m.cut_edge_dofs = cs->base.adj.edges;
+  m.cutting = std::move(cs);
+}
+
+std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<const CutTopology> topo,
+                                         const std::vector<double>& edge_cut, int32_t version) {
+  if (!current.cutting) throw std::invalid_argument("compile_cut_model: the model has no cutting support");
+  const CutSupport& cs = *current.cutting;
+  auto m = std::make_shared<Model>();
+  // What does not depend on the topology.
+  m->name = current.name;
+  m->stepper = current.stepper;
+  m->time_step = current.time_step;
+  m->fem_every = current.fem_every;
+  m->fem_step = current.fem_step;
+  m->haptic_secant = current.haptic_secant;
+  m->substep_on_cg_cap = current.substep_on_cg_cap;
+  m->time_budget = current.time_budget;
+  m->max_step_displacement = current.max_step_displacement;
+  m->tools = current.tools;
+  m->body_damage = current.body_damage;
+  m->has_damage = current.has_damage;
+  m->has_contact = current.has_contact;
+  m->cutting = current.cutting;
+  m->topology = topo;
+  m->topology_version = version;
+  // The cut FEM system and what hangs off its elements.
+  m->fem = build_cut_fem_model(cs.uncut, *topo);
+  const FemModel& f = m->fem;
+  if (m->has_damage) {
+    m->element_node_mass.resize(f.elements.size());
+    for (const BodyRange& b : f.bodies)
+      for (int32_t e = b.element_begin; e < b.element_end; ++e)
+        m->element_node_mass[e] = b.density * f.elements[e].volume / 4.0;
+  }
+  m->body_tets.resize(f.bodies.size());
+  for (size_t b = 0; b < f.bodies.size(); ++b)
+    for (int32_t e = f.bodies[b].element_begin; e < f.bodies[b].element_end; ++e)
+      m->body_tets[b].push_back(f.elements[e].node);
+  // Probes: the copy holding each probe's material point.
+  for (const ProbeModel& p : cs.probes) {
+    ProbeModel q = p;
+    const int32_t tet = cs.uncut.bodies[p.body].element_begin + p.where.tet;
+    const int32_t c = copy_containing(*topo, cs.base.tets, cs.uncut.rest, edge_cut, cs.base.adj, tet, p.where.w);
+    for (int k = 0; k < 4; ++k) q.where.node[k] = topo->copies[c].dof[k];
+    m->probes.push_back(q);
+  }
+  std::vector<double> rest_points;
+  if (m->has_contact) compile_cut_surface(*topo, *m, rest_points);
+  if (current.body_contact) compile_cut_body_contact(*current.body_contact, *topo, rest_points, *m);
+  m->cut_edge_dofs = edge_dofs(cs.base, *topo);
+  // What the cuts made.
+  CutStats& st = m->cut_stats;
+  st.elements_split = topo->split_tets;
+  st.edges_cut = topo->cut_edges;
+  st.nodes_created = topo->num_dofs - cs.uncut.num_nodes;
+  std::vector<double> pts(3 * topo->vertices.size());
+  for (size_t v = 0; v < topo->vertices.size(); ++v) {
+    const CutVertex& cv = topo->vertices[v];
+    for (int k = 0; k < 3; ++k) pts[3 * v + k] = (1 - cv.t) * f.rest[3 * cv.a + k] + cv.t * f.rest[3 * cv.b + k];
+  }
+  double area = 0;
+  for (const CutTriangle& t : topo->triangles) {
+    if (!t.cut) continue;
+    ++st.faces_created;
+    area += triangle_area(&pts[3 * t.v[0]], &pts[3 * t.v[1]], &pts[3 * t.v[2]]);
+  }
+  st.cut_area = 0.5 * area;
+  return m;
+}
+
+}  // namespace stroma

@@ -1,0 +1,333 @@
+// Cutting in the engine (engine/cut_compile, engine/cut_swap, the blade in the collide stage):
+// a scalpel driven through a clamped beam, the cut model swapped in at tick boundaries as the
+// runner does it, and what must follow the topology.
+//
+// What is asserted, and against what:
+//  - the cut model of an uncut topology behaves as the compiled model (same contact surface up
+//    to order: a pressed probe gives the same state to round-off);
+//  - a blade swept up through a beam clamped at x = 0 separates it: the total mass is the
+//    uncut mass to 1e-12 after every swap, the free piece then falls as a rigid body (all its
+//    DOFs displaced alike, its acceleration g) while the stub stays;
+//  - the tool feels the cut: a resistance against the blade's travel of the order of
+//    toughness × the beam's width, and contact on the lips along the blade's normal only;
+//  - the new faces collide: a probe pushed against the stub's cut face is pushed back;
+//  - a probe in the free piece follows it; the run is deterministic (bit for bit twice).
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "engine/cut_compile.hpp"
+#include "engine/cut_swap.hpp"
+#include "engine/model.hpp"
+#include "engine/state.hpp"
+#include "engine/tick.hpp"
+#include "tissue/input_error.hpp"
+
+using namespace stroma;
+
+namespace {
+
+constexpr double kCutX = 0.0625;   // between the element layers at 60 and 65 mm
+constexpr double kWidth = 0.01;    // the beam's cross-section is 10 × 10 mm
+constexpr double kToughness = 200;  // J/m², liver-like
+
+/// The 100 × 10 × 10 mm cantilever (clamped at x = 0, 480 tetrahedra), E 1 MPa (or `young`),
+/// ν 0.45, ρ 1000, undamped, a scalpel (0.5 mm half-thickness, 30 mm edge along z) and a tip
+/// probe.
+ScenarioSpec beam_with_scalpel(bool gravity = true, double young = 1e6) {
+  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  if (!gravity) s.gravity = {0, 0, 0};
+  s.bodies[0].material.young_modulus = young;
+  s.bodies[0].material.poisson_ratio = 0.45;
+  s.solver.preconditioner = Preconditioner::Jacobi;
+  s.solver.tolerance = 1e-9;
+  s.solver.max_iterations = 2000;
+  ToolEntry t;
+  t.spec.name = "scalpel";
+  t.spec.shape = ToolShape::Blade;
+  t.spec.radius = 0.0005;
+  t.spec.shaft_length = 0.03;
+  t.spec.timeout = 10;
+  t.spec.max_speed = 50;
+  t.spec.cuts = true;
+  t.spec.cut_toughness = kToughness;
+  s.tools.push_back(t);
+  return s;
+}
+
+/// The blade's frame: edge (local x) along world z, normal (local y) along world x, back
+/// (local z) along world y.
+ToolPose blade_at(double y) {
+  ToolPose p;
+  p.position = {kCutX, y, 0.005};
+  p.orientation = {0.5, -0.5, -0.5, -0.5};
+  return p;
+}
+
+/// A run as `stroma run` makes it: ticks, and after a tick that cut edges, the cut model built
+/// and swapped in before the next.
+struct CutRun {
+  std::shared_ptr<const Model> m;
+  std::unique_ptr<TickWorkspace> w;
+  State s;
+  int swaps = 0;
+  explicit CutRun(const ScenarioSpec& spec) : m(compile_model(spec)), w(std::make_unique<TickWorkspace>(*m)) {
+    s = State::initial(*m);
+  }
+  const TickReport& step(const ToolInput* in = nullptr, int n = 0) {
+    const TickReport& r = tick(*m, s, *w, in, n);
+    EXPECT_NE(r.status, TickStatus::NonFinite);
+    if (r.cut_edges > 0) {
+      CutBuild b = build_cut(*m, s.edge_cut);
+      if (apply_cut(b, m, w, s)) ++swaps;
+    }
+    return w->report;
+  }
+};
+
+double total_mass(const Model& m) { return std::accumulate(m.fem.mass.begin(), m.fem.mass.end(), 0.0); }
+
+/// The DOFs of the piece beyond the cut: the connected part of the cut mesh (copies joined by
+/// shared DOFs) holding the beam's free end (x = 0.1).
+std::vector<int32_t> free_piece(const Model& m) {
+  const int32_t n = m.fem.num_nodes;
+  std::vector<int32_t> parent(static_cast<size_t>(n));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int32_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (const ElementParams& e : m.fem.elements)
+    for (int k = 1; k < 4; ++k) parent[find(e.node[k])] = find(e.node[0]);
+  int32_t tip = 0;
+  for (int32_t d = 0; d < n; ++d)
+    if (m.fem.rest[3 * d] > m.fem.rest[3 * tip]) tip = d;
+  std::vector<int32_t> out;
+  for (int32_t d = 0; d < n; ++d)
+    if (find(d) == find(tip)) out.push_back(d);
+  return out;
+}
+
+/// Sweeps the blade up through the beam at 2 m/s (y from −10 to +30 mm in 20 ms), then holds it
+/// 20 ticks; returns the work the cutting resistance did against the blade, Σ |F_y| Δy (the
+/// resistance is smoothed over a few ticks: its integral is what the cut cost).
+double cut_through(CutRun& run, double uncut_mass) {
+  double work = 0;
+  for (int k = 0; k <= 20; ++k) {
+    ToolInput in;
+    in.seq = static_cast<uint64_t>(k + 1);
+    in.pose = blade_at(-0.01 + 0.002 * k);
+    run.step(&in, 1);
+    EXPECT_NEAR(total_mass(*run.m), uncut_mass, 1e-12 * uncut_mass) << "tick " << k;
+    EXPECT_LE(run.s.tools[0].cut_force[1], 0.0) << "against the travel (+y)";
+    if (k > 0) work += -run.s.tools[0].cut_force[1] * 0.002;
+  }
+  return work;
+}
+
+}  // namespace
+
+TEST(CutEngine, TheCutModelOfAnUncutTopologyBehavesAsTheModel) {
+  ScenarioSpec spec = beam_with_scalpel(false);
+  spec.tools[0].spec.shape = ToolShape::Sphere;  // a probe presses; nothing cuts
+  spec.tools[0].spec.cuts = false;
+  spec.tools[0].spec.radius = 0.003;
+  auto m0 = compile_model(spec);
+  // Build the general (cut) path on no cut at all.
+  Model with_cut = *m0;
+  enable_cutting(with_cut);
+  const std::vector<double> none(with_cut.cut_edge_dofs.size(), kEdgeUncut);
+  auto m1 = compile_cut_model(with_cut, with_cut.topology, none, 1);
+  ASSERT_EQ(m1->collision_triangles.size(), m0->collision_triangles.size());
+  EXPECT_TRUE(m1->collision_embedded.empty());
+  EXPECT_EQ(m1->fem.num_nodes, m0->fem.num_nodes);
+  EXPECT_EQ(m1->fem.mass, m0->fem.mass);
+  State s0 = State::initial(*m0), s1 = State::initial(*m1);
+  TickWorkspace w0(*m0), w1(*m1);
+  ToolInput in;
+  in.pose.position = {0.095, 0.01 + 0.003 - 0.001, 0.005};  // 1 mm into the top face at the tip
+  for (int k = 0; k < 200; ++k) {
+    tick(*m0, s0, w0, &in, k == 0 ? 1 : 0);
+    tick(*m1, s1, w1, &in, k == 0 ? 1 : 0);
+  }
+  ASSERT_GT(w0.report.tools[0].contacts, 0);
+  EXPECT_EQ(w1.report.tools[0].contacts, w0.report.tools[0].contacts);
+  double dmax = 0, umax = 0;
+  for (size_t i = 0; i < s0.tissue.x.size(); ++i) {
+    dmax = std::max(dmax, std::abs(s0.tissue.x[i] - s1.tissue.x[i]));
+    umax = std::max(umax, std::abs(s0.tissue.x[i] - m0->fem.rest[i]));
+  }
+  EXPECT_GT(umax, 1e-4) << "the probe pressed the beam";
+  EXPECT_LT(dmax, 1e-9 * umax + 1e-15) << "same physics, up to the order of the contact sums";
+}
+
+TEST(CutEngine, AScalpelSeparatesAClampedBeamAndTheFreePieceFallsRigidly) {
+  // Stiff (E 100 MPa: it sags 0.15 mm), so the piece is cut free nearly unstrained and at rest,
+  // by a thin blade (20 µm) whose sides barely touch it.
+  ScenarioSpec spec = beam_with_scalpel(true, 1e8);
+  spec.tools[0].spec.radius = 2e-5;
+  CutRun run(spec);
+  const double mass = total_mass(*run.m);
+  ASSERT_TRUE(run.m->cutting);
+  const double work = cut_through(run, mass);
+  ASSERT_GT(run.swaps, 0);
+  const Model& m = *run.m;
+  EXPECT_GT(m.topology_version, 0);
+  EXPECT_GE(m.cut_stats.elements_split, 1);
+  EXPECT_GT(m.cut_stats.nodes_created, 0);
+  // The whole cross-section is cut: one lip's area is the beam's section, to the 5 % clamp of
+  // crossings near nodes (this mesh has nodes on the plane x = 62.5 mm).
+  EXPECT_NEAR(m.cut_stats.cut_area, kWidth * kWidth, 0.03 * kWidth * kWidth);
+  // The tool felt the cut: the resistance's work is toughness × the area cut, to the accuracy of
+  // the estimate from the edges crossed (docs/CUTTING.md: a random plane's mean; one plane
+  // through one mesh is within ±50 %).
+  EXPECT_GT(work, 0.5 * kToughness * m.cut_stats.cut_area);
+  EXPECT_LT(work, 1.5 * kToughness * m.cut_stats.cut_area);
+  RecordProperty("resistance_work_over_G_A", std::to_string(work / (kToughness * m.cut_stats.cut_area)));
+  // The piece beyond the cut, for 60 ms.
+  const std::vector<int32_t> piece = free_piece(m);
+  ASSERT_GT(piece.size(), 10u);
+  auto com_y = [&](const std::vector<double>& x) {
+    double y = 0, mt = 0;
+    for (int32_t d : piece) {
+      y += x[3 * d + 1] * m.fem.mass[d];
+      mt += m.fem.mass[d];
+    }
+    return y / mt;
+  };
+  // The blade leaves upwards; the piece falls away from it.
+  ToolInput away;
+  away.seq = 100;
+  away.pose = blade_at(0.05);
+  run.step(&away, 1);
+  const State at_release = run.s;
+  const double y0 = com_y(run.s.tissue.x), vy0 = com_y(run.s.tissue.v);
+  const int n = 60;
+  for (int k = 0; k < n; ++k) run.step();
+  ASSERT_EQ(run.m.get(), &m) << "no more cuts";
+  // No force but gravity on the piece (internal forces cancel): its centre of mass follows
+  // implicit Euler's free fall from (y0, vy0) exactly, y_n = y0 + n h vy0 − g h² n(n+1)/2, to
+  // the solver's tolerance.
+  const double h = m.time_step, g = 9.81;
+  const double fall = g * h * h * n * (n + 1) / 2.0;
+  EXPECT_NEAR(com_y(run.s.tissue.x), y0 + n * h * vy0 - fall, 1e-3 * fall) << "the piece falls freely";
+  // As a rigid body: the distances between its material nodes stay as they were at its
+  // release (its elastic energy stays ~0), to 1e-3 of the distance fallen.
+  std::vector<int32_t> material;
+  for (int32_t d : piece)
+    if (m.topology->dof_material[d]) material.push_back(d);
+  double worst = 0;
+  for (size_t i = 0; i < material.size(); ++i) {
+    const int32_t a = material[i], b = material[(i * 7 + 3) % material.size()];
+    auto dist = [&](const std::vector<double>& x) {
+      const double d[3] = {x[3 * a] - x[3 * b], x[3 * a + 1] - x[3 * b + 1], x[3 * a + 2] - x[3 * b + 2]};
+      return std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    };
+    worst = std::max(worst, std::abs(dist(run.s.tissue.x) - dist(at_release.tissue.x)));
+  }
+  EXPECT_LT(worst, 1e-3 * fall) << "rigid";
+  // The stub stays where the clamp holds it (its free end within its own sag of rest).
+  // The tip probe is in the free piece and went with it.
+  ASSERT_EQ(m.probes.size(), 1u);
+  const Vec3 tip = probe_displacement(m, run.s, m.probes[0]);
+  EXPECT_LT(tip[1], -0.9 * fall);
+}
+
+TEST(CutEngine, TheBladePushesTheLipsApartAlongItsNormalOnly) {
+  ScenarioSpec spec = beam_with_scalpel(false);
+  spec.bodies[0].material.rayleigh_mass = 50;  // settles against the blade
+  CutRun run(spec);
+  // Halfway up through the beam, then hold: the blade sits in its own wound.
+  for (int k = 0; k <= 8; ++k) {
+    ToolInput in;
+    in.seq = static_cast<uint64_t>(k + 1);
+    in.pose = blade_at(-0.01 + 0.002 * k);  // up to y = 6 mm
+    run.step(&in, 1);
+  }
+  ASSERT_GT(run.swaps, 0);
+  for (int k = 0; k < 100; ++k) run.step();  // the resistance decays (the blade is still)
+  const ToolOutput& o = run.w->report.tools[0];
+  ASSERT_GT(o.contacts, 0) << "the lips touch the blade's sides";
+  // Each lip pushes on the blade along its normal (±x): the lips are apart by the blade's
+  // thickness, the two pushes balance, and nothing pushes along y or z.
+  double fx_lip[2] = {0, 0};  // the springs' forces on the tissue, per lip (by direction)
+  for (int32_t i = o.spring_begin; i < o.spring_end; ++i) {
+    const ContactSpring& sp = run.w->springs[i];
+    EXPECT_NEAR(sp.force[1], 0.0, 1e-12);
+    EXPECT_NEAR(sp.force[2], 0.0, 1e-12);
+    fx_lip[sp.force[0] > 0 ? 1 : 0] += sp.force[0];
+  }
+  EXPECT_LT(fx_lip[0], 0.0) << "the −x lip is pushed to −x";
+  EXPECT_GT(fx_lip[1], 0.0) << "the +x lip is pushed to +x";
+  EXPECT_LT(std::abs(o.force[1]) + std::abs(o.force[2]), 1e-3 * std::abs(fx_lip[1]));
+}
+
+TEST(CutEngine, TheCutFacesCollide) {
+  ScenarioSpec spec = beam_with_scalpel(false);
+  ToolEntry probe;
+  probe.spec.name = "probe";
+  probe.spec.shape = ToolShape::Sphere;
+  probe.spec.radius = 0.002;
+  probe.spec.timeout = 10;
+  probe.spec.max_speed = 50;
+  spec.tools.push_back(probe);
+  CutRun run(spec);
+  for (int k = 0; k <= 20; ++k) {
+    ToolInput in[2];
+    in[0].seq = in[1].seq = static_cast<uint64_t>(k + 1);
+    in[0].pose = blade_at(-0.01 + 0.002 * k);
+    in[1].tool = 1;
+    in[1].pose.position = {0.2, 0.2, 0.2};  // far away
+    run.step(in, 2);
+  }
+  ASSERT_GT(run.swaps, 0);
+  // Move the free piece out of the way (no gravity: push it by hand), then press the probe
+  // into the stub's cut face from +x.
+  const Model& m = *run.m;
+  for (int32_t d : free_piece(m)) run.s.tissue.x[3 * d] += 0.05;
+  ToolInput in;
+  in.tool = 1;
+  in.seq = 1000;
+  in.pose.position = {kCutX + 0.002 - 0.0005, 0.005, 0.005};  // 0.5 mm into the stub's cut face
+  run.step(&in, 1);
+  const ToolOutput& o = run.w->report.tools[1];
+  ASSERT_GT(o.contacts, 0) << "the probe touches the cut face";
+  EXPECT_GT(o.force[0], 0.0) << "the cut face pushes the probe back out (+x)";
+  EXPECT_GT(o.force[0], 5.0 * (std::abs(o.force[1]) + std::abs(o.force[2])));
+}
+
+TEST(CutEngine, CuttingIsDeterministic) {
+  auto once = [] {
+    CutRun run(beam_with_scalpel());
+    cut_through(run, total_mass(*run.m));
+    for (int k = 0; k < 10; ++k) run.step();
+    return run.s.tissue.x;
+  };
+  const std::vector<double> a = once(), b = once();
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_TRUE(a == b) << "bit for bit";
+}
+
+TEST(CutEngine, CuttingNeedsTicksEveryTickAtLoad) {
+  ScenarioSpec spec = beam_with_scalpel();
+  spec.solver.integrator = Integrator::Static;
+  try {
+    compile_model(spec);
+    ADD_FAILURE() << "a static scenario with a cutting blade compiled";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "tools[0].cut");
+    EXPECT_NE(std::string(e.what()).find("dynamic integrator"), std::string::npos) << e.what();
+  }
+  spec = beam_with_scalpel();
+  spec.solver.fem_every = 4;
+  try {
+    compile_model(spec);
+    ADD_FAILURE() << "a multirate scenario with a cutting blade compiled";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "tools[0].cut");
+    EXPECT_NE(std::string(e.what()).find("fem_every 4"), std::string::npos) << e.what();
+  }
+}
