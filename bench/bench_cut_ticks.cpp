@@ -49,8 +49,9 @@ struct RunFigures {
 RunFigures run_once(const CompiledScenario& sc, long ticks, bool cutting) {
   std::shared_ptr<const Model> m = sc.model;
   auto w = std::make_unique<TickWorkspace>(*m);
+  w->stepper().set_realtime(true);  // as served: never wait for the preconditioner's worker
   State s = State::initial(*m);
-  CutWorker worker(m->cut_edge_dofs.size());
+  CutWorker worker(m, m->cut_edge_dofs.size());
   std::vector<ToolInput> inputs(m->tools.size());
   std::vector<double> ms;
   ms.reserve(static_cast<size_t>(ticks));

@@ -172,6 +172,8 @@ void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const 
       pr.spring = static_cast<int32_t>(springs.size());
       pr.speculative = depth <= 0;
       for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
+      pr.exact = vi < bc.num_dofs && tri[0] < bc.num_dofs && tri[1] < bc.num_dofs && tri[2] < bc.num_dofs;
+      pr.depth0 = depth;
       pairs.push_back(pr);
       springs.push_back(sv);
       springs.push_back(st);
@@ -179,7 +181,7 @@ void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const 
   }
 }
 
-int release_pulling_contacts(const double* x, std::vector<BodyContactPair>& pairs,
+int release_pulling_contacts(const double* x0, const double* x, std::vector<BodyContactPair>& pairs,
                              std::vector<ContactSpring>& springs) {
   int released = 0;
   for (BodyContactPair& pr : pairs) {
@@ -189,7 +191,15 @@ int release_pulling_contacts(const double* x, std::vector<BodyContactPair>& pair
     spring_point(springs[pr.spring + 1], x, c);
     spring_point(springs[pr.spring], x, p);
     double depth = 0;
-    for (int k = 0; k < 3; ++k) depth += (c[k] - p[k]) * pr.n[k];
+    if (pr.exact) {
+      for (int k = 0; k < 3; ++k) depth += (c[k] - p[k]) * pr.n[k];
+    } else {  // a cut surface's point: its start depth moved by what the springs' points did
+      double c0[3], p0[3];
+      spring_point(springs[pr.spring + 1], x0, c0);
+      spring_point(springs[pr.spring], x0, p0);
+      depth = pr.depth0;
+      for (int k = 0; k < 3; ++k) depth += ((c[k] - c0[k]) - (p[k] - p0[k])) * pr.n[k];
+    }
     if (depth >= 0) continue;
     pr.active = false;
     for (int s = 0; s < 2; ++s) {

@@ -47,6 +47,7 @@ struct BodyContactModel {
   std::vector<uint8_t> vertex_fixed;     ///< 1: every DOF of the vertex is fully constrained
   std::vector<int32_t> body_vertex_begin;  ///< body b's vertices: [begin[b], begin[b + 1])
   std::vector<int32_t> triangle_body;    ///< body of each collision triangle
+  int32_t num_dofs = 0;                  ///< surface points below this are DOFs (above: embedded)
   /// Rest-boundary triangles around each vertex (for its normal): vertex i's are
   /// vertex_tris[vertex_tri_begin[i] .. vertex_tri_begin[i + 1]), outward, surface point ids.
   std::vector<int32_t> vertex_tri_begin;
@@ -66,6 +67,12 @@ struct BodyContactPair {
   double n[3] = {0, 0, 0};  ///< the face's outward unit normal at the start of the step
   bool speculative = false;  ///< in front of the face at the start of the step
   bool active = true;
+  /// Both the vertex and the face are DOF points (no embedded point of a cut surface): the
+  /// springs' points are the contact's points and the end depth is read off them exactly.
+  /// Otherwise the springs act on the embedded points' material ends, and the end depth is
+  /// depth0 plus the change the springs' points made.
+  bool exact = true;
+  double depth0 = 0;  ///< δ = (c − p)·n at the start of the step (surface points)
 };
 
 /// What body–body contact did in one tick (a tick output: TickReport::body_contact).
@@ -92,10 +99,11 @@ void body_contact(const BodyContactModel& bc, const ContactSurface& surf, const 
                   const double* x, const double* v, double h, const double* g, double* boxes,
                   std::vector<ContactSpring>& springs, std::vector<BodyContactPair>& pairs, BodyContactOutput& out);
 
-/// After a step to DOF positions x: the speculative contacts whose spring pulls at the end of the
-/// step (the vertex stayed in front of its face, δ < 0) are switched off (their springs zeroed).
-/// Returns how many. (Contacts that started penetrating stay: a penalty contact may overshoot.)
-int release_pulling_contacts(const double* x, std::vector<BodyContactPair>& pairs,
+/// After a step from DOF positions x0 to x: the speculative contacts whose spring pulls at the
+/// end of the step (the vertex stayed in front of its face, δ < 0) are switched off (their
+/// springs zeroed). Returns how many. (Contacts that started penetrating stay: a penalty contact
+/// may overshoot.)
+int release_pulling_contacts(const double* x0, const double* x, std::vector<BodyContactPair>& pairs,
                              std::vector<ContactSpring>& springs);
 
 }  // namespace stroma

@@ -178,6 +178,7 @@ void compile_body_contact(const BodyContactSpec& spec, const ScenarioSpec& scena
       }
   }
   bc.body_vertex_begin.push_back(static_cast<int32_t>(bc.vertex.size()));
+  bc.num_dofs = fem.num_nodes;
   std::vector<std::vector<int32_t>> tris_of(fem.num_nodes);  // rest-boundary triangles per node
   std::vector<Tri> all_boundary;
   for (const BodyRange& b : fem.bodies)

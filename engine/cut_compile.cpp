@@ -82,6 +82,7 @@ void compile_cut_body_contact(const BodyContactModel& uncut, const CutTopology& 
   BodyContactModel bc;
   bc.stiffness = uncut.stiffness;
   bc.body_depth = uncut.body_depth;
+  bc.num_dofs = f.num_nodes;
   const size_t points = rest_points.size() / 3;
   std::vector<double> area(points, 0.0);
   std::vector<std::vector<int32_t>> tris_of(points);
@@ -124,7 +125,10 @@ void compile_cut_body_contact(const BodyContactModel& uncut, const CutTopology& 
 
 /// Per uncut edge, the DOFs of a copy holding it as material (its ends, lower node first).
 std::vector<std::array<int32_t, 2>> edge_dofs(const CutBase& base, const CutTopology& topo) {
-  std::vector<std::array<int32_t, 2>> out = base.adj.edges;  // uncut: the nodes themselves
+  // Edges no copy holds as material (cut ones: never tested again) keep their nodes' primary DOFs.
+  std::vector<std::array<int32_t, 2>> out(base.adj.edges.size());
+  for (size_t e = 0; e < out.size(); ++e)
+    out[e] = {topo.node_dof[base.adj.edges[e][0]], topo.node_dof[base.adj.edges[e][1]]};
   for (const ElementCopy& c : topo.copies) {
     const Tet& tet = base.tets[c.tet];
     for (int k = 0; k < 6; ++k) {

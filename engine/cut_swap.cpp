@@ -12,14 +12,27 @@ namespace stroma {
 
 namespace {
 
-/// The world position of tool k's grasped point i on model m's surface at DOF positions x.
+/// The world position of tool k's grasped point i on model m's surface at DOF positions x (the
+/// surface point itself: an embedded vertex is its lerp, not the DOF its force acts on).
 Vec3 grasped_point(const Model& m, const ToolState& ts, int i, const double* x) {
-  ContactSpring sp;
   const double u = ts.grasp_uv[i][0], v = ts.grasp_uv[i][1];
-  set_spring_point(m.collision_dofs[ts.grasp_triangle[i]], 1.0 - u - v, u, v, sp);
-  double p[3];
-  spring_point(sp, x, p);
-  return {p[0], p[1], p[2]};
+  const double b[3] = {1.0 - u - v, u, v};
+  const auto& tri = m.collision_triangles[ts.grasp_triangle[i]];
+  Vec3 p{0, 0, 0};
+  for (int c = 0; c < 3; ++c) {
+    const int32_t q = tri[c];
+    for (int k = 0; k < 3; ++k) {
+      double pk;
+      if (q < m.fem.num_nodes) {
+        pk = x[3 * q + k];
+      } else {
+        const CutVertex& cv = m.collision_embedded[q - m.fem.num_nodes];
+        pk = (1.0 - cv.t) * x[3 * cv.a + k] + cv.t * x[3 * cv.b + k];
+      }
+      p[k] += b[c] * pk;
+    }
+  }
+  return p;
 }
 
 /// Re-attaches each tool's grasped points to the closest point of the new surface within its
@@ -99,8 +112,9 @@ bool apply_cut(CutBuild& b, std::shared_ptr<const Model>& m, std::unique_ptr<Tic
       ns.damage[e] = s.damage[b.from_element[e]];
       ns.damage_level[e] = s.damage_level[b.from_element[e]];
     }
-    // Lumped masses without the ruptured elements' shares (a node left with no intact element
-    // keeps its mass: free debris, as damage.cpp does).
+    // Lumped masses without the ruptured elements' shares. A node left with no intact element is
+    // free debris and keeps some mass (as damage.cpp does): what it had, at most its new lumped
+    // mass (so debris never gains mass across swaps).
     for (int32_t n = 0; n < nm.fem.num_nodes; ++n) {
       double mass = nm.fem.mass[n];
       bool attached = false;
@@ -109,7 +123,7 @@ bool apply_cut(CutBuild& b, std::shared_ptr<const Model>& m, std::unique_ptr<Tic
         if (ns.damage_level[e] == kRuptured) mass -= nm.element_node_mass[e];
         else attached = true;
       }
-      ns.node_mass[n] = attached ? std::max(0.0, mass) : nm.fem.mass[n];
+      ns.node_mass[n] = attached ? std::max(0.0, mass) : std::min(nm.fem.mass[n], s.node_mass[b.from_dof[n]]);
     }
     ns.damage_count = s.damage_count;
     ns.first_damage_time = s.first_damage_time;

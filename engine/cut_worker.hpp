@@ -33,7 +33,9 @@ class CutWorker {
   };
 
   /// `edges`: the uncut mesh's edge count (the snapshot is sized once).
-  explicit CutWorker(size_t edges);
+  /// `original`: the scenario's (uncut) model — the worker makes a spare workspace for it at
+  /// once, for the first Reset. `edges`: the uncut mesh's edge count (the snapshot is sized once).
+  CutWorker(std::shared_ptr<const Model> original, size_t edges);
   ~CutWorker();
   CutWorker(const CutWorker&) = delete;
   CutWorker& operator=(const CutWorker&) = delete;
@@ -46,9 +48,14 @@ class CutWorker {
   bool service(std::shared_ptr<const Model>& m, std::unique_ptr<TickWorkspace>& w, State& s, int cut_edges,
                int64_t tick);
 
-  /// Physics thread, after a reset to the uncut model: forgets the pending cuts (a build in
-  /// flight is then stale: it refines a model no longer current, and is released unused).
-  void reset() { pending_ = 0; }
+  /// Physics thread, at a Reset: when `m` is a cut model, swaps the scenario's model (`original`)
+  /// back in with the spare workspace made for it, and hands the cut model and its workspace to
+  /// the worker to free (it then makes the next spare). Returns false, changing nothing, while
+  /// the spare is not ready (a second Reset within a few ms of the first: the caller retries at
+  /// the next tick). Forgets the pending cuts (a build in flight is then stale: it refines a
+  /// model no longer current, and is released unused). Never waits, locks or allocates.
+  bool reset(const std::shared_ptr<const Model>& original, std::shared_ptr<const Model>& m,
+             std::unique_ptr<TickWorkspace>& w);
 
   /// True when nothing is pending: no cuts since the last post and the worker idle (tests and
   /// benchmarks wait for the topology to settle with this).
@@ -57,13 +64,30 @@ class CutWorker {
 
  private:
   enum Phase : int { kIdle, kPosted, kDone, kRelease, kStop };
+  /// The spare's hand-over: kSpareReady (the physics thread may take it) → kRetired (the
+  /// physics thread left a cut model and workspace to free; the worker frees them and makes
+  /// the next spare) → kSpareReady.
+  enum Spare : int { kSpareMaking, kSpareReady, kRetired };
   void loop();
   std::atomic<int> phase_{kIdle};
+  std::atomic<int> spare_state_{kSpareMaking};
+  std::atomic<uint32_t> doorbell_{0};  ///< bumped on every request to the worker (its one wait)
+  void ring() {
+    doorbell_.fetch_add(1, std::memory_order_release);
+    doorbell_.notify_one();
+  }
+  std::shared_ptr<const Model> original_;
+  std::unique_ptr<TickWorkspace> spare_;       ///< a workspace for original_ (kSpareReady)
+  std::shared_ptr<const Model> retired_model_; ///< to free (kRetired)
+  std::unique_ptr<TickWorkspace> retired_work_;
   std::vector<double> snapshot_;
   std::shared_ptr<const Model> base_;  ///< the model the posted snapshot refines
   CutBuild build_;
   bool build_failed_ = false;
   int64_t pending_ = 0;      ///< edges cut since the last post (physics thread)
+  /// Bumped by every Reset; a build posted in an earlier generation is stale even if it refines
+  /// the current model (the scenario's model is current again after a Reset).
+  uint64_t generation_ = 0, posted_generation_ = 0;  ///< physics thread
   int64_t posted_tick_ = 0;  ///< physics thread
   Stats stats_;
   std::thread thread_;

@@ -123,6 +123,9 @@ struct RunLog {
   long cg_sum = 0;
   double io_ms = 0;
   std::vector<std::pair<double, std::string>> series;  ///< (time, file) of --vtu-every frames
+  /// The last tick cut and swapped the model in: its tool outputs were kept (RunResult) before
+  /// its workspace was retired.
+  bool last_tick_swapped = false;
   void add_stages(const TickReport& r) {
     for (int st = 0; st < kStageCount; ++st) stage_total[st] += static_cast<double>(r.stage_ns[st]) * 1e-6;
   }
@@ -342,6 +345,7 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
                    o.replay, replay.back().tick);
   }
   size_t next_event = 0;
+  std::vector<double> cut_snapshot;  // replay: the edge cuts of the last recorded snapshot
   std::vector<ToolInput> inputs;
   inputs.reserve(m.tools.size() + 16);
   const auto wall0 = Clock::now();
@@ -366,6 +370,24 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
           inputs.push_back(e.input);
         } else if (e.kind == SessionEvent::Deadline) {
           deadline.expire_at_check = e.deadline_check;
+        } else if (e.kind == SessionEvent::CutSnapshot) {
+          cut_snapshot = s.edge_cut;  // what the live server's builder was handed at this tick
+        } else if (e.kind == SessionEvent::Topology) {
+          // The live server swapped in the model built from the last snapshot here: so does the
+          // replay (built now, synchronously — the same pure function of the same edge cuts).
+          CutBuild b = build_cut(*model, cut_snapshot);
+          res.cut_build_ms_total += b.build_ms;
+          res.cut_build_ms_max = std::max(res.cut_build_ms_max, b.build_ms);
+          const int64_t refreshes = wp->stepper().preconditioner_refreshes();
+          if (apply_cut(b, model, wp, s)) {
+            res.preconditioner_refreshes += refreshes;
+            ++res.topology_swaps;
+            out.set_model(*model);
+          } else {
+            spdlog::warn("{}: line {}: the recorded topology swap changed nothing here (was the session recorded "
+                         "with this scenario?)",
+                         o.replay, e.line);
+          }
         }
       }
     } else {
@@ -375,6 +397,7 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
                                      sc.tool_scripts[t].sample(s.time)});
     }
     TickWorkspace& w = *wp;
+    log.last_tick_swapped = false;
     const TickReport& r = tick(*model, s, w, inputs.data(), static_cast<int>(inputs.size()), deadline);
     const double ms = static_cast<double>(r.total_ns) * 1e-6;
     log.step_ms.push_back(ms);
@@ -406,13 +429,19 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
       out.metrics->row(s, w.stepper(), ms, r.solve.iterations, r.solve.relative_residual, static_cast<int>(r.status), r);
       log.io_ms += ms_since(t0);
     }
-    if (r.cut_edges > 0) {
+    if (r.cut_edges > 0 && o.replay.empty()) {
       // The blade cut edges: the topology follows before the next tick (headless: built here,
-      // synchronously, so a run is a function of its inputs; `serve` builds off the thread).
+      // synchronously, so a run is a function of its inputs; `serve` builds off the thread, and
+      // its recorded swaps are replayed where they happened, above).
       CutBuild b = build_cut(*model, s.edge_cut);
       res.cut_build_ms_total += b.build_ms;
       res.cut_build_ms_max = std::max(res.cut_build_ms_max, b.build_ms);
+      const int64_t refreshes = wp->stepper().preconditioner_refreshes();
+      const std::vector<ToolOutput> tools = r.tools;  // (r is the workspace the swap retires)
       if (apply_cut(b, model, wp, s)) {
+        res.preconditioner_refreshes += refreshes;  // the retired workspace's
+        res.final_tools = tools;
+        log.last_tick_swapped = true;
         ++res.topology_swaps;
         out.set_model(*model);
         spdlog::debug("tick {}: topology {} swapped in ({} elements split, {} nodes created, cut area {:.3g} m^2; "
@@ -458,8 +487,10 @@ RunResult run_headless(const CompiledScenario& sc, const RunOptions& o) {
       log.step_ms.empty() ? 0.0 : static_cast<double>(log.cg_sum) / static_cast<double>(log.step_ms.size());
   for (int st = 0; st < kStageCount; ++st)
     res.stage_ms_total[std::string(stage_name(static_cast<Stage>(st)))] = log.stage_total[st];
-  res.preconditioner_refreshes = w.stepper().preconditioner_refreshes();
-  res.final_tools = w.report.tools;
+  res.preconditioner_refreshes += w.stepper().preconditioner_refreshes();  // (+ the retired workspaces')
+  // The last tick's tool outputs: its workspace's, unless the tick that ended the run swapped
+  // the model (then they were kept before the swap).
+  if (!log.last_tick_swapped) res.final_tools = w.report.tools;
   res.final_state = std::move(s);
   out.finish(res);
   return res;

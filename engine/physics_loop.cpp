@@ -30,12 +30,15 @@ PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions 
     : state_out(StateFrame{0, 0.0, model->fem.rest,
                            std::vector<float>(model->has_damage ? model->fem.elements.size() : 0)}),
       model_(std::move(model)),
+      original_(model_),
       opt_(options),
       state_(State::initial(*model_)),
       initial_(state_),
-      work_(*model_) {
+      work_(std::make_unique<TickWorkspace>(*model_)) {
   // Served ticks never wait for the preconditioner's worker (TimeStepper::set_realtime).
-  work_.stepper().set_realtime(true);
+  work_->stepper().set_realtime(true);
+  if (model_->cutting && model_->fem_every == 1)  // (compile refuses cutting with multirate)
+    cutter_ = std::make_unique<CutWorker>(model_, model_->cut_edge_dofs.size());
   for (size_t t = 0; t < model_->tools.size(); ++t)
     tool_in.push_back(std::make_unique<TripleBuffer<ToolInput>>());
   multirate_ = model_->fem_every > 1;
@@ -53,13 +56,19 @@ void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& s
     se.tick = static_cast<int64_t>(stats_.ticks);
     se.kind = static_cast<SessionEvent::Kind>(static_cast<int>(ev.kind) + 1);  // Pause..Shutdown
     se.steps = ev.steps;
-    log(se);
+    // (A Reset is logged where it takes effect: it may wait a few ticks for the uncut workspace.)
+    if (ev.kind != ControlEvent::Reset) log(se);
     switch (ev.kind) {
       case ControlEvent::Pause: rs = RunState::Paused; break;
       case ControlEvent::Resume: rs = RunState::Running; steps_pending = 0; break;
       case ControlEvent::Reset:
-        state_ = initial_;  // same-size copy: no allocation
+        if (cutter_ && !cutter_->reset(original_, model_, work_)) {
+          reset_pending_ = true;  // the uncut workspace is still being made: at the next tick
+          break;
+        }
+        state_ = initial_;  // a copy into arrays at least as large: no allocation
         tissue_reset_ = multirate_;  // the worker's state when it is idle
+        log(se);
         break;
       case ControlEvent::Step:
         rs = RunState::Paused;
@@ -98,8 +107,19 @@ void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, 
   StateFrame& f = state_out.write_slot();
   f.frame = frame;
   f.sim_time = tissue.time;
-  std::copy(tissue.tissue.x.begin(), tissue.tissue.x.end(), f.x.begin());
-  std::copy(tissue.damage.begin(), tissue.damage.end(), f.damage.begin());
+  if (model_->topology_version == 0) {
+    std::copy(tissue.tissue.x.begin(), tissue.tissue.x.end(), f.x.begin());
+    std::copy(tissue.damage.begin(), tissue.damage.end(), f.damage.begin());
+  } else {
+    // A cut model: the frame keeps the scenario's layout (what the published meshes index) —
+    // each node at its primary DOF (the material it belongs to), each tetrahedron's damage from
+    // its first copy. (The renderer following the cut surface itself is issue 16's next step.)
+    const CutTopology& topo = *model_->topology;
+    const size_t nodes = f.x.size() / 3;
+    for (size_t n = 0; n < nodes; ++n)
+      for (int k = 0; k < 3; ++k) f.x[3 * n + k] = tissue.tissue.x[3 * static_cast<size_t>(topo.node_dof[n]) + k];
+    for (size_t t = 0; t < f.damage.size(); ++t) f.damage[t] = tissue.damage[topo.tet_copy_begin[t]];
+  }
   f.tool_count = static_cast<int>(std::min<size_t>(state_.tools.size(), kMaxTools));
   for (int t = 0; t < f.tool_count; ++t) {
     const ToolState& ts = state_.tools[t];
@@ -168,7 +188,7 @@ void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow
   status->controls = controls_seen;
   status->cg_iterations_mean = win.ticks ? static_cast<double>(win.cg_iterations) / static_cast<double>(win.ticks) : 0.0;
   // (multirate: the worker's last finished step; its state may be in use)
-  status->kinetic_energy = multirate_ ? tissue_kinetic_ : work_.stepper().kinetic_energy(state_.tissue);
+  status->kinetic_energy = multirate_ ? tissue_kinetic_ : work_->stepper().kinetic_energy(state_.tissue);
   for (int st = 0; st < kStageCount; ++st)
     status->stage_ms[st] = win.ticks ? static_cast<double>(win.stage_ns[st]) * 1e-6 / static_cast<double>(win.ticks) : 0.0;
   status->missed_window = stats_.missed_deadlines - win.missed_at_start;
@@ -234,16 +254,16 @@ void PhysicsLoop::tissue_worker() {
     tissue_posted_.wait(seen, std::memory_order_acquire);
     seen = tissue_posted_.load(std::memory_order_acquire);
     if (tissue_stop_.load()) return;
-    TickReport& r = work_.report;
+    TickReport& r = work_->report;
     begin_report(r);
     const int64_t t0 = steady_now_ns();
     Deadline d;
     d.at_ns = tissue_deadline_;
     r.budget_ns = d.at_ns > 0 ? d.at_ns - t0 : 0;
-    step_tissue(m, fem_state_, work_, d, m.fem_every);
+    step_tissue(m, fem_state_, *work_, d, m.fem_every);
     r.total_ns = steady_now_ns() - t0;
     r.over_budget = tissue_deadline_ > 0 && t0 + r.total_ns > tissue_deadline_;
-    step_kinetic_ = work_.stepper().kinetic_energy(fem_state_.tissue);  // O(n): here, not in a tick
+    step_kinetic_ = work_->stepper().kinetic_energy(fem_state_.tissue);  // O(n): here, not in a tick
     tissue_done_.store(seen, std::memory_order_release);
   }
 }
@@ -264,7 +284,7 @@ const TickReport& PhysicsLoop::multirate_tick(const ToolInput* inputs, int n_in,
     // The worker's step is done: its models take over (as in a headless multirate run, at the
     // tick fem_every after the step started), its outputs are handed off, the next one starts.
     if (posted > 0 && !tissue_reset_) {
-      const TickReport& fr = work_.report;
+      const TickReport& fr = work_->report;
       for (size_t k = 0; k < m.tools.size(); ++k) {
         state_.tools[k].haptic = fem_state_.tools[k].haptic_next;
         r.tools[k].contacts = fr.tools[k].contacts;
@@ -305,6 +325,32 @@ const TickReport& PhysicsLoop::multirate_tick(const ToolInput* inputs, int n_in,
   }
   r.total_ns = steady_now_ns() - t0;
   return r;
+}
+
+void PhysicsLoop::service_cuts(int cut_edges) {
+  if (reset_pending_ && cutter_->reset(original_, model_, work_)) {
+    reset_pending_ = false;
+    state_ = initial_;
+    SessionEvent se;  // the Reset takes effect now: the log says so at this tick
+    se.kind = SessionEvent::Reset;
+    se.tick = static_cast<int64_t>(stats_.ticks);
+    log(se);
+  }
+  if (reset_pending_) return;  // no cut model while a Reset waits for the uncut workspace
+  const int64_t ticks = static_cast<int64_t>(stats_.ticks);
+  if (cutter_->service(model_, work_, state_, cut_edges, ticks)) {
+    SessionEvent se;
+    se.kind = SessionEvent::Topology;
+    se.tick = ticks;
+    log(se);
+  }
+  if (cutter_->stats().posted != cuts_posted_) {
+    cuts_posted_ = cutter_->stats().posted;
+    SessionEvent se;
+    se.kind = SessionEvent::CutSnapshot;
+    se.tick = ticks;
+    log(se);
+  }
 }
 
 void PhysicsLoop::run(const std::atomic<bool>& stop) {
@@ -359,7 +405,7 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       Deadline budget;
       budget.at_ns = opt_.budget ? deadline + stats_.budget_ns : 0;
       const TickReport& r = multirate_ ? multirate_tick(inputs.data(), n_in, deadline, rs, win, frame)
-                                       : tick(m, state_, work_, inputs.data(), n_in, budget);
+                                       : tick(*model_, state_, *work_, inputs.data(), n_in, budget);
       if (r.deadline_check >= 0) {  // the cut this tick made, so that a replay makes it too
         SessionEvent se;
         se.tick = static_cast<int64_t>(stats_.ticks);
@@ -374,9 +420,12 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       if (!state_.tools.empty()) publish_feedback(r);
       if (!multirate_ && state_wanted.load(std::memory_order_relaxed) && state_.step % opt_.publish_every == 0)
         publish_state_frame(r, state_, ++frame);
+      if (cutter_) service_cuts(r.cut_edges);  // last: a swap retires the workspace r is in
       const int64_t handoff = steady_now_ns() - h0;
       stats_.stage_ns_total[static_cast<int>(Stage::HandOff)] += handoff;
       win.stage_ns[static_cast<int>(Stage::HandOff)] += handoff;
+    } else if (cutter_) {
+      service_cuts(0);  // paused: a finished build is still swapped in, a pending Reset done
     }
     const int64_t done = steady_now_ns();
     const int64_t busy = done - wake;

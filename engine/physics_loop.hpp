@@ -12,6 +12,7 @@
 #include <memory>
 #include <vector>
 
+#include "engine/cut_worker.hpp"
 #include "engine/model.hpp"
 #include "engine/phase_lock.hpp"
 #include "engine/session_log.hpp"
@@ -170,6 +171,8 @@ class PhysicsLoop {
   /// the poses). Read after run() has returned.
   const State& state() const { return multirate_ ? fem_state_ : state_; }
   const Model& model() const { return *model_; }
+  /// Cutting statistics (null without a cutting tool). Read after run() has returned.
+  const CutWorker* cutter() const { return cutter_.get(); }
 
  private:
   /// What the status frame averages over its period (reset at each status frame).
@@ -203,6 +206,9 @@ class PhysicsLoop {
   /// physics thread, normal priority otherwise).
   void tissue_worker();
   void publish_damage_events(const TickReport& r);
+  /// Cutting, at the end of a tick (or of a paused loop's turn): a pending Reset, a finished cut
+  /// model swapped in, this tick's cuts handed to the worker — each logged for the replay.
+  void service_cuts(int cut_edges);
   void publish_status(StatusFrame*& status, RunState rs, StatusWindow& win, double wall, double running_wall,
                       uint64_t controls_seen);
   void log(const SessionEvent& e) {
@@ -212,11 +218,17 @@ class PhysicsLoop {
     }
   }
   bool record_lost_ = false;
-  std::shared_ptr<const Model> model_;
+  std::shared_ptr<const Model> model_;     ///< the model ticking now (a cut model once cut)
+  std::shared_ptr<const Model> original_;  ///< the scenario's model (what a Reset returns to)
   PhysicsLoopOptions opt_;
   State state_;
   State initial_;
-  TickWorkspace work_;
+  std::unique_ptr<TickWorkspace> work_;
+  /// Cutting (Model::cutting): cut models built on its thread and swapped in at tick boundaries;
+  /// a Reset that must wait for its spare workspace is retried each tick.
+  std::unique_ptr<CutWorker> cutter_;
+  bool reset_pending_ = false;
+  uint64_t cuts_posted_ = 0;  ///< the cutter's posts seen (each one is logged)
   PhysicsLoopStats stats_;
   // ---- multirate (Model::fem_every > 1): the tissue steps on a worker thread ----
   // Ownership: while tissue_done_ == tissue_posted_ the worker is idle and the physics thread

@@ -12,12 +12,13 @@
 namespace stroma {
 
 const char* const kSessionLogHeader =
-    "# stroma session log v3 (v2 + mark: checkpoints a killed server's log replays to)\n"
+    "# stroma session log v4 (v3 + cut_snapshot, topology: when a cut model was built from and swapped in)\n"
     "tick,event,tool,seq,client_time_ns,x,y,z,qw,qx,qy,qz,jaw,buttons,steps\n";
 
 namespace {
-const char* const kNames[] = {"tool", "pause", "resume", "reset", "step", "shutdown", "end", "deadline", "mark"};
-constexpr int kKinds = 9;
+const char* const kNames[] = {"tool", "pause",    "resume", "reset",        "step",    "shutdown",
+                              "end",  "deadline", "mark",   "cut_snapshot", "topology"};
+constexpr int kKinds = 11;
 }
 
 std::string format_session_event(const SessionEvent& e) {
@@ -73,7 +74,7 @@ static SessionEvent parse_event(const std::string& line, const std::string& path
   if (kind < 0)
     throw InputError(path, ln, "event",
                      fmt::format("unknown event '{}' (expected tool, pause, resume, reset, step, shutdown, "
-                                 "deadline, mark or end)",
+                                 "deadline, mark, cut_snapshot, topology or end)",
                                  text::clip(c[1])));
   e.kind = static_cast<SessionEvent::Kind>(kind);
   e.tick = cell_value<int64_t>(c, 0, path, ln);

@@ -19,7 +19,11 @@ struct SessionEvent {
   /// Mark: a checkpoint — `tick` ticks had executed and every event before them is above it in
   /// the log (the server writes one at least every kRecordMarkTicks; a log cut short by a crash
   /// replays to its last mark).
-  enum Kind : uint8_t { Tool, Pause, Resume, Reset, Step, Shutdown, End, Deadline, Mark } kind = Tool;
+  /// CutSnapshot: after `tick` ticks the state's edge cuts were handed to the cut-model builder;
+  /// Topology: after `tick` ticks the cut model built from the last snapshot was swapped in (a
+  /// replay builds it from the same snapshot and swaps it at the same tick: engine/cut_swap.hpp).
+  enum Kind : uint8_t { Tool, Pause, Resume, Reset, Step, Shutdown, End, Deadline, Mark, CutSnapshot, Topology } kind =
+      Tool;
   int64_t tick = 0;    ///< ticks executed before it took effect
   ToolInput input;     ///< Tool events
   uint32_t steps = 0;  ///< Step events

@@ -105,7 +105,7 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
   // Speculative body contacts whose vertex never reached its face would pull it in: release them
   // and redo the step (only ticks where something is about to touch pay for this).
   while (ok && m.body_contact && r.contact_releases < kMaxContactReleases &&
-         release_pulling_contacts(s.tissue.x.data(), w.body_pairs, w.springs) > 0) {
+         release_pulling_contacts(w.backup_x.data(), s.tissue.x.data(), w.body_pairs, w.springs) > 0) {
     if (deadline.past()) {  // keep the step as solved, pulling contacts and all
       degrade(r, Degradation::ReleasesSkipped);
       break;

@@ -587,6 +587,21 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
                    {"events_dropped", loop.stats().record_dropped},
                    {"error", record.error},
                    {"stopped_at_tick", record.failed ? record.stopped_at_tick : -1}};
+  if (const CutWorker* cw = loop.cutter()) {
+    const CutWorker::Stats& cs = cw->stats();
+    const CutStats& c = loop.model().cut_stats;  // the model the session ended on
+    j["cutting"] = {{"edges_cut", c.edges_cut},
+                    {"elements_split", c.elements_split},
+                    {"nodes_created", c.nodes_created},
+                    {"faces_created", c.faces_created},
+                    {"cut_area", c.cut_area},
+                    {"topology_version", loop.model().topology_version},
+                    {"topology_swaps", cs.swapped},
+                    {"builds", {{"posted", cs.posted}, {"unchanged", cs.unchanged}, {"failed", cs.failed}}},
+                    {"build_ms_max", cs.build_ms_max},
+                    {"swap_ms_max", static_cast<double>(cs.swap_ns_max) * 1e-6},
+                    {"lag_ticks_max", cs.lag_ticks_max}};
+  }
   if (model.has_damage) {
     const State& fs = loop.state();
     j["damage"] = {{"elements_warned", fs.damage_count[1]}, {"elements_damaged", fs.damage_count[2]},
