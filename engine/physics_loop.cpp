@@ -202,6 +202,8 @@ void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow
   status->residual_max = win.residual_max;
   status->error_energy_max = win.error_energy_max;
   status->error_position_max = win.error_position_max;
+  status->topology_version = model_->topology_version;
+  status->cut = model_->cut_stats;
   status_out.publish();
   outputs_published.fetch_add(1, std::memory_order_release);
   outputs_published.notify_one();

@@ -80,6 +80,8 @@ struct StatusFrame {
   double error_energy_max = 0;                 ///< J, worst energy-norm error bound in the period
   double error_position_max = 0;               ///< m, worst position error bound in the period
   double kinetic_energy = 0, elastic_energy = 0;
+  int32_t topology_version = 0;  ///< the model ticking now (cutting: +1 per swapped-in model)
+  CutStats cut;                  ///< what its cuts made
   int recent = 0;                               ///< valid entries below
   std::array<float, kRecentTicks> tick_us{};    ///< tick compute times (µs), recent window
   std::array<float, kRecentTicks> wake_us{};    ///< wake-up latencies (µs)

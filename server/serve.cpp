@@ -253,6 +253,12 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
       msg.residual_max = st.residual_max;
       msg.error_energy_max = st.error_energy_max;
       msg.error_position_max = st.error_position_max;
+      msg.topology_version = static_cast<uint32_t>(st.topology_version);
+      msg.edges_cut = static_cast<uint32_t>(st.cut.edges_cut);
+      msg.elements_split = static_cast<uint32_t>(st.cut.elements_split);
+      msg.nodes_created = static_cast<uint32_t>(st.cut.nodes_created);
+      msg.faces_created = static_cast<uint32_t>(st.cut.faces_created);
+      msg.cut_area = st.cut.cut_area;
       if (dds_write(ep.status_writer, &msg) >= 0) status_sent.fetch_add(1);
     }
   }

@@ -343,6 +343,10 @@ TEST(Serve, CuttingSessionReplaysBitForBit) {
   ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
   Process tool({STROMA_BINARY, "tool", "--name", "scalpel", "--script", script, "--rate", "1000", "--duration", "2.2",
                 "--domain", "136"});
+  // SimStatus says live what was cut.
+  EXPECT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) {
+    return st.topology_version > 0 && st.elements_split > 0 && st.cut_area > 0;
+  })) << "SimStatus never reported a cut";
   EXPECT_EQ(tool.wait_exit(30), 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   client.control(stroma_SHUTDOWN);
