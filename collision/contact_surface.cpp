@@ -35,12 +35,11 @@ void fill_slots(const BsrPattern& pattern, const int32_t* dof, int n, int32_t* s
 }  // namespace
 
 SurfaceTriangleDofs triangle_dofs(const BsrPattern& pattern, const std::array<int32_t, 3>& tri, int32_t num_dofs,
-                                  const std::vector<CutVertex>& embedded, const std::vector<int32_t>& embedded_dof) {
+                                  const std::vector<int32_t>& embedded_dof) {
   SurfaceTriangleDofs td;
   int n = 0;
   for (int v = 0; v < 3; ++v) {
     const int32_t p = tri[v];
-    (void)embedded;  // (the point's position is a lerp; its force goes to one DOF)
     const int32_t d = p < num_dofs ? p : embedded_dof[static_cast<size_t>(p - num_dofs)];
     const int i = add_dof(td.dof, n, kSpringMaxNodes, d);
     if (i < 0)
@@ -56,10 +55,8 @@ SurfaceTriangleDofs triangle_dofs(const BsrPattern& pattern, const std::array<in
 SurfacePointDofs point_dofs(const BsrPattern& pattern, int32_t point, int32_t num_dofs,
                             const std::vector<int32_t>& embedded_dof) {
   SurfacePointDofs pd;
-  pd.n = 1;
-  pd.dof[0] = point < num_dofs ? point : embedded_dof[static_cast<size_t>(point - num_dofs)];
-  pd.w[0] = 1.0;
-  fill_slots(pattern, pd.dof, pd.n, pd.slot);
+  pd.dof = point < num_dofs ? point : embedded_dof[static_cast<size_t>(point - num_dofs)];
+  pd.slot = pair_slot(pattern, pd.dof, pd.dof);
   return pd;
 }
 

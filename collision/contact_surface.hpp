@@ -31,14 +31,12 @@ struct SurfaceTriangleDofs {
   int32_t slot[kSpringMaxNodes * kSpringMaxNodes] = {};
 };
 
-/// How a single surface point acts on the DOFs (body contact's vertex side): one DOF, w = 1
-/// (a node, or an embedded point's material end: see triangle_dofs). Same slot layout as
-/// ContactSpring.
+/// How a single surface point acts on the DOFs (body contact's vertex side): on one DOF with
+/// weight 1 — a node, or an embedded point's material end (see triangle_dofs) — whose diagonal
+/// block is `slot`.
 struct SurfacePointDofs {
-  int32_t n = 1;
-  int32_t dof[2] = {0, 0};
-  double w[2] = {1, 0};
-  int32_t slot[kSpringMaxNodes * kSpringMaxNodes] = {};
+  int32_t dof = 0;
+  int32_t slot = 0;
 };
 
 /// The contact surface of all bodies, as compiled: outward triangles over surface points, how
@@ -63,14 +61,12 @@ inline void set_spring_point(const SurfaceTriangleDofs& td, double b0, double b1
   for (int i = 0; i < kSpringMaxNodes * kSpringMaxNodes; ++i) sp.slot[i] = td.slot[i];
 }
 
-/// Sets sp's DOFs, weights and slots to a single surface point.
+/// Sets sp to act on a single surface point's DOF.
 inline void set_spring_point(const SurfacePointDofs& pd, ContactSpring& sp) {
-  sp.n = pd.n;
-  for (int d = 0; d < pd.n; ++d) {
-    sp.node[d] = pd.dof[d];
-    sp.w[d] = pd.w[d];
-  }
-  for (int i = 0; i < kSpringMaxNodes * kSpringMaxNodes; ++i) sp.slot[i] = pd.slot[i];
+  sp.n = 1;
+  sp.node[0] = pd.dof;
+  sp.w[0] = 1.0;
+  sp.slot[0] = pd.slot;
 }
 
 /// Positions (or velocities) of the surface points: the DOFs' values `x` (3·num_dofs), then the
@@ -93,8 +89,8 @@ namespace stroma {
 
 struct BsrPattern;
 
-/// The DOF map of the triangle over surface points `tri` (points ≥ num_dofs are
-/// embedded[p − num_dofs]). DOFs are listed in the order the vertices first name them (an uncut
+/// The DOF map of the triangle over surface points `tri` (points ≥ num_dofs are embedded
+/// points). DOFs are listed in the order the vertices first name them (an uncut
 /// triangle: its nodes in order, W the identity). An embedded point acts on one DOF,
 /// embedded_dof[p − num_dofs]: the material end of its copy edge (see below). A DOF pair
 /// missing from the pattern joins nodes of a fully fixed body (whose elements are not in it):
@@ -108,9 +104,9 @@ struct BsrPattern;
 /// inverted copies). On the material end the push meets the tissue's full stiffness; the lip
 /// follows its material node.
 SurfaceTriangleDofs triangle_dofs(const BsrPattern& pattern, const std::array<int32_t, 3>& tri, int32_t num_dofs,
-                                  const std::vector<CutVertex>& embedded, const std::vector<int32_t>& embedded_dof);
+                                  const std::vector<int32_t>& embedded_dof);
 
-/// The DOF map of one surface point (body contact's vertex side), slots as triangle_dofs.
+/// The DOF map of one surface point (body contact's vertex side).
 SurfacePointDofs point_dofs(const BsrPattern& pattern, int32_t point, int32_t num_dofs,
                             const std::vector<int32_t>& embedded_dof);
 

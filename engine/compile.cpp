@@ -349,7 +349,7 @@ void compile_collision_faces(Model& model) {
   auto add_face = [&](const Tri& t, int32_t ea, int32_t eb) {
     model.collision_face_elem.push_back({ea, eb});
     model.collision_triangles.push_back({t[0], t[1], t[2]});
-    model.collision_dofs.push_back(triangle_dofs(fem.pattern, {t[0], t[1], t[2]}, fem.num_nodes, {}, {}));
+    model.collision_dofs.push_back(triangle_dofs(fem.pattern, {t[0], t[1], t[2]}, fem.num_nodes, {}));
     double e = 0;
     for (int a = 0; a < 3; ++a) {
       const int32_t p = t[a], q = t[(a + 1) % 3];

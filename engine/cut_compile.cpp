@@ -64,7 +64,7 @@ void compile_cut_surface(const CutTopology& topo, Model& m, std::vector<double>&
     const std::array<int32_t, 3> tri{point[t.v[0]], point[t.v[1]], point[t.v[2]]};
     m.collision_triangles.push_back(tri);
     m.collision_dofs.push_back(
-        triangle_dofs(f.pattern, tri, f.num_nodes, m.collision_embedded, m.collision_embedded_dof));
+        triangle_dofs(f.pattern, tri, f.num_nodes, m.collision_embedded_dof));
     double e = 0;
     for (int a = 0; a < 3; ++a) e = std::max(e, distance(&rest_points[3 * tri[a]], &rest_points[3 * tri[(a + 1) % 3]]));
     m.collision_edge.push_back(e);
@@ -105,12 +105,10 @@ void compile_cut_body_contact(const BodyContactModel& uncut, const CutTopology& 
     for (size_t p = 0; p < points; ++p) {
       if (tris_of[p].empty() || point_body(p) != static_cast<int32_t>(b)) continue;
       const SurfacePointDofs pd = point_dofs(f.pattern, static_cast<int32_t>(p), f.num_nodes, m.collision_embedded_dof);
-      bool fixed = true;
-      for (int i = 0; i < pd.n; ++i) fixed = fixed && f.constrained[pd.dof[i]] == 7;
       bc.vertex.push_back(static_cast<int32_t>(p));
       bc.vertex_area.push_back(area[p]);
       bc.vertex_dofs.push_back(pd);
-      bc.vertex_fixed.push_back(fixed ? 1 : 0);
+      bc.vertex_fixed.push_back(f.constrained[pd.dof] == 7 ? 1 : 0);
     }
   }
   bc.body_vertex_begin.push_back(static_cast<int32_t>(bc.vertex.size()));
