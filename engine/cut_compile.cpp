@@ -1,6 +1,7 @@
 #include "engine/cut_compile.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <stdexcept>
 
@@ -181,6 +182,9 @@ std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<c
   m->cutting = current.cutting;
   m->topology = topo;
   m->topology_version = version;
+  m->cut_edge_state = edge_cut;
+  static std::atomic<uint64_t> serial{0};
+  m->cut_serial = serial.fetch_add(1, std::memory_order_relaxed) + 1;
   // The cut FEM system and what hangs off its elements.
   m->fem = build_cut_fem_model(cs.uncut, *topo);
   const FemModel& f = m->fem;

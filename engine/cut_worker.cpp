@@ -7,8 +7,8 @@
 
 namespace stroma {
 
-CutWorker::CutWorker(std::shared_ptr<const Model> original, size_t edges)
-    : snapshot_(edges, kEdgeUncut), original_(std::move(original)) {
+CutWorker::CutWorker(std::shared_ptr<const Model> original, size_t edges, CutModelRegistry* registry)
+    : snapshot_(edges, kEdgeUncut), original_(std::move(original)), registry_(registry) {
   thread_ = std::thread([this] { loop(); });
 }
 
@@ -48,6 +48,7 @@ void CutWorker::loop() {
       try {
         build_ = build_cut(*base_, snapshot_);
         if (build_.workspace) build_.workspace->stepper().set_realtime(true);
+        if (registry_ && build_.changed && build_.model) registry_->add(build_.model);
       } catch (const std::exception&) {
         build_ = CutBuild{};
         build_failed_ = true;

@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "engine/cut_registry.hpp"
 #include "engine/cut_swap.hpp"
 
 namespace stroma {
@@ -35,7 +36,9 @@ class CutWorker {
   /// `edges`: the uncut mesh's edge count (the snapshot is sized once).
   /// `original`: the scenario's (uncut) model — the worker makes a spare workspace for it at
   /// once, for the first Reset. `edges`: the uncut mesh's edge count (the snapshot is sized once).
-  CutWorker(std::shared_ptr<const Model> original, size_t edges);
+  /// `registry` (optional): every model built is registered there, on the worker thread, for
+  /// the threads that read state frames of it.
+  CutWorker(std::shared_ptr<const Model> original, size_t edges, CutModelRegistry* registry = nullptr);
   ~CutWorker();
   CutWorker(const CutWorker&) = delete;
   CutWorker& operator=(const CutWorker&) = delete;
@@ -77,6 +80,7 @@ class CutWorker {
     doorbell_.notify_one();
   }
   std::shared_ptr<const Model> original_;
+  CutModelRegistry* registry_ = nullptr;
   std::unique_ptr<TickWorkspace> spare_;       ///< a workspace for original_ (kSpareReady)
   std::shared_ptr<const Model> retired_model_; ///< to free (kRetired)
   std::unique_ptr<TickWorkspace> retired_work_;

@@ -105,6 +105,13 @@ struct Model {
   /// nodes when uncut; a copy holding the edge as material once cut).
   std::vector<std::array<int32_t, 2>> cut_edge_dofs;
   CutStats cut_stats;
+  /// A cut model: the per-edge cut state it was built from (its topology's input; the publisher
+  /// re-maps visual surfaces with it). Empty on an uncut model.
+  std::vector<double> cut_edge_state;
+  /// A cut model's serial, unique in the process (0: a scenario's uncut model). A state frame
+  /// names the model whose layout it has by this (CutModelRegistry), since topology versions
+  /// start again after a Reset.
+  uint64_t cut_serial = 0;
 };
 
 /// Loads every mesh, validates materials and selections against them, and compiles the model

@@ -24,11 +24,26 @@ inline void sleep_until(int64_t t) {
   }
 }
 
+/// A state frame sized for every model the loop may tick: the scenario's, and with cutting any
+/// cut model of its mesh — a tetrahedron has at most four copies (one per node component) and
+/// each copy four DOFs, so at most 16 DOFs per tetrahedron beyond the nodes.
+StateFrame frame_for(const Model& m) {
+  StateFrame f;
+  const size_t tets = m.fem.elements.size();
+  const size_t nodes = static_cast<size_t>(m.fem.num_nodes);
+  const size_t dofs = m.cutting ? nodes + 16 * tets : nodes;
+  f.x.assign(3 * dofs, 0.0);
+  std::copy(m.fem.rest.begin(), m.fem.rest.end(), f.x.begin());
+  f.dofs = nodes;
+  if (m.has_damage) f.damage.assign(m.cutting ? 4 * tets : tets, 0.0f);
+  f.elements = m.has_damage ? tets : 0;
+  return f;
+}
+
 }  // namespace
 
 PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions options)
-    : state_out(StateFrame{0, 0.0, model->fem.rest,
-                           std::vector<float>(model->has_damage ? model->fem.elements.size() : 0)}),
+    : state_out(frame_for(*model)),
       model_(std::move(model)),
       original_(model_),
       opt_(options),
@@ -38,7 +53,7 @@ PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions 
   // Served ticks never wait for the preconditioner's worker (TimeStepper::set_realtime).
   work_->stepper().set_realtime(true);
   if (model_->cutting && model_->fem_every == 1)  // (compile refuses cutting with multirate)
-    cutter_ = std::make_unique<CutWorker>(model_, model_->cut_edge_dofs.size());
+    cutter_ = std::make_unique<CutWorker>(model_, model_->cut_edge_dofs.size(), &cut_models);
   for (size_t t = 0; t < model_->tools.size(); ++t)
     tool_in.push_back(std::make_unique<TripleBuffer<ToolInput>>());
   multirate_ = model_->fem_every > 1;
@@ -61,15 +76,18 @@ void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& s
     switch (ev.kind) {
       case ControlEvent::Pause: rs = RunState::Paused; break;
       case ControlEvent::Resume: rs = RunState::Running; steps_pending = 0; break;
-      case ControlEvent::Reset:
+      case ControlEvent::Reset: {
+        const int32_t version = model_->topology_version;
         if (cutter_ && !cutter_->reset(original_, model_, work_)) {
           reset_pending_ = true;  // the uncut workspace is still being made: at the next tick
           break;
         }
         state_ = initial_;  // a copy into arrays at least as large: no allocation
+        if (version != model_->topology_version) publish_topology_event();
         tissue_reset_ = multirate_;  // the worker's state when it is idle
         log(se);
         break;
+      }
       case ControlEvent::Step:
         rs = RunState::Paused;
         steps_pending += ev.steps;
@@ -107,19 +125,17 @@ void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, 
   StateFrame& f = state_out.write_slot();
   f.frame = frame;
   f.sim_time = tissue.time;
-  if (model_->topology_version == 0) {
-    std::copy(tissue.tissue.x.begin(), tissue.tissue.x.end(), f.x.begin());
-    std::copy(tissue.damage.begin(), tissue.damage.end(), f.damage.begin());
-  } else {
-    // A cut model: the frame keeps the scenario's layout (what the published meshes index) —
-    // each node at its primary DOF (the material it belongs to), each tetrahedron's damage from
-    // its first copy. (The renderer following the cut surface itself is issue 16's next step.)
-    const CutTopology& topo = *model_->topology;
-    const size_t nodes = f.x.size() / 3;
-    for (size_t n = 0; n < nodes; ++n)
-      for (int k = 0; k < 3; ++k) f.x[3 * n + k] = tissue.tissue.x[3 * static_cast<size_t>(topo.node_dof[n]) + k];
-    for (size_t t = 0; t < f.damage.size(); ++t) f.damage[t] = tissue.damage[topo.tet_copy_begin[t]];
-  }
+  // The positions and damage in the ticking model's layout (a cut model's DOFs and element
+  // copies), named by its serial: the publisher finds the model in cut_models. The frame is
+  // sized for the largest cut model (frame_for), so this never allocates.
+  const size_t nx = std::min(tissue.tissue.x.size(), f.x.size());
+  const size_t nd = std::min(tissue.damage.size(), f.damage.size());
+  std::copy_n(tissue.tissue.x.begin(), nx, f.x.begin());
+  std::copy_n(tissue.damage.begin(), nd, f.damage.begin());
+  f.dofs = nx / 3;
+  f.elements = nd;
+  f.cut_serial = model_->cut_serial;
+  f.topology_version = model_->topology_version;
   f.tool_count = static_cast<int>(std::min<size_t>(state_.tools.size(), kMaxTools));
   for (int t = 0; t < f.tool_count; ++t) {
     const ToolState& ts = state_.tools[t];
@@ -132,8 +148,22 @@ void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, 
 }
 
 void PhysicsLoop::publish_damage_events(const TickReport& r) {
-  for (const DamageEventRecord& ev : r.damage_records)
+  for (DamageEventRecord ev : r.damage_records) {
+    // Events name the scenario's tetrahedra (file order): a cut model's element is a copy.
+    if (model_->topology_version > 0) ev.element = model_->topology->copies[ev.element].tet;
     if (!damage_out.push(ev)) damage_dropped.fetch_add(1, std::memory_order_relaxed);
+  }
+  outputs_published.fetch_add(1, std::memory_order_release);
+  outputs_published.notify_one();
+}
+
+void PhysicsLoop::publish_topology_event() {
+  TopologyEventRecord ev;
+  ev.topology_version = model_->topology_version;
+  ev.sim_time = state_.time;
+  ev.tick = stats_.ticks;
+  ev.cut = model_->cut_stats;
+  if (!topology_out.push(ev)) topology_dropped.fetch_add(1, std::memory_order_relaxed);
   outputs_published.fetch_add(1, std::memory_order_release);
   outputs_published.notify_one();
 }
@@ -333,6 +363,7 @@ void PhysicsLoop::service_cuts(int cut_edges) {
   if (reset_pending_ && cutter_->reset(original_, model_, work_)) {
     reset_pending_ = false;
     state_ = initial_;
+    publish_topology_event();  // (pending only when a cut model was ticking)
     SessionEvent se;  // the Reset takes effect now: the log says so at this tick
     se.kind = SessionEvent::Reset;
     se.tick = static_cast<int64_t>(stats_.ticks);
@@ -341,6 +372,7 @@ void PhysicsLoop::service_cuts(int cut_edges) {
   if (reset_pending_) return;  // no cut model while a Reset waits for the uncut workspace
   const int64_t ticks = static_cast<int64_t>(stats_.ticks);
   if (cutter_->service(model_, work_, state_, cut_edges, ticks)) {
+    publish_topology_event();
     SessionEvent se;
     se.kind = SessionEvent::Topology;
     se.tick = ticks;

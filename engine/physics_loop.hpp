@@ -51,14 +51,29 @@ struct ToolSnapshot {
 };
 
 /// Full positions for the publisher (which extracts surfaces and stresses off the physics
-/// thread). Sized once.
+/// thread). Sized once: with cutting, for the most DOFs and elements a cut model of the mesh
+/// can have (stateframe_capacity). Invariants: the first 3·dofs entries of x and the first
+/// `elements` of damage are the frame's; they are in the DOF and element layout of the model
+/// of serial cut_serial (0: the scenario's uncut model; a cut model: CutModelRegistry).
 struct StateFrame {
   uint64_t frame = 0;
   double sim_time = 0;
   std::vector<double> x;
   std::vector<float> damage;  ///< per element (empty without damage models)
+  size_t dofs = 0, elements = 0;
+  uint64_t cut_serial = 0;
+  int32_t topology_version = 0;
   int tool_count = 0;
   std::array<ToolSnapshot, kMaxTools> tools{};
+};
+
+/// What a cut made, as the physics thread reports it when a cut model is swapped in (or a
+/// Reset returns to the uncut model) — the DDS topology event.
+struct TopologyEventRecord {
+  int32_t topology_version = 0;
+  double sim_time = 0;
+  uint64_t tick = 0;
+  CutStats cut;
 };
 
 /// Number of recent ticks whose times travel with each status frame (percentiles are computed
@@ -166,6 +181,10 @@ class PhysicsLoop {
   std::atomic<uint64_t> feedback_published{0};
   SpscQueue<SessionEvent, 8192> record;      ///< physics → recorder thread
   SpscQueue<DamageEventRecord, 4096> damage_out;  ///< physics → publisher (reliable events)
+  SpscQueue<TopologyEventRecord, 256> topology_out;  ///< physics → publisher (reliable events)
+  std::atomic<uint64_t> topology_dropped{0};  ///< events lost because the publisher fell behind
+  /// Cut models built for this loop (by its cut worker), for the readers of its state frames.
+  CutModelRegistry cut_models;
   std::atomic<uint64_t> damage_dropped{0};   ///< events lost because the publisher fell behind
 
   const PhysicsLoopStats& stats() const { return stats_; }
@@ -208,6 +227,7 @@ class PhysicsLoop {
   /// physics thread, normal priority otherwise).
   void tissue_worker();
   void publish_damage_events(const TickReport& r);
+  void publish_topology_event();
   /// Cutting, at the end of a tick (or of a paused loop's turn): a pending Reset, a finished cut
   /// model swapped in, this tick's cuts handed to the worker — each logged for the replay.
   void service_cuts(int cut_edges);

@@ -123,17 +123,30 @@ void cut_with_blades(const Model& m, State& s, TickWorkspace& w) {
     const Vec3 a{cap[0].a[0], cap[0].a[1], cap[0].a[2]}, b{cap[0].b[0], cap[0].b[1], cap[0].b[2]};
     Vec3 f_now{0, 0, 0};
     if (ts.has_blade) {
-      double travel[3], len2 = 0;
+      // Only the sharp edge cuts, and in the blade's plane: the travel's component along the
+      // blade's normal (its local y) is the flat pushing the tissue aside (contact on the lips,
+      // no cut), and a blade drawn backwards (against its local +z, the way its edge faces) or
+      // along its own edge sweeps nothing. So the last edge position is moved sideways into the
+      // blade's current plane, and the sweep counts only when it goes forward.
+      double R[9];
+      quaternion_to_matrix(ts.pose.orientation, R);
+      const double normal[3] = {R[1], R[4], R[7]}, forward[3] = {R[2], R[5], R[8]};
+      Vec3 pa = ts.blade_a, pb = ts.blade_b;
+      double travel[3], len2 = 0, sideways = 0, ahead = 0;
+      for (int i = 0; i < 3; ++i) sideways += 0.5 * (a[i] + b[i] - pa[i] - pb[i]) * normal[i];
       for (int i = 0; i < 3; ++i) {
-        travel[i] = 0.5 * (a[i] + b[i] - ts.blade_a[i] - ts.blade_b[i]);
+        pa[i] += sideways * normal[i];
+        pb[i] += sideways * normal[i];
+        travel[i] = 0.5 * (a[i] + b[i] - pa[i] - pb[i]);
         len2 += travel[i] * travel[i];
+        ahead += travel[i] * forward[i];
       }
       // The swept surface starts behind where the edge was — by its half-thickness or half a
       // tick's travel, whichever is more: each tick tests the mesh where it is now, so tissue
       // that moved back across the edge's last position between two ticks would fall between
       // two sweeps (measured: a node of a sagging beam 0.1 mm behind the edge left the beam
       // joined). An edge is cut once: the overlap cuts nothing twice.
-      Vec3 a0 = ts.blade_a, b0 = ts.blade_b;
+      Vec3 a0 = pa, b0 = pb;
       if (len2 > 0) {
         const double back = std::max(spec.radius / std::sqrt(len2), 0.5);
         for (int i = 0; i < 3; ++i) {
@@ -142,7 +155,7 @@ void cut_with_blades(const Model& m, State& s, TickWorkspace& w) {
         }
       }
       const SweptBlade sweep{a0, b0, a, b};
-      const int n = cut_edges(s.tissue.x.data(), cs.base.adj, m.cut_edge_dofs, sweep, s.edge_cut);
+      const int n = ahead > 0 ? cut_edges(s.tissue.x.data(), cs.base.adj, m.cut_edge_dofs, sweep, s.edge_cut) : 0;
       out.cut_edges = n;
       w.report.cut_edges += n;
       if (n > 0 && spec.cut_toughness > 0 && cs.edges_per_area > 0 && len2 > 0) {

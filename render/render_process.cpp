@@ -153,6 +153,9 @@ struct SceneState {
   stroma_Scene scene{};
   std::map<std::string, int> body_id;        // body name → renderer body
   std::map<std::string, size_t> body_verts;  // vertices of each body's mesh
+  std::map<std::string, uint32_t> body_topology;  // its topology version (states must match)
+  uint64_t topology_changes = 0;  // meshes replaced by a new topology (a cut, or a Reset)
+  uint32_t topology_shown = 0;    // the topology version of the newest state drawn
   std::map<std::string, ToolView> tools;
   uint64_t state_frame = 0;
   double sim_time = 0;
@@ -285,6 +288,7 @@ void start_session(Follower& f, uint64_t session) {
   f.renderer.clear_bodies();
   f.st.body_id.clear();
   f.st.body_verts.clear();
+  f.st.body_topology.clear();
   f.st.tools.clear();
 }
 
@@ -292,15 +296,30 @@ void apply_mesh(Follower& f, const stroma_TissueMesh& m) {
   if (m.session != f.st.session) start_session(f, m.session);
   const size_t nv = m.rest_positions._length / 3;
   const auto it = f.st.body_id.find(m.body);
+  const size_t nt = m.triangles._length / 3;
+  if (m.cut_faces._length != 0 && m.cut_faces._length != nt) {
+    spdlog::error("mesh of body '{}' ignored: {} cut-face flags for {} triangles", m.body, m.cut_faces._length, nt);
+    return;
+  }
+  const uint8_t* cut = m.cut_faces._length ? m.cut_faces._buffer : nullptr;
   try {
     if (it == f.st.body_id.end())
-      f.st.body_id[m.body] = f.renderer.add_body(m.rest_positions._buffer, nv, m.triangles._buffer, m.triangles._length / 3);
+      f.st.body_id[m.body] = f.renderer.add_body(m.rest_positions._buffer, nv, m.triangles._buffer, nt, cut);
     else
-      f.renderer.replace_body(it->second, m.rest_positions._buffer, nv, m.triangles._buffer, m.triangles._length / 3);
+      f.renderer.replace_body(it->second, m.rest_positions._buffer, nv, m.triangles._buffer, nt, cut);
   } catch (const std::exception& e) {
     spdlog::error("mesh of body '{}' ignored: {}", m.body, e.what());
     return;
   }
+  const auto old = f.st.body_topology.find(m.body);
+  if (old != f.st.body_topology.end() && old->second != m.topology_version) {
+    ++f.st.topology_changes;
+    spdlog::debug("body '{}': topology {} ({} vertices, {} triangles)", m.body, m.topology_version, nv, nt);
+    f.st.body_verts[m.body] = nv;
+    f.st.body_topology[m.body] = m.topology_version;
+    return;
+  }
+  f.st.body_topology[m.body] = m.topology_version;
   f.st.body_verts[m.body] = nv;
   f.st.have_mesh = true;
   f.st.camera_dirty = true;
@@ -312,8 +331,8 @@ void apply_mesh(Follower& f, const stroma_TissueMesh& m) {
 /// match its body's mesh is bad. Both are counted, not shown.
 void apply_state(Follower& f, const stroma_TissueState& s) {
   const auto it = f.st.body_id.find(s.body);
-  if (s.session != f.st.session || it == f.st.body_id.end()) {
-    ++f.st.stale_states;
+  if (s.session != f.st.session || it == f.st.body_id.end() || f.st.body_topology[s.body] != s.topology_version) {
+    ++f.st.stale_states;  // (another topology: its mesh is on the way, reliably)
     return;
   }
   const size_t nv = f.st.body_verts[s.body];
@@ -323,6 +342,7 @@ void apply_state(Follower& f, const stroma_TissueState& s) {
   }
   f.renderer.update_body(it->second, s.positions._buffer, s.scalar._buffer, s.damage._length ? s.damage._buffer : nullptr);
   ++f.st.states;
+  f.st.topology_shown = s.topology_version;
   f.st.state_frame = s.frame;
   f.st.sim_time = s.sim_time;
   f.st.newest_publish_ns = s.publish_time_ns;
@@ -535,6 +555,8 @@ nlohmann::ordered_json make_stats(const RenderOptions& o, const render::GlContex
                                  {"p99", latency_ms.percentile_ms(0.99)}};
   stats["states_received"] = st.states;
   stats["states_ignored"] = st.stale_states + st.bad_states;
+  stats["topology_changes"] = st.topology_changes;
+  stats["topology_version_shown"] = st.topology_shown;
   stats["server_restarts"] = st.restarts;
   stats["damage_events"] = {{"warning", st.damage_events[0]}, {"onset", st.damage_events[1]}, {"rupture", st.damage_events[2]}};
   stats["last_sim_time"] = st.sim_time;

@@ -85,8 +85,8 @@ GLuint link(const char* vs, const char* fs) {
   return p;
 }
 
-/// Interleaved vertex: position, normal, (stress, damage).
-constexpr int kFloatsPerVertex = 8;
+/// Interleaved vertex: position, normal, (stress, damage, cut).
+constexpr int kFloatsPerVertex = 9;
 
 /// A triangle mesh on the GPU with its CPU-side vertex array (rewritten every frame).
 struct GpuMesh {
@@ -106,7 +106,7 @@ struct GpuMesh {
     glEnableVertexAttribArray(1);
     glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(3 * sizeof(float)));
     glEnableVertexAttribArray(2);
-    glVertexAttribPointer(2, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(6 * sizeof(float)));
+    glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(6 * sizeof(float)));
     glBindVertexArray(0);
   }
   void destroy() {
@@ -146,6 +146,7 @@ struct Body {
   Vector3f rest_lo, rest_hi;  // bounding box of the rest positions (camera framing)
   std::vector<uint32_t> triangles;
   std::vector<float> positions, stress, damage;
+  std::vector<float> cut;          // per vertex 1: on a cut face (the wound's inner tissue)
   std::vector<float> interleaved;  // kFloatsPerVertex per vertex
   std::vector<Vector3f> normals;
   GpuMesh gpu;
@@ -261,6 +262,7 @@ struct Renderer::Impl {
       o[5] = b.normals[i].z();
       o[6] = b.stress.empty() ? 0.0f : b.stress[i];
       o[7] = b.damage.empty() ? 0.0f : b.damage[i];
+      o[8] = b.cut.empty() ? 0.0f : b.cut[i];
     }
     b.gpu.upload_vertices(b.interleaved.data(), nv);
     b.dirty = false;
@@ -394,6 +396,8 @@ struct Renderer::Impl {
     const auto [smin, smax] = field_range();
     const Vector3f tissue = linear(look.tissue);
     glUniform3f(loc("u_base"), tissue.x(), tissue.y(), tissue.z());
+    const Vector3f cut = linear(look.cut_tissue);
+    glUniform3f(loc("u_cut"), cut.x(), cut.y(), cut.z());
     glUniform1i(loc("u_field"), static_cast<int>(look.field));
     glUniform2f(loc("u_range"), smin, smax);
     glUniform1f(loc("u_shininess"), 48.0f);
@@ -509,18 +513,27 @@ Renderer::~Renderer() {
   s.destroy_framebuffers();
 }
 
-int Renderer::add_body(const float* rest, size_t vertices, const uint32_t* triangles, size_t triangle_count) {
+int Renderer::add_body(const float* rest, size_t vertices, const uint32_t* triangles, size_t triangle_count,
+                       const uint8_t* cut_faces) {
+  check_triangles(triangles, triangle_count, vertices);
   impl_->bodies.emplace_back();
   impl_->bodies.back().gpu.create();
   const int id = static_cast<int>(impl_->bodies.size()) - 1;
-  replace_body(id, rest, vertices, triangles, triangle_count);
+  replace_body(id, rest, vertices, triangles, triangle_count, cut_faces);
   return id;
 }
 
 void Renderer::replace_body(int id, const float* rest, size_t vertices, const uint32_t* triangles,
-                            size_t triangle_count) {
+                            size_t triangle_count, const uint8_t* cut_faces) {
   check_triangles(triangles, triangle_count, vertices);
   Body& b = impl_->bodies.at(id);
+  b.cut.clear();
+  if (cut_faces) {
+    b.cut.assign(vertices, 0.0f);
+    for (size_t t = 0; t < triangle_count; ++t)
+      if (cut_faces[t])
+        for (int k = 0; k < 3; ++k) b.cut[triangles[3 * t + k]] = 1.0f;
+  }
   b.positions.assign(rest, rest + 3 * vertices);
   b.rest_lo = Vector3f::Constant(1e30f);
   b.rest_hi = Vector3f::Constant(-1e30f);

@@ -30,6 +30,7 @@ struct Camera {
 struct Look {
   Vec3f background_top{0.20f, 0.23f, 0.28f}, background_bottom{0.04f, 0.045f, 0.055f};
   Vec3f tissue{0.66f, 0.26f, 0.22f};  ///< liver-like red-brown
+  Vec3f cut_tissue{0.85f, 0.10f, 0.09f};  ///< the inner faces a cut exposed: fresh, bloody red
   Vec3f tool{0.80f, 0.82f, 0.86f};    ///< brushed steel
   Vec3f marker{1.0f, 0.85f, 0.15f};   ///< contact markers
   /// Key light direction in world coordinates (from the light towards the scene); all zero:
@@ -64,10 +65,14 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   /// Adds a body with its rest positions (3 floats per vertex) and triangles (3 indices each,
-  /// counter-clockwise from outside); returns its id. Throws on an index out of range.
-  int add_body(const float* rest, size_t vertices, const uint32_t* triangles, size_t triangle_count);
-  /// Replaces body `id`'s surface (a new mesh from a restarted server).
-  void replace_body(int id, const float* rest, size_t vertices, const uint32_t* triangles, size_t triangle_count);
+  /// counter-clockwise from outside); returns its id. `cut_faces` (optional, one per triangle):
+  /// 1 draws the triangle as cut tissue (Look::cut_tissue; its vertices should be its own, or
+  /// the colour spreads to the skin triangles sharing them). Throws on an index out of range.
+  int add_body(const float* rest, size_t vertices, const uint32_t* triangles, size_t triangle_count,
+               const uint8_t* cut_faces = nullptr);
+  /// Replaces body `id`'s surface (a new mesh: a restarted server, or a new topology).
+  void replace_body(int id, const float* rest, size_t vertices, const uint32_t* triangles, size_t triangle_count,
+                    const uint8_t* cut_faces = nullptr);
   size_t body_count() const;
   /// Removes every body (a new scene).
   void clear_bodies();

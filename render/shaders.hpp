@@ -5,15 +5,16 @@
 
 namespace stroma::render {
 
-/// Tissue and tool surfaces: world-space position, normal, and two fields (stress, damage).
+/// Tissue and tool surfaces: world-space position, normal, and three fields (stress, damage,
+/// cut: 1 on the faces a cut made).
 inline constexpr const char* kMeshVertexShader = R"(#version 330 core
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec3 a_normal;
-layout(location = 2) in vec2 a_field;
+layout(location = 2) in vec3 a_field;
 uniform mat4 u_view_proj;
 out vec3 v_pos;
 out vec3 v_normal;
-out vec2 v_field;
+out vec3 v_field;
 void main() {
   v_pos = a_pos;
   v_normal = a_normal;
@@ -28,12 +29,13 @@ void main() {
 inline constexpr const char* kMeshFragmentShader = R"(#version 330 core
 in vec3 v_pos;
 in vec3 v_normal;
-in vec2 v_field;
+in vec3 v_field;
 uniform vec3 u_eye;
 uniform vec3 u_key_dir;
 uniform vec3 u_fill_dir;
 uniform vec3 u_sky;
 uniform vec3 u_base;
+uniform vec3 u_cut;
 uniform int u_field;
 uniform vec2 u_range;
 uniform float u_shininess;
@@ -69,6 +71,7 @@ void main() {
     base = mix(base, bruise, smoothstep(0.0, 0.9, d));
     base = mix(base, wound, smoothstep(0.9, 1.0, d));
   }
+  base = mix(base, u_cut, clamp(v_field.z, 0.0, 1.0));  // a cut's inner faces
   vec3 L = -u_key_dir;
   vec3 H = normalize(L + V);
   float key = max(dot(n, L), 0.0);

@@ -8,6 +8,7 @@
 # runs it at normal priority.
 # Usage: scripts/demo.sh [SCENARIO [TRAJECTORY]]   (run scripts/build.sh first; scripts/run.sh does)
 # Environment: OUT (default out/demo), STROMA_DOMAIN (default 7), FPS (30), SIZE (640x480),
+# TOOL_NAME (the scenario's tool the script drives; default probe),
 # SERVE_ARGS (more options for `stroma serve`, e.g. "--phase-lead-us 0"), TOOL_ARGS (for
 # `stroma tool`, e.g. "--no-realtime").
 set -euo pipefail
@@ -22,6 +23,7 @@ out="${OUT:-out/demo}"
 domain="${STROMA_DOMAIN:-7}"
 fps="${FPS:-30}"
 size="${SIZE:-640x480}"
+tool_name="${TOOL_NAME:-probe}"
 width="${size%x*}"
 height="${size#*x}"
 stroma=./build/stroma
@@ -65,7 +67,7 @@ if ! grep -q "recording" "$out/render.log"; then
   exit 1
 fi
 echo "demo: driving the tool with $trajectory (${script_s} s)"
-"$stroma" tool --name probe --script "$trajectory" --domain "$domain" --out "$out/tool.csv" ${TOOL_ARGS:-} \
+"$stroma" tool --name "$tool_name" --script "$trajectory" --domain "$domain" --out "$out/tool.csv" ${TOOL_ARGS:-} \
   > "$out/tool.log" 2>&1 || { echo "demo: the tool client failed:" >&2; cat "$out/tool.log" >&2; exit 1; }
 
 status=0

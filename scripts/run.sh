@@ -2,10 +2,15 @@
 # The main job, end to end on a fresh Debian machine with no display: install what is missing,
 # build, then run the default scenario (SOFA's liver with a probe) as the demo: real-time
 # server, off-screen renderer and a scripted tool over DDS on loopback (scripts/demo.sh).
-# Frames, video and timing statistics go to out/demo/.
+# Frames, video and timing statistics go to out/demo/. Then, without arguments, the second demo:
+# a scalpel incises the liver and the video shows the wound (scripts/demo_incision.sh,
+# out/incision/).
 # Usage: scripts/run.sh [SCENARIO [TRAJECTORY]]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 scripts/build.sh
-exec scripts/demo.sh "$@"
+if [ $# -gt 0 ]; then exec scripts/demo.sh "$@"; fi
+scripts/demo.sh
+echo
+exec scripts/demo_incision.sh

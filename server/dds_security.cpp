@@ -28,10 +28,11 @@ namespace {
 /// Server → client topics (the server writes them; readers as permitted).
 const char* const kServerTopics[] = {"stroma_ToolFeedback", "stroma_TissueMesh", "stroma_TissueState",
                                      "stroma_ToolState",    "stroma_Scene",      "stroma_DamageEvent",
-                                     "stroma_SimStatus"};
+                                     "stroma_SimStatus",    "stroma_TopologyEvent"};
 /// What the renderer reads.
 const char* const kRendererTopics[] = {"stroma_TissueMesh", "stroma_TissueState", "stroma_ToolState",
-                                       "stroma_Scene",      "stroma_DamageEvent", "stroma_SimStatus"};
+                                       "stroma_Scene",      "stroma_DamageEvent", "stroma_SimStatus",
+                                       "stroma_TopologyEvent"};
 
 /// Certificate subjects: no spaces (Cyclone compares subject names token by token).
 std::string subject(const std::string& name) { return "CN=stroma-" + name + ",O=Stroma"; }

@@ -52,7 +52,7 @@ struct Endpoints {
   /// name the partitions it may write), with the tool it serves (−1: any).
   std::vector<dds_entity_t> command_readers;
   std::vector<int> command_reader_tool;
-  dds_entity_t feedback_writer = 0, damage_writer = 0;
+  dds_entity_t feedback_writer = 0, damage_writer = 0, topology_writer = 0;
   dds_entity_t tool_state_writer = 0, scene_writer = 0;
   dds_entity_t waitset = 0;
 };
@@ -127,6 +127,8 @@ Endpoints create_endpoints(dds_entity_t pp, const Model& model, bool per_tool_pa
   dds_qset_reliability(q_events, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_history(q_events, DDS_HISTORY_KEEP_ALL, 0);
   e.damage_writer = dds_check(dds_create_writer(pp, t_damage, q_events, nullptr), "writer stroma_DamageEvent");
+  const dds_entity_t t_topology = dds_check(dds_create_topic(pp, &stroma_TopologyEvent_desc, "stroma_TopologyEvent", nullptr, nullptr), "topic stroma_TopologyEvent");
+  e.topology_writer = dds_check(dds_create_writer(pp, t_topology, q_events, nullptr), "writer stroma_TopologyEvent");
   dds_delete_qos(q_events);
   dds_delete_qos(q_fast);
   dds_qos_t* q_mesh = make_qos(true, true);
@@ -192,9 +194,13 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
     dds_publication_matched_status_t ms{};
     if (dds_get_publication_matched_status(ep.state_writer, &ms) >= 0)
       loop.state_wanted.store(ms.current_count > 0);
-    if (loop.state_out.update()) {
+    if (loop.state_out.update() && surfaces.update(loop.state_out.read_slot())) {
       const StateFrame& f = loop.state_out.read_slot();
-      surfaces.update(f);
+      if (surfaces.topology_changed())  // a new topology: its meshes before its states
+        for (size_t b = 0; b < surfaces.surfaces().size(); ++b) {
+          const stroma_TissueMesh msg = tissue_mesh_message(surfaces.surfaces()[b], static_cast<uint32_t>(b), session);
+          dds_write(ep.mesh_writer, &msg);
+        }
       const int64_t now = monotonic_ns();
       for (const PublishedSurface& s : surfaces.surfaces()) {
         const stroma_TissueState msg = tissue_state_message(s, f, now, session);
@@ -217,6 +223,20 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
       msg.sim_time = ev.time;
       std::snprintf(msg.tool, sizeof(msg.tool), "%s", ev.tool >= 0 ? m.tools[ev.tool].name.c_str() : "");
       dds_write(ep.damage_writer, &msg);
+    }
+    TopologyEventRecord tev;
+    while (loop.topology_out.pop(tev)) {
+      stroma_TopologyEvent msg{};
+      msg.session = session;
+      msg.topology_version = static_cast<uint32_t>(tev.topology_version);
+      msg.sim_time = tev.sim_time;
+      msg.tick = tev.tick;
+      msg.edges_cut = static_cast<uint32_t>(tev.cut.edges_cut);
+      msg.elements_split = static_cast<uint32_t>(tev.cut.elements_split);
+      msg.nodes_created = static_cast<uint32_t>(tev.cut.nodes_created);
+      msg.faces_created = static_cast<uint32_t>(tev.cut.faces_created);
+      msg.cut_area = tev.cut.cut_area;
+      dds_write(ep.topology_writer, &msg);
     }
     if (loop.status_out.update()) {
       const StatusFrame& st = loop.status_out.read_slot();
@@ -668,6 +688,7 @@ int run_serve(const ServeOptions& o) {
     const int physics_cpu = o.cpu >= 0 ? o.cpu : model->fem_every > 1 && ncpu > 1 ? static_cast<int>(ncpu) - 1 : -1;
     lo.physics_cpu = physics_cpu;
     PhysicsLoop loop(model, lo);
+    surfaces.set_cut_models(&loop.cut_models);
     std::thread physics([&] {
       rt = setup_realtime_thread(rt_mode, physics_cpu);
       if (rt_mode == RealtimeMode::Fifo && !rt.fifo) rt_failed = true;

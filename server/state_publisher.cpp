@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <unordered_map>
 
+#include "engine/cut_compile.hpp"
 #include "haptics/tool_shape.hpp"
 #include "tissue/fem_forces.hpp"
 
@@ -20,33 +22,150 @@ void set_sequence(T& seq, const auto* data, size_t n) {
 
 }  // namespace
 
-SurfaceExtractor::SurfaceExtractor(const CompiledScenario& sc) : m_(*sc.model) {
-  const Model& m = *sc.model;
+namespace {
+
+/// Vertices of a surface being made, each a weighted sum of ≤ 4 DOFs, numbered in order of
+/// first use by key.
+struct VertexNumbering {
+  PublishedSurface& s;
+  std::unordered_map<int64_t, uint32_t> index;
+  uint32_t add(int64_t key, const std::array<int32_t, 4>& dofs, const std::array<double, 4>& w) {
+    const auto [it, fresh] = index.try_emplace(key, static_cast<uint32_t>(s.vertex_dofs.size()));
+    if (fresh) {
+      s.vertex_dofs.push_back(dofs);
+      s.vertex_weights.push_back(w);
+    }
+    return it->second;
+  }
+};
+
+/// The point of a cut topology's surface vertex as ≤ 4 weighted DOFs.
+void cut_vertex_dofs(const CutVertex& p, std::array<int32_t, 4>& d, std::array<double, 4>& w) {
+  d = {p.a, p.b, p.a, p.a};
+  w = {1.0 - p.t, p.t, 0.0, 0.0};
+}
+
+bool copies_share_dof(const ElementCopy& a, const ElementCopy& b) {
+  for (int32_t x : a.dof)
+    for (int32_t y : b.dof)
+      if (x == y) return true;
+  return false;
+}
+
+bool tets_touch(const Tet& a, const Tet& b) {
+  for (int32_t x : a)
+    for (int32_t y : b)
+      if (x == y) return true;
+  return false;
+}
+
+/// A visual mesh on a cut model: each vertex re-mapped into the copy of its tetrahedron whose
+/// material holds it (so it follows its side of the wound), and the triangles that span the cut
+/// dropped — a triangle with two vertices in copies that share no DOF although their
+/// tetrahedra touch: the cut runs between them. The wound's own faces fill the gap.
+void remap_visual(const Model& m, const VisualModel& vis, PublishedSurface& s) {
+  const CutTopology& topo = *m.topology;
+  const CutSupport& cs = *m.cutting;
+  const VisualMapping& map = vis.mapping;
+  std::vector<int32_t> copy(map.size());
+  for (size_t v = 0; v < map.size(); ++v) {
+    const int32_t tet = map.tet[v];
+    const Tet& t = cs.base.tets[tet];
+    std::array<double, 4> bary{};
+    int found = 0;
+    for (int j = 0; j < 4; ++j)
+      for (int i = 0; i < 4; ++i)
+        if (map.node[v][i] == t[j]) {
+          bary[j] = map.w[v][i];
+          ++found;
+          break;
+        }
+    const int32_t c = found == 4 ? copy_containing(topo, cs.base.tets, cs.uncut.rest, m.cut_edge_state, cs.base.adj, tet, bary)
+                                 : topo.tet_copy_begin[tet];
+    copy[v] = c;
+    s.vertex_dofs.push_back(topo.copies[c].dof);
+    s.vertex_weights.push_back(found == 4 ? bary : std::array<double, 4>{map.w[v][0], map.w[v][1], map.w[v][2], map.w[v][3]});
+    if (found != 4) s.vertex_dofs.back() = map.node[v];  // (not expected: the mapping names its tet's nodes)
+  }
+  for (size_t i = 0; i + 2 < vis.triangles.size(); i += 3) {
+    bool spans = false;
+    for (int a = 0; a < 3 && !spans; ++a) {
+      const uint32_t va = vis.triangles[i + a], vb = vis.triangles[i + (a + 1) % 3];
+      const int32_t ca = copy[va], cb = copy[vb];
+      spans = ca != cb && !copies_share_dof(topo.copies[ca], topo.copies[cb]) &&
+              tets_touch(cs.base.tets[map.tet[va]], cs.base.tets[map.tet[vb]]);
+    }
+    if (!spans) s.triangles.insert(s.triangles.end(), {vis.triangles[i], vis.triangles[i + 1], vis.triangles[i + 2]});
+  }
+}
+
+}  // namespace
+
+SurfaceExtractor::SurfaceExtractor(const CompiledScenario& sc, const CutModelRegistry* cut_models)
+    : sc_(sc), cut_models_(cut_models), model_(sc.model) {
+  make_surfaces(*model_);
+}
+
+void SurfaceExtractor::make_surfaces(const Model& m) {
   const FemModel& fem = m.fem;
+  const bool cut = m.topology_version > 0;
+  surfaces_.clear();
   for (size_t b = 0; b < fem.bodies.size(); ++b) {
     const BodyRange& body = fem.bodies[b];
     PublishedSurface s;
     s.name = body.name;
-    if (b < sc.visuals.size() && sc.visuals[b]) {
-      const VisualModel& v = *sc.visuals[b];
+    s.topology_version = static_cast<uint32_t>(m.topology_version);
+    const VisualModel* vis = b < sc_.visuals.size() && sc_.visuals[b] ? &*sc_.visuals[b] : nullptr;
+    VertexNumbering skin{s, {}};
+    if (vis) {
       s.visual = true;
-      s.mapping = &v.mapping;
-      for (const Vec3& p : v.rest) s.rest.insert(s.rest.end(), {float(p[0]), float(p[1]), float(p[2])});
-      s.triangles = v.triangles;
-    } else {
-      std::vector<int32_t> local(fem.num_nodes, -1);
-      for (const Tri& t : body.boundary)
-        for (int32_t n : t) {
-          if (local[n] < 0) {
-            local[n] = static_cast<int32_t>(s.nodes.size());
-            s.nodes.push_back(n);
-          }
-          s.triangles.push_back(static_cast<uint32_t>(local[n]));
+      if (cut) {
+        remap_visual(m, *vis, s);
+      } else {
+        for (size_t v = 0; v < vis->mapping.size(); ++v) {
+          s.vertex_dofs.push_back(vis->mapping.node[v]);
+          s.vertex_weights.push_back(vis->mapping.w[v]);
         }
-      for (int32_t n : s.nodes)
-        for (int k = 0; k < 3; ++k) s.rest.push_back(static_cast<float>(fem.rest[3 * n + k]));
+        s.triangles = vis->triangles;
+      }
+    } else if (!cut) {
+      for (const Tri& t : body.boundary)
+        for (int32_t n : t) s.triangles.push_back(skin.add(n, {n, n, n, n}, {1.0, 0.0, 0.0, 0.0}));
+    } else {
+      // The uncut part of the body's surface, over the cut topology's vertices.
+      for (const CutTriangle& t : m.topology->triangles) {
+        if (t.cut || t.copy < body.element_begin || t.copy >= body.element_end) continue;
+        for (int32_t v : t.v) {
+          std::array<int32_t, 4> d;
+          std::array<double, 4> w;
+          cut_vertex_dofs(m.topology->vertices[v], d, w);
+          s.triangles.push_back(skin.add(v, d, w));
+        }
+      }
     }
-    const size_t nv = s.rest.size() / 3;
+    if (cut) {
+      // The wound: the cut faces, over vertices of their own.
+      s.cut_faces.assign(s.triangles.size() / 3, 0);
+      VertexNumbering wound{s, {}};
+      for (const CutTriangle& t : m.topology->triangles) {
+        if (!t.cut || t.copy < body.element_begin || t.copy >= body.element_end) continue;
+        for (int32_t v : t.v) {
+          std::array<int32_t, 4> d;
+          std::array<double, 4> w;
+          cut_vertex_dofs(m.topology->vertices[v], d, w);
+          s.triangles.push_back(wound.add(v, d, w));
+        }
+        s.cut_faces.push_back(1);
+      }
+    }
+    const size_t nv = s.vertex_dofs.size();
+    s.rest.resize(3 * nv);
+    for (size_t v = 0; v < nv; ++v)
+      for (int k = 0; k < 3; ++k) {
+        double acc = 0;
+        for (int i = 0; i < 4; ++i) acc += s.vertex_weights[v][i] * fem.rest[3 * s.vertex_dofs[v][i] + k];
+        s.rest[3 * v + k] = static_cast<float>(acc);
+      }
     s.positions.resize(3 * nv);
     s.scalar.resize(nv);
     if (m.has_damage) s.damage.resize(nv);
@@ -57,45 +176,53 @@ SurfaceExtractor::SurfaceExtractor(const CompiledScenario& sc) : m_(*sc.model) {
   node_damage_.resize(fem.num_nodes);
 }
 
-void SurfaceExtractor::update(const StateFrame& f) {
-  const FemModel& fem = m_.fem;
+bool SurfaceExtractor::update(const StateFrame& f) {
+  changed_ = false;
+  if (f.cut_serial != model_->cut_serial) {
+    std::shared_ptr<const Model> m = f.cut_serial == 0 ? sc_.model : cut_models_ ? cut_models_->find(f.cut_serial) : nullptr;
+    if (!m || static_cast<size_t>(m->fem.num_nodes) != f.dofs) {
+      ++skipped_;
+      return false;
+    }
+    model_ = std::move(m);
+    make_surfaces(*model_);
+    changed_ = true;
+  }
+  const FemModel& fem = model_->fem;
   element_von_mises(fem, f.x.data(), element_vm_.data());
   // Nodal stress: the mean of its elements (smooth colours); nodal damage: the largest (a torn
   // element shows at every node it touches).
+  const bool damage = f.elements > 0;
   for (int32_t n = 0; n < fem.num_nodes; ++n) {
     double acc = 0;
     float dmax = 0;
     for (int32_t j = fem.node_element_ptr[n]; j < fem.node_element_ptr[n + 1]; ++j) {
       acc += element_vm_[fem.node_element[j]];
-      if (!f.damage.empty()) dmax = std::max(dmax, f.damage[fem.node_element[j]]);
+      if (damage) dmax = std::max(dmax, f.damage[fem.node_element[j]]);
     }
     const int32_t cnt = fem.node_element_ptr[n + 1] - fem.node_element_ptr[n];
     node_vm_[n] = static_cast<float>(cnt ? acc / cnt : 0.0);
     node_damage_[n] = dmax;
   }
   for (PublishedSurface& s : surfaces_) {
-    if (s.visual) {
-      const VisualMapping& map = *s.mapping;
-      map.apply(f.x.data(), s.positions.data());
-      for (size_t v = 0; v < map.size(); ++v) {
-        float vm = 0, d = 0;
-        for (int k = 0; k < 4; ++k) {
-          const float w = static_cast<float>(map.w[v][k]);
-          vm += w * node_vm_[map.node[v][k]];
-          d += w * node_damage_[map.node[v][k]];
-        }
-        s.scalar[v] = vm;
-        if (!s.damage.empty()) s.damage[v] = d;
+    const size_t nv = s.vertex_dofs.size();
+    for (size_t v = 0; v < nv; ++v) {
+      const std::array<int32_t, 4>& d = s.vertex_dofs[v];
+      const std::array<double, 4>& w = s.vertex_weights[v];
+      double p[3] = {0, 0, 0};
+      float vm = 0, dm = 0;
+      for (int i = 0; i < 4; ++i) {
+        if (w[i] == 0.0) continue;
+        for (int k = 0; k < 3; ++k) p[k] += w[i] * f.x[3 * static_cast<size_t>(d[i]) + k];
+        vm += static_cast<float>(w[i]) * node_vm_[d[i]];
+        dm += static_cast<float>(w[i]) * node_damage_[d[i]];
       }
-    } else {
-      for (size_t i = 0; i < s.nodes.size(); ++i) {
-        const int32_t n = s.nodes[i];
-        for (int k = 0; k < 3; ++k) s.positions[3 * i + k] = static_cast<float>(f.x[3 * n + k]);
-        s.scalar[i] = node_vm_[n];
-        if (!s.damage.empty()) s.damage[i] = node_damage_[n];
-      }
+      for (int k = 0; k < 3; ++k) s.positions[3 * v + k] = static_cast<float>(p[k]);
+      s.scalar[v] = vm;
+      if (!s.damage.empty()) s.damage[v] = dm;
     }
   }
+  return true;
 }
 
 stroma_TissueMesh tissue_mesh_message(const PublishedSurface& s, uint32_t b, uint64_t session) {
@@ -104,7 +231,9 @@ stroma_TissueMesh tissue_mesh_message(const PublishedSurface& s, uint32_t b, uin
   msg.body_index = b;
   msg.visual = s.visual;
   msg.session = session;
+  msg.topology_version = s.topology_version;
   set_sequence(msg.rest_positions, s.rest.data(), s.rest.size());
+  set_sequence(msg.cut_faces, s.cut_faces.data(), s.cut_faces.size());
   set_sequence(msg.triangles, s.triangles.data(), s.triangles.size());
   return msg;
 }
@@ -117,6 +246,7 @@ stroma_TissueState tissue_state_message(const PublishedSurface& s, const StateFr
   msg.sim_time = f.sim_time;
   msg.publish_time_ns = publish_ns;
   msg.session = session;
+  msg.topology_version = s.topology_version;
   set_sequence(msg.positions, s.positions.data(), s.positions.size());
   set_sequence(msg.scalar, s.scalar.data(), s.scalar.size());
   set_sequence(msg.damage, s.damage.data(), s.damage.size());

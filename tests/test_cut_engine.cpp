@@ -412,7 +412,7 @@ TEST(CutEngine, CuttingWithDamageGraspingAndBodyContact) {
   ToolInput in[2];
   in[0].tool = 0;
   in[1].tool = 1;
-  in[1].pose.orientation = {0.5, -0.5, -0.5, -0.5};  // edge along z, normal along x, back along y
+  in[1].pose.orientation = {0.5, 0.5, -0.5, 0.5};  // edge along z, normal along −x, facing down (−y)
   auto drive = [&](int k, const Vec3& grasp_at, double jaw, double blade_y) {
     in[0].seq = in[1].seq = static_cast<uint64_t>(k + 1);
     in[0].pose.position = grasp_at;
@@ -447,4 +447,44 @@ TEST(CutEngine, CuttingWithDamageGraspingAndBodyContact) {
   // a penalty contact holds).
   for (int32_t d = m.fem.bodies[1].node_begin; d < m.fem.bodies[1].node_end; ++d)
     EXPECT_GT(run.s.tissue.x[3 * d + 1], 0.05 - 0.001) << "DOF " << d;
+}
+
+// Only the sharp edge cuts, in the blade's plane: drawn backwards (its blunt back first) or
+// pushed sideways (its flat first) through the beam, the blade cuts no edge; drawn forwards
+// along the same path it cuts the beam through.
+TEST(CutEngine, OnlyTheEdgeCutsAndOnlyForwards) {
+  ScenarioSpec spec = beam_with_scalpel(false, 1e8);
+  spec.tools[0].spec.radius = 2e-5;
+  CutRun run(spec);
+  auto cut_count = [&] {
+    return std::count_if(run.s.edge_cut.begin(), run.s.edge_cut.end(), [](double t) { return t != kEdgeUncut; });
+  };
+  uint64_t seq = 0;
+  auto drive = [&](const ToolPose& p) {
+    ToolInput in;
+    in.seq = ++seq;
+    in.pose = p;
+    run.step(&in, 1);
+  };
+  for (int k = 0; k <= 20; ++k) drive(blade_at(0.03 - 0.002 * k));  // down through it, back first
+  EXPECT_EQ(cut_count(), 0) << "the blunt back cut";
+  auto at = [](double x, double y) {
+    ToolPose p = blade_at(y);
+    p.position[0] = x;
+    return p;
+  };
+  // Below the beam to beyond its free end (x = 0.1), up there, then sideways (along its normal,
+  // world −x) 20 mm into the beam's end at mid-height.
+  for (int k = 1; k <= 10; ++k) drive(at(kCutX + (0.115 - kCutX) * k / 10, -0.01));
+  for (int k = 1; k <= 10; ++k) drive(at(0.115, -0.01 + 0.0015 * k));
+  for (int k = 1; k <= 25; ++k) drive(at(0.115 - 0.001 * k, 0.005));
+  EXPECT_EQ(cut_count(), 0) << "the flat cut";
+  // Back below the beam (down: back first) and to the cut's plane, then up through it.
+  for (int k = 1; k <= 10; ++k) drive(at(0.09, 0.005 - 0.0015 * k));
+  for (int k = 1; k <= 10; ++k) drive(at(0.09 + (kCutX - 0.09) * k / 10, -0.01));
+  EXPECT_EQ(cut_count(), 0);
+  for (int k = 0; k <= 20; ++k) drive(blade_at(-0.01 + 0.002 * k));  // up through it, edge first
+  EXPECT_GT(cut_count(), 0);
+  EXPECT_GT(run.swaps, 0);
+  EXPECT_NEAR(run.m->cut_stats.cut_area, kWidth * kWidth, 0.03 * kWidth * kWidth) << "cut through";
 }

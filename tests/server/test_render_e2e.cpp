@@ -263,3 +263,40 @@ TEST(RenderEndToEnd, AStalledRendererDoesNotDisturbTheServerAndResumesAtTheNewes
   fs::remove_all(out);
   fs::remove(stats);
 }
+
+// A running renderer follows a cut: `stroma serve` cuts the liver as a scripted scalpel incises
+// it (scenarios/liver_incision.yaml); every new topology re-publishes the mesh, and the renderer
+// replaces its mesh and goes on drawing the new topology's states — no restart, no state
+// dropped as misfit beyond the few in flight at a change.
+TEST(RenderEndToEnd, TheRendererFollowsTheCutTopology) {
+  const std::string domain = "146";
+  const fs::path out = fs::temp_directory_path() / ("stroma_e2e_cut_" + std::to_string(getpid()));
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const fs::path serve_stats = out / "serve_stats.json";
+  Process server({STROMA_BINARY, "serve", kSrc + "/scenarios/liver_incision.yaml", "--domain", domain, "--realtime",
+                  "off", "--duration", "60", "--stats", serve_stats.string()});
+  Process renderer({STROMA_BINARY, "render", "--domain", domain, "--out", (out / "frames").string(), "--duration", "4",
+                    "--fps", "15", "--width", "240", "--height", "180", "--msaa", "0", "--no-video", "--wait", "30"});
+  const auto deadline = Clock::now() + std::chrono::seconds(30);
+  while (!fs::exists(out / "frames" / "frame_000001.png") && Clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(fs::exists(out / "frames" / "frame_000001.png")) << "the renderer wrote no frame";
+  Process tool({STROMA_BINARY, "tool", "--name", "scalpel", "--script",
+                kSrc + "/scenarios/trajectories/liver_incision.yaml", "--domain", domain, "--rate", "500",
+                "--no-realtime"});
+  EXPECT_EQ(tool.wait_exit(30), 0);
+  EXPECT_EQ(renderer.wait_exit(60), 0);
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(20), 0);
+  const auto rs = nlohmann::json::parse(std::ifstream(out / "frames" / "render_stats.json"));
+  const auto ss = nlohmann::json::parse(std::ifstream(serve_stats));
+  ASSERT_TRUE(ss.contains("cutting")) << ss.dump();
+  const int version = ss["cutting"]["topology_version"].get<int>();
+  EXPECT_GT(version, 0) << "the scalpel cut nothing";
+  EXPECT_EQ(rs["server_restarts"].get<int>(), 0);
+  EXPECT_GE(rs["topology_changes"].get<int>(), 1) << "the renderer never replaced its mesh";
+  EXPECT_EQ(rs["topology_version_shown"].get<int>(), version) << "the last topology drawn is not the server's";
+  EXPECT_LT(rs["states_ignored"].get<int>(), rs["states_received"].get<int>() / 4);
+  fs::remove_all(out);
+}
