@@ -340,6 +340,15 @@ TEST(Serve, CuttingSessionReplaysBitForBit) {
   Process server({STROMA_BINARY, "serve", incision, "--domain", "136", "--realtime", "off", "--duration", "60",
                   "--record", rec, "--final-state", fin, "--stats", stats});
   Client client(136);
+  // The topology events, as a client would read them (reliable, keep all).
+  const dds_entity_t t_topo = dds_create_topic(client.participant(), &stroma_TopologyEvent_desc, "stroma_TopologyEvent",
+                                               nullptr, nullptr);
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
+  const dds_entity_t topo_reader = dds_create_reader(client.participant(), t_topo, q, nullptr);
+  dds_delete_qos(q);
+  ASSERT_GT(topo_reader, 0);
   ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
   Process tool({STROMA_BINARY, "tool", "--name", "scalpel", "--script", script, "--rate", "1000", "--duration", "2.2",
                 "--domain", "136"});
@@ -364,6 +373,22 @@ TEST(Serve, CuttingSessionReplaysBitForBit) {
     while (std::getline(f, line)) logged += line.find(",topology,") != std::string::npos;
   }
   EXPECT_EQ(logged, swaps) << "every swap is in the session log";
+  // One topology event per swap, versions 1, 2, …, the last with the run's cut figures.
+  std::vector<stroma_TopologyEvent> events;
+  for (;;) {
+    void* samples[16] = {nullptr};
+    dds_sample_info_t infos[16];
+    const dds_return_t n = dds_take(topo_reader, samples, infos, 16, 16);
+    if (n <= 0) break;
+    for (dds_return_t i = 0; i < n; ++i)
+      if (infos[i].valid_data) events.push_back(*static_cast<stroma_TopologyEvent*>(samples[i]));
+    dds_return_loan(topo_reader, samples, n);
+  }
+  ASSERT_EQ(static_cast<int>(events.size()), swaps) << "a topology event per swap";
+  for (size_t i = 0; i < events.size(); ++i) EXPECT_EQ(events[i].topology_version, i + 1);
+  EXPECT_EQ(events.back().elements_split, j["cutting"]["elements_split"].get<uint32_t>());
+  EXPECT_NEAR(events.back().cut_area, j["cutting"]["cut_area"].get<double>(), 1e-12);
+  EXPECT_GT(events.back().sim_time, 0.0);
 
   Process replay({STROMA_BINARY, "run", incision, "--replay", rec, "--out", (dir / "replay").string(), "--quiet",
                   "--no-metrics"});
