@@ -362,7 +362,7 @@ void compile_collision_faces(Model& model) {
     }
     model.collision_edge.push_back(e);
   };
-  model.element_faces.assign(fem.elements.size(), {-1, -1, -1, -1});
+  std::vector<std::array<int32_t, 4>> faces_of(fem.elements.size(), {-1, -1, -1, -1});
   for (size_t bi = 0; bi < fem.bodies.size(); ++bi) {
     const BodyRange& b = fem.bodies[bi];
     if (!model.body_damage[bi].enabled) {
@@ -382,13 +382,19 @@ void compile_collision_faces(Model& model) {
         const auto it = seen.find(k);
         if (it == seen.end()) {
           seen.emplace(k, static_cast<int32_t>(model.collision_triangles.size()));
-          model.element_faces[e][f] = static_cast<int32_t>(model.collision_triangles.size());
+          faces_of[e][f] = static_cast<int32_t>(model.collision_triangles.size());
           add_face(tri, e, -1);
         } else {
           model.collision_face_elem[it->second][1] = e;
-          model.element_faces[e][f] = it->second;
+          faces_of[e][f] = it->second;
         }
       }
+  }
+  model.element_face_ptr.assign(1, 0);
+  for (const auto& fs : faces_of) {
+    for (int32_t f : fs)
+      if (f >= 0) model.element_face.push_back(f);
+    model.element_face_ptr.push_back(static_cast<int32_t>(model.element_face.size()));
   }
 }
 

@@ -49,9 +49,9 @@ void compile_cut_surface(const CutTopology& topo, Model& m, std::vector<double>&
   // Each embedded point's material end: the end its copy holds as material (a cut vertex lies
   // on an edge between one of its copy's material nodes and one virtual node).
   m.collision_embedded_dof.assign(m.collision_embedded.size(), -1);
-  for (const CutTriangle& t : topo.triangles) {
-    const ElementCopy& c = topo.copies[t.copy];
-    for (int32_t v : t.v) {
+  auto material_ends = [&](const std::array<int32_t, 3>& tv, int32_t copy) {
+    const ElementCopy& c = topo.copies[copy];
+    for (int32_t v : tv) {
       if (point[v] < f.num_nodes) continue;
       int32_t& d = m.collision_embedded_dof[point[v] - f.num_nodes];
       if (d >= 0) continue;
@@ -60,19 +60,40 @@ void compile_cut_surface(const CutTopology& topo, Model& m, std::vector<double>&
       for (int k = 0; k < 4; ++k)
         if ((c.material >> k & 1) && (c.dof[k] == cv.a || c.dof[k] == cv.b)) d = c.dof[k];
     }
-  }
-  for (const CutTriangle& t : topo.triangles) {
-    const std::array<int32_t, 3> tri{point[t.v[0]], point[t.v[1]], point[t.v[2]]};
+  };
+  for (const CutTriangle& t : topo.triangles) material_ends(t.v, t.copy);
+  for (const CutInternalFace& t : topo.internal) material_ends(t.v, t.a);
+  // A body that can tear (a damage model) gets, as in the uncut model, the faces inside it too:
+  // each surface face belongs to its copy (closed when that copy ruptures), each internal face
+  // to the two copies it lies between (open when exactly one of them has ruptured).
+  auto tears = [&](int32_t copy) {
+    for (size_t b = 0; b < f.bodies.size(); ++b)
+      if (copy >= f.bodies[b].element_begin && copy < f.bodies[b].element_end)
+        return b < m.body_damage.size() && m.body_damage[b].enabled;
+    return false;
+  };
+  std::vector<std::vector<int32_t>> faces_of(f.elements.size());
+  auto add_face = [&](const std::array<int32_t, 3>& v, int32_t ea, int32_t eb, bool cut) {
+    const std::array<int32_t, 3> tri{point[v[0]], point[v[1]], point[v[2]]};
+    const int32_t id = static_cast<int32_t>(m.collision_triangles.size());
     m.collision_triangles.push_back(tri);
-    m.collision_dofs.push_back(
-        triangle_dofs(f.pattern, tri, f.num_nodes, m.collision_embedded_dof));
+    m.collision_dofs.push_back(triangle_dofs(f.pattern, tri, f.num_nodes, m.collision_embedded_dof));
     double e = 0;
     for (int a = 0; a < 3; ++a) e = std::max(e, distance(&rest_points[3 * tri[a]], &rest_points[3 * tri[(a + 1) % 3]]));
     m.collision_edge.push_back(e);
-    m.collision_face_elem.push_back({-1, -1});
-    m.collision_cut_face.push_back(t.cut ? 1 : 0);
+    m.collision_face_elem.push_back({ea, eb});
+    m.collision_cut_face.push_back(cut ? 1 : 0);
+    if (ea >= 0) faces_of[ea].push_back(id);
+    if (eb >= 0) faces_of[eb].push_back(id);
+  };
+  for (const CutTriangle& t : topo.triangles) add_face(t.v, tears(t.copy) ? t.copy : -1, -1, t.cut);
+  for (const CutInternalFace& t : topo.internal)
+    if (tears(t.a) && tears(t.b)) add_face(t.v, t.a, t.b, false);
+  m.element_face_ptr.assign(1, 0);
+  for (const auto& fs : faces_of) {
+    m.element_face.insert(m.element_face.end(), fs.begin(), fs.end());
+    m.element_face_ptr.push_back(static_cast<int32_t>(m.element_face.size()));
   }
-  m.element_faces.assign(f.elements.size(), {-1, -1, -1, -1});
 }
 
 /// Body contact over the cut surface: the scenario's stiffness and depths, the surface points
@@ -155,6 +176,7 @@ void enable_cutting(Model& m) {
   for (const auto& e : cs->base.adj.edges) length += distance(&m.fem.rest[3 * e[0]], &m.fem.rest[3 * e[1]]);
   for (const ElementParams& e : m.fem.elements) volume += e.volume;
   cs->edges_per_area = volume > 0 ? 0.5 * length / volume : 0.0;
+  cs->internal_faces = m.has_damage && m.has_contact;
   m.topology = cs->uncut_topology;
   m.cut_edge_dofs = cs->base.adj.edges;
   m.cutting = std::move(cs);

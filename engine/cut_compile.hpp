@@ -26,6 +26,9 @@ struct CutSupport {
   /// |e|/2 per unit of its offset). The cut area of one tick is estimated from the edges it
   /// cut: ΔA ≈ n / this (the exact area follows from the topology once it is rebuilt).
   double edges_per_area = 0;
+  /// Some body can tear (a damage model and contact): cut topologies list their internal faces,
+  /// which become collision faces that a rupture opens, as the uncut model's tet faces do.
+  bool internal_faces = false;
 };
 
 /// Sets up cutting on a freshly compiled uncut model (compile_scenario calls it when a tool

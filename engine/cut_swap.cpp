@@ -87,7 +87,7 @@ CutBuild build_cut(const Model& current, const std::vector<double>& edge_cut) {
   b.base_version = current.topology_version;
   const CutSupport& cs = *current.cutting;
   auto topo = std::make_shared<const CutTopology>(
-      build_cut_topology(cs.base.tets, cs.uncut.rest, cs.base.adj, edge_cut, cs.base.node_ranges));
+      build_cut_topology(cs.base.tets, cs.uncut.rest, cs.base.adj, edge_cut, cs.base.node_ranges, cs.internal_faces));
   const CutTopology& old = *current.topology;
   b.changed = topo->copies.size() != old.copies.size() || topo->num_dofs != old.num_dofs;
   if (b.changed) {
@@ -127,6 +127,18 @@ bool apply_cut(CutBuild& b, std::shared_ptr<const Model>& m, std::unique_ptr<Tic
     }
     ns.damage_count = s.damage_count;
     ns.first_damage_time = s.first_damage_time;
+    // The tears carried over: a face is surface where exactly one side is intact (a body without
+    // a damage model: always).
+    for (size_t f = 0; f < ns.face_active.size(); ++f) {
+      const int32_t ea = nm.collision_face_elem[f][0], eb = nm.collision_face_elem[f][1];
+      if (ea < 0 && eb < 0) {
+        ns.face_active[f] = 1;
+        continue;
+      }
+      const bool a_ok = ea >= 0 && ns.damage_level[ea] != kRuptured;
+      const bool b_ok = eb >= 0 && ns.damage_level[eb] != kRuptured;
+      ns.face_active[f] = a_ok && !b_ok ? 1 : (!a_ok && b_ok ? 2 : 0);
+    }
   }
   std::copy(s.tools.begin(), s.tools.end(), ns.tools.begin());
   std::copy(s.edge_cut.begin(), s.edge_cut.end(), ns.edge_cut.begin());

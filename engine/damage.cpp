@@ -75,8 +75,8 @@ int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* reco
         }
         if (level == kRuptured && !s.face_active.empty()) {
           // The tear: faces between this element and an intact one become surface.
-          for (int32_t f : m.element_faces[e]) {
-            if (f < 0) continue;
+          for (int32_t j = m.element_face_ptr[e]; j < m.element_face_ptr[e + 1]; ++j) {
+            const int32_t f = m.element_face[j];
             const int32_t ea = m.collision_face_elem[f][0], eb = m.collision_face_elem[f][1];
             const bool a_ok = ea >= 0 && s.damage_level[ea] != kRuptured;
             const bool b_ok = eb >= 0 && s.damage_level[eb] != kRuptured;

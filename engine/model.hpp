@@ -49,7 +49,7 @@ struct CutStats {
 ///  - `has_contact` ⇔ some tool has a shape or `body_contact` is set; then the collision arrays
 ///    (triangles, slots, edges, face_elem) are parallel and non-empty only for contact scenes.
 ///  - `has_damage` ⇔ some body_damage[b].enabled; element_node_mass is sized to the elements
-///    then (empty otherwise), element_faces to the elements when has_contact.
+///    then (empty otherwise), element_face_ptr to the elements + 1 when has_contact.
 ///  - `max_step_displacement` > 0: half the rest bounding-box diagonal of the whole scene.
 struct Model {
   std::string name;                ///< the scenario's name (logs, outputs, published scene)
@@ -92,7 +92,10 @@ struct Model {
   /// damage model are their boundary ({−1, −1}: always active); bodies with one get every tet
   /// face, active when exactly one side is intact (a tear exposes the inner faces).
   std::vector<std::array<int32_t, 2>> collision_face_elem;
-  std::vector<std::array<int32_t, 4>> element_faces;  ///< collision face of each tet face (−1: none)
+  /// The collision faces of element e (those a change of its damage level can open or close):
+  /// element_face[element_face_ptr[e] .. element_face_ptr[e + 1]). An uncut tetrahedron lists its
+  /// faces; a copy of a cut one, its part of the cut surface and of the faces it shares.
+  std::vector<int32_t> element_face_ptr, element_face;
   std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
 
   // Cutting (docs/CUTTING.md). A scenario with a cutting tool compiles its uncut model with

@@ -21,6 +21,7 @@
 
 #include "engine/cut_compile.hpp"
 #include "engine/cut_swap.hpp"
+#include "engine/damage.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
@@ -487,4 +488,96 @@ TEST(CutEngine, OnlyTheEdgeCutsAndOnlyForwards) {
   EXPECT_GT(cut_count(), 0);
   EXPECT_GT(run.swaps, 0);
   EXPECT_NEAR(run.m->cut_stats.cut_area, kWidth * kWidth, 0.03 * kWidth * kWidth) << "cut through";
+}
+
+// Rupture uses the surface machinery of cutting: a cut model of a body that can tear lists the
+// faces between its glued copies, and a rupture opens them as it opens an uncut model's tet
+// faces. The beam is cut through at 62.5 mm; then the most stressed copy of a split tetrahedron
+// (and whatever is as stressed) ruptures under gravity: its own surface closes, the faces
+// between it and intact copies open, facing away from the intact side; a second cut carries
+// the tears into the next model.
+TEST(CutEngine, ARuptureInACutModelOpensTheFacesItShares) {
+  ScenarioSpec spec = beam_with_scalpel(true, 1e6);
+  spec.tools[0].spec.radius = 2e-5;
+  DamageSpec& d = spec.bodies[0].material.damage;
+  d.enabled = true;
+  d.measure = DamageMeasure::VonMises;
+  d.onset = 1e15;  // never, while the beam is cut
+  d.rupture = 2e15;
+  CutRun run(spec);
+  cut_through(run, total_mass(*run.m));
+  ASSERT_GT(run.m->topology_version, 0);
+  const Model& cut = *run.m;
+  auto is_split = [&](int32_t e) {
+    const int32_t t = cut.topology->copies[e].tet;
+    return cut.topology->tet_copy_begin[t + 1] - cut.topology->tet_copy_begin[t] > 1;
+  };
+  int internal = 0, internal_split = 0;
+  for (const auto& fe : cut.collision_face_elem)
+    if (fe[0] >= 0 && fe[1] >= 0) {
+      ++internal;
+      internal_split += is_split(fe[0]) || is_split(fe[1]);
+    }
+  EXPECT_GT(internal_split, 0) << "faces between copies of split tetrahedra";
+  EXPECT_GT(internal, 100);
+  for (uint8_t a : run.s.face_active) ASSERT_LE(a, 1);  // nothing torn yet
+  // Rupture: the threshold at the most stressed copy of a split tetrahedron sagging under gravity.
+  for (int k = 0; k < 20; ++k) run.step();
+  int32_t target = -1;
+  double worst = 0;
+  for (int32_t e = 0; e < static_cast<int32_t>(cut.fem.elements.size()); ++e) {
+    const double v = element_damage_measure(cut, run.s.tissue.x.data(), e, DamageMeasure::VonMises);
+    if (is_split(e) && v > worst) {
+      worst = v;
+      target = e;
+    }
+  }
+  ASSERT_GE(target, 0);
+  ASSERT_GT(worst, 0.0);
+  auto tearing = std::make_shared<Model>(cut);
+  tearing->body_damage[0].onset = 0.5 * worst;
+  tearing->body_damage[0].rupture = 0.999 * worst;
+  update_damage(*tearing, run.s);
+  ASSERT_EQ(run.s.damage_level[target], kRuptured);
+  auto expected = [&](const Model& m, const State& s, size_t f) -> uint8_t {
+    const int32_t ea = m.collision_face_elem[f][0], eb = m.collision_face_elem[f][1];
+    if (ea < 0 && eb < 0) return 1;
+    const bool a_ok = ea >= 0 && s.damage_level[ea] != kRuptured;
+    const bool b_ok = eb >= 0 && s.damage_level[eb] != kRuptured;
+    return a_ok && !b_ok ? 1 : (!a_ok && b_ok ? 2 : 0);
+  };
+  int opened = 0;
+  for (int32_t j = cut.element_face_ptr[target]; j < cut.element_face_ptr[target + 1]; ++j) {
+    const int32_t f = cut.element_face[j];
+    const auto& fe = cut.collision_face_elem[f];
+    if (fe[1] < 0) EXPECT_EQ(run.s.face_active[f], 0) << "the ruptured copy's own surface";
+    const int32_t other = fe[0] == target ? fe[1] : fe[0];
+    if (fe[1] >= 0 && run.s.damage_level[other] != kRuptured) {
+      EXPECT_EQ(run.s.face_active[f], fe[0] == target ? 2 : 1) << "facing away from the intact copy";
+      ++opened;
+    }
+  }
+  EXPECT_GT(opened, 0) << "no face of the torn copy opened";
+  for (size_t f = 0; f < run.s.face_active.size(); ++f) ASSERT_EQ(run.s.face_active[f], expected(cut, run.s, f)) << f;
+  // The torn scene goes on and is cut again at 30 mm: the tears carry into the next model.
+  run.m = tearing;
+  run.w = std::make_unique<TickWorkspace>(*run.m);
+  const int ruptured = run.s.damage_count[kRuptured];
+  const int version = run.m->topology_version;
+  for (int k = 0; k <= 20; ++k) {
+    ToolInput in;
+    in.seq = static_cast<uint64_t>(1000 + k);
+    in.pose = blade_at(-0.01 + 0.002 * k);
+    in.pose.position[0] = 0.0325;
+    run.step(&in, 1);
+  }
+  ASSERT_GT(run.m->topology_version, version);
+  EXPECT_GE(run.s.damage_count[kRuptured], ruptured);
+  int torn_open = 0;
+  for (size_t f = 0; f < run.s.face_active.size(); ++f) {
+    ASSERT_EQ(run.s.face_active[f], expected(*run.m, run.s, f)) << f;
+    torn_open += run.s.face_active[f] == 2 || (run.m->collision_face_elem[f][1] >= 0 && run.s.face_active[f] == 1);
+  }
+  EXPECT_GT(torn_open, 0) << "the tears did not carry into the new model";
+  for (double v : run.s.tissue.x) ASSERT_TRUE(std::isfinite(v));
 }

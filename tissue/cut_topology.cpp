@@ -469,7 +469,7 @@ TetAdjacency build_tet_adjacency(const std::vector<Tet>& tets, int32_t num_nodes
 
 CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<double>& rest,
                                const TetAdjacency& adj, const std::vector<double>& edge_cut,
-                               const std::vector<int32_t>& node_ranges) {
+                               const std::vector<int32_t>& node_ranges, bool internal_faces) {
   CutTopology topo;
   const int32_t num_nodes = static_cast<int32_t>(rest.size() / 3);
   const int32_t nt = static_cast<int32_t>(tets.size());
@@ -583,7 +583,8 @@ CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<d
     for (int k = 0; k < 4; ++k) topo.copies[c].dof[k] = dof_of_class[class_of[4 * c + k]];
 
   // 4. Surface: each copy's boundary, what glued copies share cancelled. Whole tetrahedra
-  // between whole neighbours contribute nothing (their shared faces would cancel).
+  // between whole neighbours contribute nothing to it (their shared faces cancel), so they are
+  // added only when the internal faces are wanted (the cancelled pairs are those).
   SurfaceBuilder sb;
   std::vector<char> split(static_cast<size_t>(nt), 0);
   for (int32_t t = 0; t < nt; ++t) split[t] = topo.tet_copy_begin[t + 1] - topo.tet_copy_begin[t] > 1;
@@ -597,7 +598,7 @@ CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<d
         tris.clear();
         for (int f = 0; f < 4; ++f) {
           const int32_t u = adj.face_neighbor[t][f];
-          if (u < 0 || split[u]) face_cells(v, f, cp.material, tris);
+          if (u < 0 || split[u] || internal_faces) face_cells(v, f, cp.material, tris);
         }
         orient(v, cp.material, tris);
       }
@@ -623,7 +624,11 @@ CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<d
   }
   topo.vertices = std::move(sb.vertices);
   for (const SurfaceBuilder::Entry& e : sb.entries) {
-    if (e.net == 0) continue;
+    if (e.net == 0) {
+      if (internal_faces && e.copy_pos >= 0 && e.copy_neg >= 0)
+        topo.internal.push_back({{e.sorted[0], e.sorted[1], e.sorted[2]}, e.copy_pos, e.copy_neg});
+      continue;
+    }
     if (e.net > 1 || e.net < -1) ++topo.unpaired_faces;
     if (e.net > 0) topo.triangles.push_back({{e.sorted[0], e.sorted[1], e.sorted[2]}, e.copy_pos, e.cut_pos});
     else topo.triangles.push_back({{e.sorted[0], e.sorted[2], e.sorted[1]}, e.copy_neg, e.cut_neg});
@@ -634,6 +639,14 @@ CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<d
   std::vector<CutVertex> used;
   for (CutTriangle& t : topo.triangles)
     for (int32_t& v : t.v) {
+      if (renumber[v] < 0) {
+        renumber[v] = static_cast<int32_t>(used.size());
+        used.push_back(topo.vertices[v]);
+      }
+      v = renumber[v];
+    }
+  for (CutInternalFace& f : topo.internal)  // (after the surface's: its numbering is unchanged)
+    for (int32_t& v : f.v) {
       if (renumber[v] < 0) {
         renumber[v] = static_cast<int32_t>(used.size());
         used.push_back(topo.vertices[v]);

@@ -74,6 +74,13 @@ struct CutTriangle {
   bool cut = false;            ///< a face the cut made (inner tissue), not the uncut surface
 };
 
+/// A face inside the material: shared by two glued copies (`a`, `b`), counter-clockwise seen
+/// from outside a's material (into b). Tears open such faces (engine/damage.cpp).
+struct CutInternalFace {
+  std::array<int32_t, 3> v{};  ///< CutTopology::vertices
+  int32_t a = 0, b = 0;        ///< the copies on either side
+};
+
 /// The topology of a cut mesh. Invariants: copies are ordered by tetrahedron (a tetrahedron's
 /// copies contiguous, by their lowest material node); each tetrahedron has ≥ 1 copy and its
 /// copies' fractions sum to 1; every DOF is used by some copy or is an unused node's; dof_node
@@ -93,6 +100,9 @@ struct CutTopology {
   std::vector<int32_t> range_dof_begin;  ///< per node range, its first DOF (and num_dofs last)
   std::vector<CutVertex> vertices;
   std::vector<CutTriangle> triangles;
+  /// The faces between glued copies (only when asked for: build_cut_topology's internal_faces);
+  /// their vertices follow the surface's in `vertices`.
+  std::vector<CutInternalFace> internal;
   int32_t split_tets = 0;       ///< tetrahedra with more than one copy
   int32_t cut_edges = 0;        ///< edges with a cut point
   /// Triangles the cancellation could not pair (overlapping parts of one face): 0 on every
@@ -109,9 +119,11 @@ struct CutTopology {
 /// stay together: {0, n₁, …, num_nodes}; {0, num_nodes} for one body. Throws
 /// std::invalid_argument when the arrays do not fit together (sizes, ranges not covering the
 /// nodes in order). Surface vertices are numbered in order of first use by a triangle.
+/// `internal_faces`: also list the faces between glued copies (CutTopology::internal), for
+/// bodies that can tear; the surface is the same either way.
 CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<double>& rest,
                                const TetAdjacency& adj, const std::vector<double>& edge_cut,
-                               const std::vector<int32_t>& node_ranges);
+                               const std::vector<int32_t>& node_ranges, bool internal_faces = false);
 
 /// The copy of tetrahedron `tet` whose material holds the point with barycentric coordinates
 /// `bary` (weights of the tet's four nodes) in the rest shape.
