@@ -155,7 +155,9 @@ void cut_with_blades(const Model& m, State& s, TickWorkspace& w) {
         }
       }
       const SweptBlade sweep{a0, b0, a, b};
-      const int n = ahead > 0 ? cut_edges(s.tissue.x.data(), cs.base.adj, m.cut_edge_dofs, sweep, s.edge_cut) : 0;
+      const int n = ahead > 0 ? cut_edges(s.tissue.x.data(), cs.base.adj, m.cut_edge_dofs, sweep, s.edge_cut,
+                                           cs.base.min_fraction.data())
+                                : 0;
       out.cut_edges = n;
       w.report.cut_edges += n;
       if (n > 0 && spec.cut_toughness > 0 && cs.edges_per_area > 0 && len2 > 0) {

@@ -54,7 +54,7 @@ bool in_triangle(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c) {
 }  // namespace
 
 int cut_edges(const double* x, const TetAdjacency& adj, const std::vector<std::array<int32_t, 2>>& edge_points,
-              const SweptBlade& blade, std::vector<double>& edge_cut) {
+              const SweptBlade& blade, std::vector<double>& edge_cut, const double* min_fraction) {
   // One side function for the whole swept quad (its mean plane: normal from the diagonals,
   // through the centroid), so every node has one side this tick — the two triangles' own planes
   // disagree in the last bit for a node on them, which split a node's edges between the sides
@@ -90,7 +90,8 @@ int cut_edges(const double* x, const TetAdjacency& adj, const std::vector<std::a
     const double off = dot(n, sub(xc, c)) / dot(n, n);
     for (int k = 0; k < 3; ++k) xc[k] -= off * n[k];
     if (!in_triangle(xc, blade.a0, blade.b0, blade.b1) && !in_triangle(xc, blade.a0, blade.b1, blade.a1)) continue;
-    edge_cut[e] = std::clamp(t, kCutMinFraction, 1.0 - kCutMinFraction);
+    const double f = min_fraction ? min_fraction[e] : kCutMinFraction;
+    edge_cut[e] = std::clamp(t, f, 1.0 - f);
     ++cut;
   }
   return cut;

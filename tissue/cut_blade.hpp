@@ -21,12 +21,12 @@ struct SweptBlade {
 };
 
 /// Cuts every uncut edge of `adj` that the swept surface crosses: edge_cut[e] becomes the
-/// crossing's parameter from the edge's lower node, kept in [kCutMinFraction,
-/// 1 − kCutMinFraction]. The edge's ends are the points edge_points[e] of `x` (3 per point): on
+/// crossing's parameter from the edge's lower node, kept in [f_e, 1 − f_e] with f_e =
+/// min_fraction[e] (null: kCutMinFraction for every edge; cut_topology.hpp). The edge's ends are the points edge_points[e] of `x` (3 per point): on
 /// the uncut mesh its nodes (adj.edges); on a cut one, the DOFs of a copy holding the (uncut)
 /// edge as material. Returns the number of edges it cut. No allocation.
 int cut_edges(const double* x, const TetAdjacency& adj, const std::vector<std::array<int32_t, 2>>& edge_points,
-              const SweptBlade& blade, std::vector<double>& edge_cut);
+              const SweptBlade& blade, std::vector<double>& edge_cut, const double* min_fraction = nullptr);
 /// The same on the uncut mesh (edge ends: its nodes).
 inline int cut_edges(const double* x, const TetAdjacency& adj, const SweptBlade& blade, std::vector<double>& edge_cut) {
   return cut_edges(x, adj, adj.edges, blade, edge_cut);

@@ -1,5 +1,7 @@
 #include "tissue/cut_model.hpp"
 
+#include <cmath>
+
 #include <stdexcept>
 #include <string>
 
@@ -14,6 +16,27 @@ CutBase make_cut_base(const FemModel& uncut) {
   b.adj = build_tet_adjacency(b.tets, uncut.num_nodes);
   for (const BodyRange& r : uncut.bodies) b.node_ranges.push_back(r.node_begin);
   b.node_ranges.push_back(uncut.num_nodes);
+  // Each edge's clamp, from its body's shortest edge (the edges of a body are its nodes').
+  auto length = [&](const std::array<int32_t, 2>& e) {
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double d = uncut.rest[3 * e[1] + k] - uncut.rest[3 * e[0] + k];
+      d2 += d * d;
+    }
+    return std::sqrt(d2);
+  };
+  std::vector<double> h_min(uncut.bodies.size(), 1e300);
+  auto body_of = [&](int32_t n) {
+    size_t r = 0;
+    while (r + 1 < uncut.bodies.size() && n >= uncut.bodies[r].node_end) ++r;
+    return r;
+  };
+  for (const auto& e : b.adj.edges) {
+    const double l = length(e);
+    if (l > 0) h_min[body_of(e[0])] = std::min(h_min[body_of(e[0])], l);
+  }
+  b.min_fraction.reserve(b.adj.edges.size());
+  for (const auto& e : b.adj.edges) b.min_fraction.push_back(cut_edge_min_fraction(length(e), h_min[body_of(e[0])]));
   return b;
 }
 

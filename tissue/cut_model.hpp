@@ -23,6 +23,9 @@ struct CutBase {
   std::vector<Tet> tets;
   TetAdjacency adj;
   std::vector<int32_t> node_ranges;  ///< {bodies[0].node_begin, …, bodies.back().node_end}
+  /// Per edge, how close to its ends a cut point may lie (cut_edge_min_fraction: relative to
+  /// its body's shortest edge).
+  std::vector<double> min_fraction;
 };
 
 /// The cut base of an uncut model.

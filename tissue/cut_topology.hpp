@@ -48,10 +48,21 @@ TetAdjacency build_tet_adjacency(const std::vector<Tet>& tets, int32_t num_nodes
 
 /// "Not cut" in an edge-cut array.
 inline constexpr double kEdgeUncut = -1.0;
-/// Cut points are kept this far (as a fraction of the edge) from the edge's ends, so no copy's
-/// volume share falls below kCutMinFraction³ and no cut face degenerates. The cut surface moves
-/// by at most this fraction of an edge's length (docs/CUTTING.md, accuracy).
+/// Cut points are kept at least a fraction f_e of an edge from its ends, so no copy's volume
+/// share falls below f_e³ and no cut face degenerates: f_e = kCutMinFraction on an edge no longer
+/// than 4·(the body's shortest edge); on longer edges it shrinks, to keep the cut within
+/// kCutMaxShift of the body's shortest edge of the blade (the shift is f_e·|e|), down to
+/// kCutMinFractionFloor (on an edge over 20× the shortest). cut_edge_min_fraction computes it.
 inline constexpr double kCutMinFraction = 0.05;
+inline constexpr double kCutMinFractionFloor = 0.01;
+inline constexpr double kCutMaxShift = 0.2;  ///< of the body's shortest edge (the issue's bound: 1/4)
+
+/// f_e for an edge of length `length` in a body whose shortest edge is `h_min`.
+inline double cut_edge_min_fraction(double length, double h_min) {
+  if (!(length > 0)) return kCutMinFraction;
+  const double f = kCutMaxShift * h_min / length;
+  return f > kCutMinFraction ? kCutMinFraction : f < kCutMinFractionFloor ? kCutMinFractionFloor : f;
+}
 
 /// One copy of a tetrahedron. `material` has bit k set when local node k is on its side.
 struct ElementCopy {
@@ -114,7 +125,7 @@ struct CutTopology {
 };
 
 /// The topology of the mesh (`tets` over `rest`, 3 per node) cut at `edge_cut` (per edge of
-/// `adj`: the parameter along it from its lower node, in [kCutMinFraction, 1 − kCutMinFraction],
+/// `adj`: the parameter along it from its lower node, in [f_e, 1 − f_e] (f_e ≤ kCutMinFraction),
 /// or kEdgeUncut). `node_ranges` split the nodes into consecutive ranges (the bodies) whose DOFs
 /// stay together: {0, n₁, …, num_nodes}; {0, num_nodes} for one body. Throws
 /// std::invalid_argument when the arrays do not fit together (sizes, ranges not covering the
