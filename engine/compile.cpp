@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <map>
 #include <cmath>
 #include <filesystem>
 #include <unordered_map>
@@ -231,6 +232,62 @@ std::vector<PreparedMesh> load_meshes(const ScenarioSpec& spec, std::vector<std:
   return meshes;
 }
 
+/// A body's `regions:`: each region's tetrahedra (by the mesh's region name or tag) get the
+/// body's material with what the region changes. Errors name the region entry.
+void apply_regions(const BodySpec& b, const PreparedMesh& pm, const std::string& field, FemBodyInput& in) {
+  if (b.regions.empty()) return;
+  const TetMesh& mesh = pm.mesh;
+  std::map<int32_t, size_t> tets_of;
+  for (int32_t t : mesh.tet_tags) ++tets_of[t];
+  auto region_list = [&] {
+    std::string out;
+    for (const auto& [tag, n] : tets_of) {
+      std::string name;
+      for (const auto& [t, nm] : mesh.tag_names)
+        if (t == tag) name = nm;
+      out += fmt::format("{}{}{} ({} tets)", out.empty() ? "" : ", ", tag, name.empty() ? "" : " '" + name + "'", n);
+    }
+    return out;
+  };
+  const ElementMaterial base{in.young_modulus, in.poisson_ratio, in.density, in.rayleigh_stiffness};
+  in.element_material.assign(mesh.tets.size(), base);
+  std::map<int32_t, size_t> given;
+  for (size_t k = 0; k < b.regions.size(); ++k) {
+    const RegionSpec& r = b.regions[k];
+    const std::string rf = fmt::format("{}.regions[{}].region", field, k);
+    auto fail = [&](const std::string& msg) { throw InputError(r.region_where.file, r.region_where.line, rf, msg); };
+    if (mesh.tet_tags.empty())
+      fail(fmt::format("mesh {} has no regions: none of its tetrahedra is in a gmsh physical volume (give the "
+                       "volumes physical groups, e.g. Physical Volume(\"tumour\") = {{2}};)",
+                       b.mesh_path));
+    int32_t tag = r.tag;
+    if (!r.name.empty()) {
+      bool found = false;
+      for (const auto& [t, nm] : mesh.tag_names)
+        if (nm == r.name) {
+          tag = t;
+          found = true;
+        }
+      if (!found) fail(fmt::format("no region named '{}' in {}; its regions are: {}", r.name, b.mesh_path, region_list()));
+    }
+    if (tets_of.count(tag) == 0)
+      fail(fmt::format("no tetrahedron of {} is in region {}; its regions are: {}", b.mesh_path, tag, region_list()));
+    if (const auto g = given.find(tag); g != given.end())
+      fail(fmt::format("region {} is given twice (also {}.regions[{}])", tag, field, g->second));
+    given[tag] = k;
+    ElementMaterial em = base;
+    if (r.young_modulus) em.young_modulus = *r.young_modulus;
+    if (r.poisson_ratio) em.poisson_ratio = *r.poisson_ratio;
+    if (r.density) em.density = *r.density;
+    if (r.rayleigh_stiffness) em.rayleigh_stiffness = *r.rayleigh_stiffness;
+    const std::string err = validate_material(em.young_modulus, em.poisson_ratio, em.density, b.material.rayleigh_mass,
+                                              em.rayleigh_stiffness);
+    if (!err.empty()) throw InputError(r.where.file, r.where.line, fmt::format("{}.regions[{}].material", field, k), err);
+    for (size_t t = 0; t < mesh.tets.size(); ++t)
+      if (mesh.tet_tags[t] == tag) in.element_material[t] = em;
+  }
+}
+
 /// Materials, constraints and loads of each body, validated against its mesh, as FEM inputs.
 std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes) {
   std::vector<FemBodyInput> inputs;
@@ -252,6 +309,7 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
     in.rayleigh_mass = mat.rayleigh_mass;
     in.rayleigh_stiffness = mat.rayleigh_stiffness;
     in.mesh = &pm;
+    apply_regions(b, pm, field, in);
     for (size_t k = 0; k < b.fixed.size(); ++k) {
       auto sel = select_nodes(b.fixed[k], pm, fmt::format("{}.fixed[{}]", field, k));
       for (int32_t i : sel) in.fixed.push_back({i, b.fixed[k].axes});
@@ -279,7 +337,7 @@ void compile_damage(const ScenarioSpec& spec, Model& model) {
   model.element_node_mass.resize(f.elements.size());
   for (size_t bi = 0; bi < f.bodies.size(); ++bi)
     for (int32_t e = f.bodies[bi].element_begin; e < f.bodies[bi].element_end; ++e)
-      model.element_node_mass[e] = spec.bodies[bi].material.density * f.elements[e].volume / 4.0;
+      model.element_node_mass[e] = element_density(f, e, f.bodies[bi]) * f.elements[e].volume / 4.0;
 }
 
 /// Probes: each point located in its body's tetrahedra (a point far outside is an error).

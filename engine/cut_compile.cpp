@@ -108,7 +108,9 @@ void compile_cut_body_contact(const BodyContactModel& uncut, const CutTopology& 
   const size_t points = rest_points.size() / 3;
   std::vector<double> area(points, 0.0);
   std::vector<std::vector<int32_t>> tris_of(points);
-  for (size_t t = 0; t < m.collision_triangles.size(); ++t) {
+  // The surface only (the first topo.triangles.size() collision faces; faces inside a body that
+  // can tear follow them): body contact's vertices are the surface's points, as in the uncut model.
+  for (size_t t = 0; t < topo.triangles.size(); ++t) {
     const auto& tri = m.collision_triangles[t];
     const double third =
         triangle_area(&rest_points[3 * tri[0]], &rest_points[3 * tri[1]], &rest_points[3 * tri[2]]) / 3.0;
@@ -139,7 +141,7 @@ void compile_cut_body_contact(const BodyContactModel& uncut, const CutTopology& 
     for (int32_t t : tris_of[v]) bc.vertex_tris.push_back(m.collision_triangles[t]);
   }
   bc.vertex_tri_begin.push_back(static_cast<int32_t>(bc.vertex_tris.size()));
-  for (const CutTriangle& t : topo.triangles) bc.triangle_body.push_back(body_of_dof(f, topo.copies[t.copy].dof[0]));
+  for (const auto& tri : m.collision_triangles) bc.triangle_body.push_back(point_body(tri[0]));
   m.body_contact = std::move(bc);
 }
 
@@ -214,7 +216,7 @@ std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<c
     m->element_node_mass.resize(f.elements.size());
     for (const BodyRange& b : f.bodies)
       for (int32_t e = b.element_begin; e < b.element_end; ++e)
-        m->element_node_mass[e] = b.density * f.elements[e].volume / 4.0;
+        m->element_node_mass[e] = element_density(f, e, b) * f.elements[e].volume / 4.0;
   }
   m->body_tets.resize(f.bodies.size());
   for (size_t b = 0; b < f.bodies.size(); ++b)

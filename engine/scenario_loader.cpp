@@ -10,6 +10,7 @@
 /// with which range.
 
 #include <algorithm>
+#include <charconv>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -193,6 +194,47 @@ MaterialSpec parse_material(const Field& f) {
   return mat;
 }
 
+/// `regions:` entry: `{region: NAME_OR_TAG, material: {young_modulus, poisson_ratio, density,
+/// rayleigh_stiffness}}` — a region of the mesh and what of the body's material it changes.
+RegionSpec parse_region(const Field& f) {
+  const MapReader m = f.map({"region", "material"});
+  RegionSpec r;
+  r.where = location_of(m);
+  const Field which = m.req("region");
+  r.region_where = location_of(which);
+  const std::string text = which.string();
+  int32_t tag = 0;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), tag);
+  if (ec == std::errc() && ptr == text.data() + text.size()) r.tag = tag;
+  else r.name = text;
+  const MapReader mm = m.req("material").map({"young_modulus", "poisson_ratio", "density", "rayleigh_stiffness"});
+  Range nu = open_interval(-1, 0.5);
+  nu.note_hi = "0.5 is incompressible; use 0.49 or lower";
+  Range beta = physical_range(0, 1e3, "");
+  beta.note_hi = "s: tissue is 1e-3..1e-1 s";
+  double v = 0;
+  if (mm.opt("young_modulus")) {
+    mm.require("young_modulus", v, physical_range(1e-9, 1e12, "soft tissue is 1e2..1e6 Pa, a stiff tumour ~10x its organ"));
+    r.young_modulus = v;
+  }
+  if (mm.opt("poisson_ratio")) {
+    mm.require("poisson_ratio", v, nu);
+    r.poisson_ratio = v;
+  }
+  if (mm.opt("density")) {
+    mm.require("density", v, physical_range(1e-12, 1e6, "tissue is ~1000 kg/m^3 in SI"));
+    r.density = v;
+  }
+  if (mm.opt("rayleigh_stiffness")) {
+    mm.require("rayleigh_stiffness", v, beta);
+    r.rayleigh_stiffness = v;
+  }
+  if (!r.young_modulus && !r.poisson_ratio && !r.density && !r.rayleigh_stiffness)
+    m.req("material").fail("a region's material changes at least one of young_modulus, poisson_ratio, density, "
+                           "rayleigh_stiffness (the rest is the body's)");
+  return r;
+}
+
 BoxSpec parse_box(const Field& f) {
   const MapReader m = f.map({"min", "max"});
   BoxSpec box;
@@ -294,6 +336,7 @@ BodySpec parse_body(const MapReader& m, const Context& ctx) {
   b.material = parse_material(m.req("material"));
   for (const auto& item : m.list("fixed")) b.fixed.push_back(parse_fixed(item));
   for (const auto& item : m.list("loads")) b.loads.push_back(parse_load(item));
+  for (const auto& item : m.list("regions")) b.regions.push_back(parse_region(item));
   if (auto f = m.opt("visual")) {
     // `visual: FILE` or `visual: {mesh: FILE, max_distance: D}`.
     VisualSpec v;
@@ -527,7 +570,8 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   if (body_items.empty()) bodies.fail("at least one body is required");
   std::map<std::string, int> body_names;
   for (const auto& item : body_items) {
-    const MapReader bm = item.map({"name", "mesh", "scale", "translate", "material", "fixed", "loads", "visual"});
+    const MapReader bm =
+        item.map({"name", "mesh", "scale", "translate", "material", "regions", "fixed", "loads", "visual"});
     s.bodies.push_back(parse_body(bm, ctx));
     check_unique_name(body_names, s.bodies.back().name, bm.req("name"), "body");
   }

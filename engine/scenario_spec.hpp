@@ -161,6 +161,17 @@ struct VisualSpec {
 };
 
 /// One deformable body.
+/// `regions:` entry of a body: the tetrahedra of one region of its mesh (a gmsh physical group,
+/// chosen by name or tag) with their own material — what it gives replaces the body's, the rest
+/// is the body's. Regions of one body must not overlap.
+struct RegionSpec {
+  std::string name;       ///< the mesh's region name (physical name), or empty: by tag
+  int32_t tag = 0;        ///< the region tag (when chosen by number)
+  std::optional<double> young_modulus, poisson_ratio, density, rayleigh_stiffness;
+  SourceLocation where;   ///< the entry
+  SourceLocation region_where;  ///< its `region:` key
+};
+
 struct BodySpec {
   std::string name;
   std::string mesh_path;   ///< resolved path of the tetrahedral mesh file
@@ -170,6 +181,7 @@ struct BodySpec {
   MaterialSpec material;
   std::vector<NodeSelection> fixed;
   std::vector<NodalLoadSpec> loads;
+  std::vector<RegionSpec> regions;   ///< materials of regions of the mesh (heterogeneous tissue)
   std::optional<VisualSpec> visual;  ///< scaled by `scale` like the tetrahedra
   SourceLocation where;
 };

@@ -74,6 +74,7 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
     ep.volume *= c.fraction;
     m.elements.push_back(ep);
     if (!u.rest_frame.empty()) m.rest_frame.push_back(u.rest_frame[c.tet]);
+    if (!u.element_density.empty()) m.element_density.push_back(u.element_density[c.tet]);
   }
   for (const ElementRange& r : u.ranges)
     m.ranges.push_back({topo.tet_copy_begin[r.begin], topo.tet_copy_begin[r.end], r.kernel, r.fixed});
@@ -101,7 +102,7 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
     // Lumped masses as build_fem_model makes them (ρV/4 per node, elements in order): an uncut
     // topology gives the uncut masses bit for bit.
     for (int32_t e = br.element_begin; e < br.element_end; ++e) {
-      const double mq = br.density * m.elements[e].volume / 4.0;
+      const double mq = element_density(m, e, br) * m.elements[e].volume / 4.0;
       for (int32_t n : m.elements[e].node) m.mass[n] += mq;
     }
     m.bodies.push_back(std::move(br));

@@ -12,7 +12,7 @@ namespace {
 
 /// Appends one body's nodes, elements (Dm⁻¹, volume, Lamé, β, QR rest frame), lumped masses,
 /// Rayleigh α, gravity, constraints and loads; `all_tets` gets its tetrahedra (global ids).
-void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_qr, int32_t node_off,
+void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_qr, bool densities, int32_t node_off,
               std::vector<Tet>& all_tets) {
   const TetMesh& mesh = b.mesh->mesh;
   const Lame lame = lame_from_young_poisson(b.young_modulus, b.poisson_ratio);
@@ -24,7 +24,9 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
   br.element_begin = static_cast<int32_t>(m.elements.size());
   for (size_t i = 0; i < mesh.nodes.size(); ++i)
     for (int k = 0; k < 3; ++k) m.rest[3 * (node_off + i) + k] = mesh.nodes[i][k];
-  for (const Tet& t : mesh.tets) {
+  const bool own = !b.element_material.empty();
+  for (size_t ti = 0; ti < mesh.tets.size(); ++ti) {
+    const Tet& t = mesh.tets[ti];
     ElementParams ep{};
     for (int k = 0; k < 4; ++k) ep.node[k] = t[k] + node_off;
     const Vec3& x0 = mesh.nodes[t[0]];
@@ -33,15 +35,26 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
       for (int r = 0; r < 3; ++r) Dm[3 * r + c] = mesh.nodes[t[c + 1]][r] - x0[r];
     const double det = m3::inverse(Dm, ep.g);
     ep.volume = det / 6.0;
-    ep.lambda = lame.lambda;
-    ep.mu = lame.mu;
-    ep.beta = b.rayleigh_stiffness;
+    double density = b.density;
+    if (own) {
+      const ElementMaterial& em = b.element_material[ti];
+      const Lame l = lame_from_young_poisson(em.young_modulus, em.poisson_ratio);
+      ep.lambda = l.lambda;
+      ep.mu = l.mu;
+      ep.beta = em.rayleigh_stiffness;
+      density = em.density;
+    } else {
+      ep.lambda = lame.lambda;
+      ep.mu = lame.mu;
+      ep.beta = b.rayleigh_stiffness;
+    }
+    if (densities) m.element_density.push_back(density);
     if (any_qr) {
       const double e1[3] = {Dm[0], Dm[3], Dm[6]};
       const double e2[3] = {Dm[1], Dm[4], Dm[7]};
       edge_frame(e1, e2, m.rest_frame[m.elements.size()].data());
     }
-    const double mq = b.density * ep.volume / 4.0;
+    const double mq = density * ep.volume / 4.0;
     for (int k = 0; k < 4; ++k) m.mass[ep.node[k]] += mq;
     m.elements.push_back(ep);
     all_tets.push_back({ep.node[0], ep.node[1], ep.node[2], ep.node[3]});
@@ -129,11 +142,17 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
     return b.model == ElementModel::Corotational && b.rotation == RotationMethod::QR;
   });
   if (any_qr) m.rest_frame.resize(ne);
+  // Per-element densities only when some body's regions have a density of their own.
+  const bool densities = std::any_of(bodies.begin(), bodies.end(), [](const FemBodyInput& b) {
+    return std::any_of(b.element_material.begin(), b.element_material.end(),
+                       [&](const ElementMaterial& e) { return e.density != b.density; });
+  });
+  if (densities) m.element_density.reserve(ne);
   std::vector<Tet> all_tets;
   all_tets.reserve(ne);
   int32_t node_off = 0;
   for (const auto& b : bodies) {
-    add_body(m, b, gravity, any_qr, node_off, all_tets);
+    add_body(m, b, gravity, any_qr, densities, node_off, all_tets);
     node_off += static_cast<int32_t>(b.mesh->mesh.nodes.size());
   }
   finish_fem_model(m, all_tets);

@@ -10,6 +10,11 @@
 namespace stroma {
 
 /// Everything the FEM needs to know about one body, already validated.
+/// A material for one element (a region's, overriding its body's).
+struct ElementMaterial {
+  double young_modulus = 0, poisson_ratio = 0, density = 0, rayleigh_stiffness = 0;
+};
+
 struct FemBodyInput {
   std::string name;
   const PreparedMesh* mesh = nullptr;   ///< node positions in metres
@@ -20,6 +25,9 @@ struct FemBodyInput {
   /// Fixed DOFs: local (file-order) node index and axis mask (bit 0 x, 1 y, 2 z; 7 = all).
   std::vector<std::pair<int32_t, uint8_t>> fixed;
   std::vector<std::pair<int32_t, Vec3>> nodal_forces;  ///< local node, force (N)
+  /// Per tetrahedron (file order) its own material, or empty: the body's for all. Regions of a
+  /// heterogeneous body (a tumour in a liver) set it.
+  std::vector<ElementMaterial> element_material;
 };
 
 /// Builds the global model: bodies are concatenated (node and element offsets in order).

@@ -63,6 +63,9 @@ struct FemModel {
   std::vector<ElementRange> ranges;         ///< kernels by range, covering all elements
   std::vector<std::array<double, 9>> rest_frame;  ///< per element, QR rotation only (else empty)
   std::vector<double> mass;                 ///< lumped mass per node (kg); 0 for unused nodes
+  /// Per element its density (kg/m³) when some body has regions of their own density; empty:
+  /// each element has its body's (BodyRange::density). element_density() reads either.
+  std::vector<double> element_density;
   std::vector<double> inv_mass;             ///< 1/mass (0 for nodes without mass)
   std::vector<double> alpha;                ///< Rayleigh mass coefficient per node
   /// Per node, bit k set: DOF k (x, y, z) is fixed. 7: the node does not move (fixed or
@@ -87,6 +90,11 @@ struct FemModel {
   /// Number of degrees of freedom (3 per node, constrained included).
   int32_t dofs() const { return 3 * num_nodes; }
 };
+
+/// Element e's density: its own (regions) or its body's `b`.
+inline double element_density(const FemModel& m, int32_t e, const BodyRange& b) {
+  return m.element_density.empty() ? b.density : m.element_density[e];
+}
 
 /// Adds the implicit step's mass term (1 + h·α_i)·m_i to each node's diagonal block of the BSR
 /// values A. `mass`: the lumped masses to use (the model's, or the current ones after damage).

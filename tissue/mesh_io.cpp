@@ -356,6 +356,11 @@ class GmshReader {
           elements_pos_ = at;
           version_ == 4 ? read_elements_v4() : read_elements_v1v2();
         }
+      } else if (name == "$PhysicalNames") {
+        read_physical_names();
+      } else if (name == "$Entities" && version_ == 4) {
+        if (have_elements) ctx_.fail(at, "$Entities after $Elements");
+        read_entities_v4();
       } else {
         skip_section(name, at);
       }
@@ -369,10 +374,64 @@ class GmshReader {
                                            "types; only linear tetrahedra, type 4, are read)",
                                            other_elements_));
     }
-    return TetMesh{std::move(nodes_), std::move(tets_), ctx_.source};
+    TetMesh out;
+    out.nodes = std::move(nodes_);
+    out.tets = std::move(tets_);
+    out.source = ctx_.source;
+    // Regions only when some tetrahedron has a physical group.
+    if (std::any_of(tags_.begin(), tags_.end(), [](int32_t t) { return t != 0; })) out.tet_tags = std::move(tags_);
+    out.tag_names = std::move(names_);
+    return out;
   }
 
  private:
+  /// "$PhysicalNames": a count, then "dimension tag \"name\"" per line; names of volumes kept.
+  void read_physical_names() {
+    Scanner header = header_line("physical name count");
+    const int64_t count = header.count("physical name count");
+    header.expect_line_end();
+    for (int64_t i = 0; i < count; ++i) {
+      Scanner line = body_line([&] { return fmt::format("expected {} physical names, found {}", count, i); });
+      const int64_t dim = line.integer("dimension");
+      const size_t tag_pos = line.token_pos();
+      const int64_t tag = line.integer("physical tag");
+      std::string_view rest = line.rest();
+      while (!rest.empty() && (rest.front() == ' ' || rest.front() == '\t')) rest.remove_prefix(1);
+      while (!rest.empty() && (rest.back() == ' ' || rest.back() == '\t' || rest.back() == '\r')) rest.remove_suffix(1);
+      if (rest.size() < 2 || rest.front() != '"' || rest.back() != '"')
+        ctx_.fail(tag_pos, fmt::format("physical name of tag {} is not in double quotes", tag));
+      if (tag < INT32_MIN || tag > INT32_MAX) ctx_.fail(tag_pos, fmt::format("physical tag {} out of range", tag));
+      if (dim == 3) names_.emplace_back(static_cast<int32_t>(tag), std::string(rest.substr(1, rest.size() - 2)));
+    }
+    expect_end_marker("$EndPhysicalNames", count, "physical names");
+  }
+
+  /// 4.1 "$Entities": "numPoints numCurves numSurfaces numVolumes", a line per point, curve and
+  /// surface (skipped), then per volume "tag minX minY minZ maxX maxY maxZ numPhysicalTags
+  /// physicalTag... numBoundingSurfaces surfaceTag...": the volume's first physical tag.
+  void read_entities_v4() {
+    Scanner header = header_line("entity counts");
+    int64_t n[4];
+    for (int64_t& k : n) k = header.count("number of entities");
+    header.expect_line_end();
+    for (int d = 0; d < 3; ++d)
+      for (int64_t i = 0; i < n[d]; ++i) body_line([&] { return fmt::format("expected {} entities of dimension {}", n[d], d); });
+    for (int64_t i = 0; i < n[3]; ++i) {
+      Scanner line = body_line([&] { return fmt::format("expected {} volumes, found {}", n[3], i); });
+      const int64_t tag = line.integer("volume tag");
+      for (int k = 0; k < 6; ++k) line.real("bounding box");
+      const int64_t np = line.count("number of physical tags");
+      int64_t physical = 0;
+      for (int64_t j = 0; j < np; ++j) {
+        const int64_t p = line.integer("physical tag");
+        if (j == 0) physical = p;
+      }
+      if (physical < INT32_MIN || physical > INT32_MAX) physical = 0;
+      volume_physical_[tag] = static_cast<int32_t>(physical);
+    }
+    expect_end_marker("$EndEntities", n[3], "volumes");
+  }
+
   /// Version 1.0 files start directly with $NOD; later ones with a $MeshFormat section.
   void read_format() {
     ctx_.field = "$MeshFormat";
@@ -570,8 +629,9 @@ class GmshReader {
       line.integer("element number");
       const size_t type_pos = line.token_pos();
       const int64_t type = line.integer("element type");
+      int64_t physical = 0;
       if (version_ == 1) {
-        line.integer("physical region");
+        physical = line.integer("physical region");
         line.integer("elementary region");
         const size_t n_pos = line.token_pos();
         const int64_t n = line.integer("number of nodes");
@@ -580,12 +640,17 @@ class GmshReader {
                                "a linear tetrahedron (type 4) has 4 nodes, this line gives {}", n));
       } else {
         const int64_t ntags = line.count("number of tags");
-        for (int64_t t = 0; t < ntags; ++t) line.integer("element tag");
+        for (int64_t t = 0; t < ntags; ++t) {
+          const int64_t v = line.integer("element tag");
+          if (t == 0) physical = v;  // the first tag is the physical group
+        }
       }
       if (!is_gmsh_element_type(type))
         ctx_.fail(type_pos, gmsh_unknown_type_message(type));
-      if (type == kGmshTet4)
+      if (type == kGmshTet4) {
         add_tet(line);
+        tags_.push_back(physical < INT32_MIN || physical > INT32_MAX ? 0 : static_cast<int32_t>(physical));
+      }
       else if (is_gmsh_higher_order_tet(type))
         ctx_.fail(type_pos, gmsh_higher_order_message(type));
       else
@@ -609,7 +674,9 @@ class GmshReader {
       Scanner bh =
           body_line([&] { return fmt::format("expected {} element blocks, found {}", blocks, b); });
       bh.integer("entity dimension");
-      bh.integer("entity tag");
+      const int64_t entity = bh.integer("entity tag");
+      const auto ph = volume_physical_.find(entity);
+      const int32_t physical = ph == volume_physical_.end() ? 0 : ph->second;
       const size_t type_pos = bh.token_pos();
       const int64_t type = bh.integer("element type");
       const int64_t n = bh.count("number of elements in block");
@@ -622,6 +689,7 @@ class GmshReader {
         if (type == kGmshTet4) {
           line.integer("element tag");
           add_tet(line);
+          tags_.push_back(physical);
         }
       }
       if (type != kGmshTet4) other_elements_ += n;
@@ -639,6 +707,9 @@ class GmshReader {
   std::vector<Vec3> nodes_;
   std::unordered_map<int64_t, int32_t> index_of_tag_;
   std::vector<Tet> tets_;
+  std::vector<int32_t> tags_;  // per tetrahedron, its physical group (0: none)
+  std::vector<std::pair<int32_t, std::string>> names_;  // physical names of volumes
+  std::unordered_map<int64_t, int32_t> volume_physical_;  // 4.1: volume entity → physical group
   int64_t other_elements_ = 0;
   size_t elements_pos_ = kNoPos;  // the element section's header line, for "no tetrahedra"
 };

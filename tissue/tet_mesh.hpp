@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace stroma {
@@ -23,6 +24,11 @@ struct TetMesh {
   std::vector<Vec3> nodes;   ///< node positions, index = position in the file (0-based)
   std::vector<Tet> tets;     ///< tetrahedra, in file order; other element types are dropped
   std::string source;        ///< file path (or a description for generated meshes)
+  /// Per tetrahedron, its region tag (gmsh: its physical group; 0: none), or empty when the
+  /// file has no regions. Scenarios give regions their own material (`regions:`).
+  std::vector<int32_t> tet_tags;
+  /// Names of region tags (gmsh $PhysicalNames of dimension 3), in file order.
+  std::vector<std::pair<int32_t, std::string>> tag_names;
 };
 
 }  // namespace stroma
