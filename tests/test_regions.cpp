@@ -3,7 +3,8 @@
 //
 // Asserted, and against what:
 //  - the gmsh readers keep each tetrahedron's physical group (2.2: its first tag; 4.1: through
-//    $Entities) and the volumes' $PhysicalNames;
+//    $Entities) and the volumes' $PhysicalNames; the VTU reader an integer cell-data array
+//    named as meshers name regions;
 //  - a bimaterial bar (ν = 0, two regions in series, consistent end load) stretches statically
 //    by F·L₁/(E₁A) + F·L₂/(E₂A) within 0.5 % (linear tetrahedra represent the piecewise-uniform
 //    strain exactly; what is left is the corotational model's geometric nonlinearity at 1e-4
@@ -16,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <numeric>
 #include <sstream>
 #include <string>
@@ -79,7 +81,7 @@ const std::string kRegions =
 
 }  // namespace
 
-TEST(Regions, GmshReadersKeepPhysicalVolumes) {
+TEST(Regions, MeshReadersKeepRegionTags) {
   const TetMesh m2 = load_tet_mesh(write_temp("bimaterial.msh", bimaterial_msh()));
   ASSERT_EQ(m2.tet_tags.size(), m2.tets.size());
   EXPECT_EQ(std::count(m2.tet_tags.begin(), m2.tet_tags.end(), 1) + std::count(m2.tet_tags.begin(), m2.tet_tags.end(), 2),
@@ -102,6 +104,22 @@ TEST(Regions, GmshReadersKeepPhysicalVolumes) {
   const std::string plain = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n"
                             "$EndNodes\n$Elements\n1\n1 4 0 1 2 3 4\n$EndElements\n";
   EXPECT_TRUE(load_tet_mesh(write_temp("plain.msh", plain)).tet_tags.empty());
+  // VTU: an integer cell-data array named as meshers name regions ("region", "gmsh:physical",
+  // "MaterialIds", ...); other cell data is not a region.
+  auto vtu = [](const std::string& array) {
+    return "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\">\n<UnstructuredGrid>\n"
+           "<Piece NumberOfPoints=\"5\" NumberOfCells=\"2\">\n"
+           "<Points><DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">"
+           "0 0 0 1 0 0 0 1 0 0 0 1 1 1 1</DataArray></Points>\n"
+           "<Cells><DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">0 1 2 3 1 2 3 4</DataArray>"
+           "<DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">4 8</DataArray>"
+           "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">10 10</DataArray></Cells>\n"
+           "<CellData><DataArray type=\"Int32\" Name=\"" + array + "\" format=\"ascii\">1 2</DataArray></CellData>\n"
+           "</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+  };
+  const TetMesh mv = load_tet_mesh(write_temp("regions.vtu", vtu("MaterialIds")));
+  EXPECT_EQ(mv.tet_tags, (std::vector<int32_t>{1, 2}));
+  EXPECT_TRUE(load_tet_mesh(write_temp("quality.vtu", vtu("quality"))).tet_tags.empty());
 }
 
 TEST(Regions, ABimaterialBarStretchesAsTwoSpringsInSeries) {
@@ -193,4 +211,103 @@ TEST(Regions, BadRegionsAreLoadErrorsNamingTheField) {
                                                     "3 0 1 0\n4 0 0 1\n$EndNodes\n$Elements\n1\n1 4 0 1 2 3 4\n$EndElements\n");
   e = error_of(kRegions, plain);
   EXPECT_NE(e.find("has no regions"), std::string::npos) << e;
+}
+
+namespace {
+
+/// SOFA's liver at 16 cm (×0.025) as a gmsh 2.2 file whose tetrahedra within `radius` of
+/// `centre` form physical volume 2 "tumour" (the rest: 1 "liver"). Returns the tumour's count.
+int tumour_liver_msh(const std::string& path, const Vec3& centre, double radius) {
+  const TetMesh m = load_tet_mesh(std::string(STROMA_SOURCE_DIR) + "/scenarios/meshes/liver.msh");
+  std::ostringstream o;
+  o.precision(17);
+  o << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n2\n3 1 \"liver\"\n3 2 \"tumour\"\n$EndPhysicalNames\n";
+  o << "$Nodes\n" << m.nodes.size() << "\n";
+  for (size_t i = 0; i < m.nodes.size(); ++i)
+    o << i + 1 << " " << 0.025 * m.nodes[i][0] << " " << 0.025 * m.nodes[i][1] << " " << 0.025 * m.nodes[i][2] << "\n";
+  o << "$EndNodes\n$Elements\n" << m.tets.size() << "\n";
+  int inside = 0;
+  for (size_t e = 0; e < m.tets.size(); ++e) {
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      double c = 0;
+      for (int32_t n : m.tets[e]) c += 0.25 * 0.025 * m.nodes[n][k];
+      d2 += (c - centre[k]) * (c - centre[k]);
+    }
+    const int tag = d2 < radius * radius ? 2 : 1;
+    inside += tag == 2;
+    o << e + 1 << " 4 2 " << tag << " " << tag;
+    for (int32_t n : m.tets[e]) o << " " << n + 1;
+    o << "\n";
+  }
+  o << "$EndElements\n";
+  std::ofstream(path) << o.str();
+  return inside;
+}
+
+std::string tumour_yaml(const std::string& mesh, bool tumour, bool dynamic) {
+  return std::string("name: tumour\ntime_step: 0.001\n") + (dynamic ? "gravity: [0, -9.81, 0]\n" : "gravity: [0, 0, 0]\n") +
+         (dynamic ? "solver: {integrator: implicit_euler, linear_solver: cg, preconditioner: jacobi, max_iterations: 200, "
+                    "tolerance: 1.0e-6}\n"
+                  : "solver: {integrator: static, linear_solver: cholmod}\n") +
+         "bodies:\n"
+         "  - name: liver\n"
+         "    mesh: " + mesh + "\n"
+         "    material: {model: corotational, young_modulus: 5000, poisson_ratio: 0.45, density: 1060,\n"
+         "               rayleigh_mass: 1.0, rayleigh_stiffness: 0.005}\n" +
+         (tumour ? "    regions:\n      - {region: tumour, material: {young_modulus: 50000}}\n" : "") +
+         "    fixed:\n"
+         "      - surface: {normal: [0, -1, 0], max_angle: 45}\n"
+         "    loads:\n"
+         "      - box: {min: [-0.05, 0.105, 0.0], max: [-0.025, 0.2, 0.025]}\n"
+         "        force: [0, -0.3, 0]\n"
+         "run: {steps: 1}\n";
+}
+
+}  // namespace
+
+// A stiff tumour (10× the liver's E) under the upper surface lowers the indentation depth of a
+// load pressed on the surface above it, against the homogeneous liver; the liver with the tumour
+// runs 1 s at 1 kHz under gravity and the load, finite and at rest at the end.
+TEST(Regions, AStiffTumourLowersTheIndentationAboveIt) {
+  const std::string mesh = write_temp("tumour_liver.msh", "");
+  const int tumour_tets = tumour_liver_msh(mesh, {-0.0375, 0.095, 0.0125}, 0.022);
+  ASSERT_GT(tumour_tets, 5);
+  auto depth = [&](bool tumour) {
+    auto model = compile_model(load_scenario(write_temp(tumour ? "t.yaml" : "h.yaml", tumour_yaml(mesh, tumour, false))));
+    State s = State::initial(*model);
+    TickWorkspace w(*model);
+    StaticParameters from, to;
+    from.load = 0;
+    const StaticOutcome out = solve_equilibrium(*model, s, w, from, to);
+    EXPECT_TRUE(out.converged);
+    // The loaded nodes' mean downward displacement.
+    double dy = 0;
+    int n = 0;
+    for (int32_t i = 0; i < model->fem.num_nodes; ++i)
+      if (model->fem.f_ext[3 * i + 1] < 0) {
+        dy += model->fem.rest[3 * i + 1] - s.tissue.x[3 * i + 1];
+        ++n;
+      }
+    EXPECT_GT(n, 0);
+    return dy / n;
+  };
+  const double homogeneous = depth(false), with_tumour = depth(true);
+  EXPECT_GT(homogeneous, 1e-4) << "the load pressed the liver";
+  EXPECT_LT(with_tumour, 0.9 * homogeneous) << "the tumour did not stiffen the liver under the load";
+  RecordProperty("depth_homogeneous_mm", std::to_string(1e3 * homogeneous));
+  RecordProperty("depth_tumour_mm", std::to_string(1e3 * with_tumour));
+  // Dynamic, 1 s at 1 kHz.
+  auto model = compile_model(load_scenario(write_temp("td.yaml", tumour_yaml(mesh, true, true))));
+  State s = State::initial(*model);
+  TickWorkspace w(*model);
+  double max_disp = 0;
+  for (int k = 0; k < 1000; ++k) {
+    const TickReport& r = tick(*model, s, w, nullptr, 0);
+    ASSERT_NE(r.status, TickStatus::NonFinite) << "tick " << k;
+  }
+  for (int32_t i = 0; i < model->fem.num_nodes; ++i)
+    for (int c = 0; c < 3; ++c) max_disp = std::max(max_disp, std::abs(s.tissue.x[3 * i + c] - model->fem.rest[3 * i + c]));
+  EXPECT_LT(max_disp, 0.03) << "the liver with its tumour stays in place";
+  EXPECT_LT(w.stepper().kinetic_energy(s.tissue), 1e-6) << "at rest after 1 s";
 }

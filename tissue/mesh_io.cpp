@@ -738,6 +738,8 @@ struct CellArrays {
   std::vector<int64_t> types;
   size_t offsets_pos = kNoPos, connectivity_pos = kNoPos, types_pos = kNoPos;
   std::string offsets_field, connectivity_field, types_field;
+  /// Per cell its region tag (VTU cell data), or empty.
+  std::vector<int64_t> cell_tags;
 };
 
 TetMesh assemble_vtk_mesh(ParseContext& ctx, std::vector<Vec3> points, const CellArrays& c) {
@@ -783,7 +785,12 @@ TetMesh assemble_vtk_mesh(ParseContext& ctx, std::vector<Vec3> points, const Cel
       t[static_cast<size_t>(k)] = static_cast<int32_t>(index);
     }
     mesh.tets.push_back(t);
+    if (!c.cell_tags.empty()) {
+      const int64_t tag = c.cell_tags[i];
+      mesh.tet_tags.push_back(tag < INT32_MIN || tag > INT32_MAX ? 0 : static_cast<int32_t>(tag));
+    }
   }
+  if (std::none_of(mesh.tet_tags.begin(), mesh.tet_tags.end(), [](int32_t t) { return t != 0; })) mesh.tet_tags.clear();
   if (mesh.tets.empty())
     fail(c.types_field, c.types_pos,
          fmt::format("no tetrahedra in the mesh (found {} cells of other types; "
@@ -1105,6 +1112,24 @@ class VtuReader {
                                          "connectivity values (last offset)");
     c.types = read_array<int64_t>(types, static_cast<size_t>(ncells), "types",
                                   "cell types (NumberOfCells)");
+    // Regions: an integer cell-data array with one of the names meshers use for them.
+    if (const auto cell_data = find_tag("CellData", piece->content_begin, piece_end)) {
+      ctx_.field = "CellData";
+      const size_t cd_end = find_closing("CellData", *cell_data);
+      size_t pos = cell_data->content_begin;
+      while (const auto tag = find_tag("DataArray", pos, cd_end)) {
+        pos = tag->content_begin;
+        const auto name = xml_attribute(tag->tag, "Name");
+        static constexpr std::string_view kNames[] = {"region", "regions", "tag", "label", "labels",
+                                                      "gmsh:physical", "MaterialIds", "CellEntityIds"};
+        if (!name || std::find(std::begin(kNames), std::end(kNames), *name) == std::end(kNames)) continue;
+        const auto comps = xml_attribute(tag->tag, "NumberOfComponents");
+        if (comps && trim(*comps) != "1") continue;
+        c.cell_tags = read_array<int64_t>(*tag, static_cast<size_t>(ncells), "CellData",
+                                          "region tags (NumberOfCells)");
+        break;
+      }
+    }
     c.offsets_pos = offsets.begin;
     c.connectivity_pos = connectivity.begin;
     c.types_pos = types.begin;
