@@ -232,6 +232,16 @@ std::vector<PreparedMesh> load_meshes(const ScenarioSpec& spec, std::vector<std:
   return meshes;
 }
 
+/// The region tag that regions[k] of body b names in its mesh (by name or number; −1 for a
+/// name the mesh lacks: apply_regions reports that).
+int32_t region_tag(const BodySpec& b, const TetMesh& mesh, size_t k) {
+  const RegionSpec& r = b.regions[k];
+  if (r.name.empty()) return r.tag;
+  for (const auto& [t, nm] : mesh.tag_names)
+    if (nm == r.name) return t;
+  return -1;
+}
+
 /// A body's `regions:`: each region's tetrahedra (by the mesh's region name or tag) get the
 /// body's material with what the region changes. Errors name the region entry.
 void apply_regions(const BodySpec& b, const PreparedMesh& pm, const std::string& field, FemBodyInput& in) {
@@ -327,10 +337,25 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
 
 /// Per-body damage models and, when any body has one, each element's share of nodal mass
 /// (removed from its nodes at rupture).
-void compile_damage(const ScenarioSpec& spec, Model& model) {
+void compile_damage(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes, Model& model) {
   for (const BodySpec& b : spec.bodies) {
     model.body_damage.push_back(b.material.damage);
     model.has_damage = model.has_damage || b.material.damage.enabled;
+  }
+  // Regions with damage thresholds of their own: their tetrahedra follow those.
+  for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
+    const BodySpec& b = spec.bodies[bi];
+    for (size_t k = 0; k < b.regions.size(); ++k) {
+      if (!b.regions[k].damage) continue;
+      const int32_t tag = region_tag(b, meshes[bi].mesh, k);
+      if (model.element_region_damage.empty()) model.element_region_damage.assign(model.fem.elements.size(), -1);
+      const int32_t index = static_cast<int32_t>(model.region_damage.size());
+      model.region_damage.push_back(*b.regions[k].damage);
+      model.has_damage = true;
+      const std::vector<int32_t>& tags = meshes[bi].mesh.tet_tags;
+      for (size_t t = 0; t < tags.size(); ++t)
+        if (tags[t] == tag) model.element_region_damage[model.fem.bodies[bi].element_begin + static_cast<int32_t>(t)] = index;
+    }
   }
   if (!model.has_damage) return;
   const FemModel& f = model.fem;
@@ -423,7 +448,7 @@ void compile_collision_faces(Model& model) {
   std::vector<std::array<int32_t, 4>> faces_of(fem.elements.size(), {-1, -1, -1, -1});
   for (size_t bi = 0; bi < fem.bodies.size(); ++bi) {
     const BodyRange& b = fem.bodies[bi];
-    if (!model.body_damage[bi].enabled) {
+    if (!body_can_tear(model, bi)) {
       for (const Tri& t : b.boundary) add_face(t, -1, -1);  // always active
       continue;
     }
@@ -520,7 +545,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
   model->fem = build_fem_model(body_inputs(spec, meshes), spec.gravity);
   model->max_step_displacement = 0.5 * bounding_box(model->fem.rest.data(), model->fem.rest.size() / 3).diagonal();
   out.visuals = compile_visuals(spec, meshes, *model, out.notes);
-  compile_damage(spec, *model);
+  compile_damage(spec, meshes, *model);
   model->body_tets.resize(meshes.size());
   for (size_t bi = 0; bi < meshes.size(); ++bi) {
     const int32_t off = model->fem.bodies[bi].node_begin;

@@ -69,7 +69,7 @@ void compile_cut_surface(const CutTopology& topo, Model& m, std::vector<double>&
   auto tears = [&](int32_t copy) {
     for (size_t b = 0; b < f.bodies.size(); ++b)
       if (copy >= f.bodies[b].element_begin && copy < f.bodies[b].element_end)
-        return b < m.body_damage.size() && m.body_damage[b].enabled;
+        return body_can_tear(m, b);
     return false;
   };
   std::vector<std::vector<int32_t>> faces_of(f.elements.size());
@@ -179,6 +179,7 @@ void enable_cutting(Model& m) {
   for (const ElementParams& e : m.fem.elements) volume += e.volume;
   cs->edges_per_area = volume > 0 ? 0.5 * length / volume : 0.0;
   cs->internal_faces = m.has_damage && m.has_contact;
+  cs->element_region_damage = m.element_region_damage;
   m.topology = cs->uncut_topology;
   m.cut_edge_dofs = cs->base.adj.edges;
   m.cutting = std::move(cs);
@@ -201,6 +202,7 @@ std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<c
   m->max_step_displacement = current.max_step_displacement;
   m->tools = current.tools;
   m->body_damage = current.body_damage;
+  m->region_damage = current.region_damage;
   m->has_damage = current.has_damage;
   m->has_contact = current.has_contact;
   m->cutting = current.cutting;
@@ -211,6 +213,10 @@ std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<c
   m->cut_serial = serial.fetch_add(1, std::memory_order_relaxed) + 1;
   // The cut FEM system and what hangs off its elements.
   m->fem = build_cut_fem_model(cs.uncut, *topo);
+  if (!cs.element_region_damage.empty()) {  // each copy follows its tetrahedron's region
+    m->element_region_damage.resize(topo->copies.size());
+    for (size_t c = 0; c < topo->copies.size(); ++c) m->element_region_damage[c] = cs.element_region_damage[topo->copies[c].tet];
+  }
   const FemModel& f = m->fem;
   if (m->has_damage) {
     m->element_node_mass.resize(f.elements.size());

@@ -29,6 +29,8 @@ struct CutSupport {
   /// Some body can tear (a damage model and contact): cut topologies list their internal faces,
   /// which become collision faces that a rupture opens, as the uncut model's tet faces do.
   bool internal_faces = false;
+  /// The uncut model's Model::element_region_damage (per tetrahedron; empty: none).
+  std::vector<int32_t> element_region_damage;
 };
 
 /// Sets up cutting on a freshly compiled uncut model (compile_scenario calls it when a tool

@@ -44,10 +44,12 @@ int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* reco
   int events = 0;
   const double* x = s.tissue.x.data();
   for (size_t b = 0; b < m.body_damage.size(); ++b) {
-    const DamageSpec& d = m.body_damage[b];
-    if (!d.enabled) continue;
+    const bool regions = !m.element_region_damage.empty();
+    if (!m.body_damage[b].enabled && !regions) continue;
     const BodyRange& br = m.fem.bodies[b];
     for (int32_t e = br.element_begin; e < br.element_end; ++e) {
+      const DamageSpec& d = damage_of(m, b, e);
+      if (!d.enabled) continue;
       if (s.damage_level[e] == kRuptured) continue;
       const double v = element_damage_measure(m, x, e, d.measure);
       uint8_t level = s.damage_level[e];

@@ -48,7 +48,7 @@ struct CutStats {
 ///    index of a ToolInput.
 ///  - `has_contact` ⇔ some tool has a shape or `body_contact` is set; then the collision arrays
 ///    (triangles, slots, edges, face_elem) are parallel and non-empty only for contact scenes.
-///  - `has_damage` ⇔ some body_damage[b].enabled; element_node_mass is sized to the elements
+///  - `has_damage` ⇔ some body_damage[b] or region_damage[r] is enabled; element_node_mass is sized to the elements
 ///    then (empty otherwise), element_face_ptr to the elements + 1 when has_contact.
 ///  - `max_step_displacement` > 0: half the rest bounding-box diagonal of the whole scene.
 struct Model {
@@ -73,6 +73,11 @@ struct Model {
   std::vector<ProbeModel> probes;
   std::vector<ToolSpec> tools;            ///< resolved (see the invariants), in scenario order
   std::vector<DamageSpec> body_damage;    ///< per body (enabled = false: no damage model)
+  /// Damage models of regions that have their own (`regions: [{…, damage: …}]`), and per element
+  /// the one it follows: an index into region_damage, or −1 for its body's. Empty: every element
+  /// follows its body's. damage_of() reads either.
+  std::vector<DamageSpec> region_damage;
+  std::vector<int32_t> element_region_damage;
   bool has_damage = false;                ///< some body has a damage model: damage stage runs
   std::vector<double> element_node_mass;  ///< ρV/4 of each element (damage: removed at rupture)
   /// Some tool has a shape, or the scenario has body contact: the collide stage and BVH exist.
@@ -116,6 +121,21 @@ struct Model {
   /// start again after a Reset.
   uint64_t cut_serial = 0;
 };
+
+/// The damage model element e of body b follows (its region's, or its body's).
+inline const DamageSpec& damage_of(const Model& m, size_t b, int32_t e) {
+  if (m.element_region_damage.empty() || m.element_region_damage[e] < 0) return m.body_damage[b];
+  return m.region_damage[m.element_region_damage[e]];
+}
+
+/// Whether any element of body b has a damage model (its faces inside can tear).
+inline bool body_can_tear(const Model& m, size_t b) {
+  if (b < m.body_damage.size() && m.body_damage[b].enabled) return true;
+  if (m.element_region_damage.empty()) return false;
+  for (int32_t e = m.fem.bodies[b].element_begin; e < m.fem.bodies[b].element_end; ++e)
+    if (m.element_region_damage[e] >= 0 && m.region_damage[m.element_region_damage[e]].enabled) return true;
+  return false;
+}
 
 /// Loads every mesh, validates materials and selections against them, and compiles the model
 /// alone (tests and benchmarks; the commands use compile_scenario). Throws InputError with the

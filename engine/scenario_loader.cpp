@@ -152,6 +152,25 @@ SolverSpec parse_solver(const Field& f) {
   return s;
 }
 
+/// `damage:` of a material or a region: thresholds on a per-element measure.
+DamageSpec parse_damage(const Field& f) {
+  const MapReader dm = f.map({"measure", "warning", "onset", "rupture"});
+  DamageSpec d;
+  d.enabled = true;
+  dm.read("measure", d.measure, kDamageMeasures);
+  dm.require("onset", d.onset, greater_than(0));
+  dm.require("rupture", d.rupture, greater_than(0));
+  dm.read("warning", d.warning, greater_than(0));
+  if (d.rupture <= d.onset)
+    dm.req("rupture").fail("rupture = " + format_number(d.rupture) + " must be greater than onset = " +
+                           format_number(d.onset));
+  if (d.warning > d.onset)
+    dm.req("warning").fail("warning = " + format_number(d.warning) + " must not exceed onset = " +
+                           format_number(d.onset) + " (it warns before harm)");
+  if (d.warning == 0) d.warning = d.onset;
+  return d;
+}
+
 MaterialSpec parse_material(const Field& f) {
   const MapReader m = f.map({"model", "rotation", "young_modulus", "poisson_ratio", "density",
                              "rayleigh_mass", "rayleigh_stiffness", "damage"});
@@ -175,22 +194,7 @@ MaterialSpec parse_material(const Field& f) {
   beta.note_hi = "s: tissue is 1e-3..1e-1 s";
   m.read("rayleigh_mass", mat.rayleigh_mass, alpha);
   m.read("rayleigh_stiffness", mat.rayleigh_stiffness, beta);
-  if (auto f2 = m.opt("damage")) {
-    const MapReader dm = f2->map({"measure", "warning", "onset", "rupture"});
-    DamageSpec& d = mat.damage;
-    d.enabled = true;
-    dm.read("measure", d.measure, kDamageMeasures);
-    dm.require("onset", d.onset, greater_than(0));
-    dm.require("rupture", d.rupture, greater_than(0));
-    dm.read("warning", d.warning, greater_than(0));
-    if (d.rupture <= d.onset)
-      dm.req("rupture").fail("rupture = " + format_number(d.rupture) + " must be greater than onset = " +
-                             format_number(d.onset));
-    if (d.warning > d.onset)
-      dm.req("warning").fail("warning = " + format_number(d.warning) + " must not exceed onset = " +
-                             format_number(d.onset) + " (it warns before harm)");
-    if (d.warning == 0) d.warning = d.onset;
-  }
+  if (auto f2 = m.opt("damage")) mat.damage = parse_damage(*f2);
   return mat;
 }
 
@@ -207,7 +211,8 @@ RegionSpec parse_region(const Field& f) {
   const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), tag);
   if (ec == std::errc() && ptr == text.data() + text.size()) r.tag = tag;
   else r.name = text;
-  const MapReader mm = m.req("material").map({"young_modulus", "poisson_ratio", "density", "rayleigh_stiffness"});
+  const MapReader mm =
+      m.req("material").map({"young_modulus", "poisson_ratio", "density", "rayleigh_stiffness", "damage"});
   Range nu = open_interval(-1, 0.5);
   nu.note_hi = "0.5 is incompressible; use 0.49 or lower";
   Range beta = physical_range(0, 1e3, "");
@@ -229,9 +234,10 @@ RegionSpec parse_region(const Field& f) {
     mm.require("rayleigh_stiffness", v, beta);
     r.rayleigh_stiffness = v;
   }
-  if (!r.young_modulus && !r.poisson_ratio && !r.density && !r.rayleigh_stiffness)
+  if (auto d = mm.opt("damage")) r.damage = parse_damage(*d);
+  if (!r.young_modulus && !r.poisson_ratio && !r.density && !r.rayleigh_stiffness && !r.damage)
     m.req("material").fail("a region's material changes at least one of young_modulus, poisson_ratio, density, "
-                           "rayleigh_stiffness (the rest is the body's)");
+                           "rayleigh_stiffness, damage (the rest is the body's)");
   return r;
 }
 

@@ -168,6 +168,7 @@ struct RegionSpec {
   std::string name;       ///< the mesh's region name (physical name), or empty: by tag
   int32_t tag = 0;        ///< the region tag (when chosen by number)
   std::optional<double> young_modulus, poisson_ratio, density, rayleigh_stiffness;
+  std::optional<DamageSpec> damage;  ///< the region's own damage thresholds
   SourceLocation where;   ///< the entry
   SourceLocation region_where;  ///< its `region:` key
 };

@@ -245,7 +245,7 @@ int tumour_liver_msh(const std::string& path, const Vec3& centre, double radius)
   return inside;
 }
 
-std::string tumour_yaml(const std::string& mesh, bool tumour, bool dynamic) {
+std::string tumour_yaml(const std::string& mesh, bool tumour, bool dynamic, const std::string& tumour_extra = "") {
   return std::string("name: tumour\ntime_step: 0.001\n") + (dynamic ? "gravity: [0, -9.81, 0]\n" : "gravity: [0, 0, 0]\n") +
          (dynamic ? "solver: {integrator: implicit_euler, linear_solver: cg, preconditioner: jacobi, max_iterations: 200, "
                     "tolerance: 1.0e-6}\n"
@@ -255,7 +255,7 @@ std::string tumour_yaml(const std::string& mesh, bool tumour, bool dynamic) {
          "    mesh: " + mesh + "\n"
          "    material: {model: corotational, young_modulus: 5000, poisson_ratio: 0.45, density: 1060,\n"
          "               rayleigh_mass: 1.0, rayleigh_stiffness: 0.005}\n" +
-         (tumour ? "    regions:\n      - {region: tumour, material: {young_modulus: 50000}}\n" : "") +
+         (tumour ? "    regions:\n      - {region: tumour, material: {young_modulus: 50000" + tumour_extra + "}}\n" : "") +
          "    fixed:\n"
          "      - surface: {normal: [0, -1, 0], max_angle: 45}\n"
          "    loads:\n"
@@ -310,4 +310,27 @@ TEST(Regions, AStiffTumourLowersTheIndentationAboveIt) {
     for (int c = 0; c < 3; ++c) max_disp = std::max(max_disp, std::abs(s.tissue.x[3 * i + c] - model->fem.rest[3 * i + c]));
   EXPECT_LT(max_disp, 0.03) << "the liver with its tumour stays in place";
   EXPECT_LT(w.stepper().kinetic_energy(s.tissue), 1e-6) << "at rest after 1 s";
+}
+
+// Damage thresholds per region: only the tumour has a damage model (thresholds far below the
+// stresses the press makes), so under the load only tumour tetrahedra are damaged, and some are.
+TEST(Regions, DamageThresholdsPerRegion) {
+  const std::string mesh = write_temp("tumour_liver_d.msh", "");
+  tumour_liver_msh(mesh, {-0.0375, 0.095, 0.0125}, 0.022);
+  auto model = compile_model(load_scenario(write_temp(
+      "tumour_damage.yaml", tumour_yaml(mesh, true, true, ", damage: {measure: von_mises, onset: 5, rupture: 1.0e6}"))));
+  ASSERT_TRUE(model->has_damage);
+  ASSERT_FALSE(model->body_damage[0].enabled);
+  ASSERT_EQ(model->region_damage.size(), 1u);
+  State s = State::initial(*model);
+  TickWorkspace w(*model);
+  for (int k = 0; k < 200; ++k) ASSERT_NE(tick(*model, s, w, nullptr, 0).status, TickStatus::NonFinite);
+  int damaged = 0, outside = 0;
+  for (size_t e = 0; e < s.damage_level.size(); ++e) {
+    if (s.damage_level[e] == 0) continue;
+    ++damaged;
+    outside += model->element_region_damage[e] < 0;
+  }
+  EXPECT_GT(damaged, 0) << "the tumour's thresholds are far below its stress";
+  EXPECT_EQ(outside, 0) << "elements outside the tumour have no damage model";
 }
