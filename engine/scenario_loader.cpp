@@ -217,23 +217,18 @@ RegionSpec parse_region(const Field& f) {
   nu.note_hi = "0.5 is incompressible; use 0.49 or lower";
   Range beta = physical_range(0, 1e3, "");
   beta.note_hi = "s: tissue is 1e-3..1e-1 s";
-  double v = 0;
-  if (mm.opt("young_modulus")) {
-    mm.require("young_modulus", v, physical_range(1e-9, 1e12, "soft tissue is 1e2..1e6 Pa, a stiff tumour ~10x its organ"));
-    r.young_modulus = v;
-  }
-  if (mm.opt("poisson_ratio")) {
-    mm.require("poisson_ratio", v, nu);
-    r.poisson_ratio = v;
-  }
-  if (mm.opt("density")) {
-    mm.require("density", v, physical_range(1e-12, 1e6, "tissue is ~1000 kg/m^3 in SI"));
-    r.density = v;
-  }
-  if (mm.opt("rayleigh_stiffness")) {
-    mm.require("rayleigh_stiffness", v, beta);
-    r.rayleigh_stiffness = v;
-  }
+  // Each key optional: what a region does not give is its body's.
+  auto optional = [&](const char* key, std::optional<double>& out, const Range& range) {
+    if (!mm.opt(key)) return;
+    double v = 0;
+    mm.require(key, v, range);
+    out = v;
+  };
+  optional("young_modulus", r.young_modulus,
+           physical_range(1e-9, 1e12, "soft tissue is 1e2..1e6 Pa, a stiff tumour ~10x its organ"));
+  optional("poisson_ratio", r.poisson_ratio, nu);
+  optional("density", r.density, physical_range(1e-12, 1e6, "tissue is ~1000 kg/m^3 in SI"));
+  optional("rayleigh_stiffness", r.rayleigh_stiffness, beta);
   if (auto d = mm.opt("damage")) r.damage = parse_damage(*d);
   if (!r.young_modulus && !r.poisson_ratio && !r.density && !r.rayleigh_stiffness && !r.damage)
     m.req("material").fail("a region's material changes at least one of young_modulus, poisson_ratio, density, "
