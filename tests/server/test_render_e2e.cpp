@@ -222,8 +222,11 @@ TEST(RenderEndToEnd, FramesOntoAFullDiskStopTheRecordingNotTheServer) {
   unmount(fsdir);
 }
 
-// A renderer stopped for 10 s (SIGSTOP) and continued: the server does not notice, and the
-// renderer resumes at the newest state, counting the frames it missed (issue 15 §3).
+// A renderer stopped for 6 s (SIGSTOP) and continued: the server does not notice, and the
+// renderer resumes at the newest state, counting the frames it missed (issue 15 §3). The stall
+// stays below the participant lease (Cyclone's default, 10 s): a longer one makes both sides
+// forget each other, and the renderer then waits for rediscovery (seen: 1 s; in a loaded CI run,
+// longer than the rest of the recording) before it sees states again (docs/DDS.md).
 TEST(RenderEndToEnd, AStalledRendererDoesNotDisturbTheServerAndResumesAtTheNewestState) {
   const std::string domain = "144";
   const fs::path out = fs::temp_directory_path() / ("stroma_stalled_render_" + std::to_string(getpid()));
@@ -238,14 +241,14 @@ TEST(RenderEndToEnd, AStalledRendererDoesNotDisturbTheServerAndResumesAtTheNewes
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ASSERT_TRUE(fs::exists(out / "frame_000010.png"));
   renderer.signal(SIGSTOP);
-  std::this_thread::sleep_for(std::chrono::seconds(10));
+  std::this_thread::sleep_for(std::chrono::seconds(6));
   renderer.signal(SIGCONT);
   EXPECT_EQ(renderer.wait_exit(60), 0);
   server.signal(SIGTERM);
   ASSERT_EQ(server.wait_exit(20), 0);
   const auto rs = nlohmann::json::parse(std::ifstream(out / "render_stats.json"));
-  // 10 s at 10 FPS were missed and counted (not rendered late one after another).
-  EXPECT_GE(rs["frames_dropped_late"].get<int>(), 90) << rs.dump();
+  // 6 s at 10 FPS were missed and counted (not rendered late one after another).
+  EXPECT_GE(rs["frames_dropped_late"].get<int>(), 50) << rs.dump();
   // After the stall the frames show the newest state: simulated time moved on by about the
   // stall between two consecutive frames, not by one frame period.
   std::ifstream csv(out / "frames.csv");
@@ -257,7 +260,7 @@ TEST(RenderEndToEnd, AStalledRendererDoesNotDisturbTheServerAndResumesAtTheNewes
     if (prev >= 0) biggest_jump = std::max(biggest_jump, t - prev);
     prev = t;
   }
-  EXPECT_GT(biggest_jump, 8.0) << "the renderer did not skip to the newest state";
+  EXPECT_GT(biggest_jump, 4.5) << "the renderer did not skip to the newest state";
   const auto ss = nlohmann::json::parse(std::ifstream(stats));
   EXPECT_LT(ss["missed_ratio"].get<double>(), 0.05) << "the server was disturbed by the stalled renderer";
   fs::remove_all(out);
