@@ -298,6 +298,51 @@ void apply_regions(const BodySpec& b, const PreparedMesh& pm, const std::string&
   }
 }
 
+/// A body's fibres (its material's and its regions'), per tetrahedron: a direction given in the
+/// scenario, or each tetrahedron's own from the mesh (`direction: mesh`; a zero vector there
+/// means no fibres in that tetrahedron). Errors name the field; a non-finite direction in the
+/// mesh names its tetrahedron.
+void apply_fibres(const BodySpec& b, const PreparedMesh& pm, const std::string& field, FemBodyInput& in) {
+  const TetMesh& mesh = pm.mesh;
+  const bool any_region = std::any_of(b.regions.begin(), b.regions.end(), [](const RegionSpec& r) { return r.fibres.has_value(); });
+  if (!b.material.fibres && !any_region) return;
+  if (in.model != ElementModel::StableNeoHookean && in.model != ElementModel::StVenantKirchhoff) {
+    const RegionSpec* r = nullptr;
+    for (const RegionSpec& x : b.regions)
+      if (x.fibres) r = &x;
+    const SourceLocation w = r ? r->fibres->where : b.material.where;
+    throw InputError(w.file, w.line, field + ".material.model",
+                     "fibres need a hyperelastic matrix: model stable_neo_hookean or st_venant_kirchhoff");
+  }
+  auto params_for = [&](const FibreSpec& s, const std::string& f, size_t t) {
+    FibreParams p{{s.direction[0], s.direction[1], s.direction[2]}, s.k1, s.k2};
+    if (!s.from_mesh) return p;
+    if (mesh.tet_fibres.empty())
+      throw InputError(s.where.file, s.where.line, f + ".direction",
+                       fmt::format("mesh {} has no fibre directions: give its tetrahedra a 3-component VTU cell-data "
+                                   "array named 'fibres', or give the direction here as [x, y, z]",
+                                   b.mesh_path));
+    const Vec3& d = mesh.tet_fibres[t];
+    const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!std::isfinite(len))
+      throw InputError(s.where.file, s.where.line, f + ".direction",
+                       fmt::format("tetrahedron {} of {} has a non-finite fibre direction", t, b.mesh_path));
+    if (len < 1e-12) return FibreParams{{1, 0, 0}, 0, 0};  // no fibres here
+    for (int k = 0; k < 3; ++k) p.a[k] = d[k] / len;
+    return p;
+  };
+  in.element_fibres.assign(mesh.tets.size(), FibreParams{{1, 0, 0}, 0, 0});
+  if (b.material.fibres)
+    for (size_t t = 0; t < mesh.tets.size(); ++t) in.element_fibres[t] = params_for(*b.material.fibres, field + ".material.fibres", t);
+  for (size_t k = 0; k < b.regions.size(); ++k) {
+    if (!b.regions[k].fibres) continue;
+    const int32_t tag = region_tag(b, mesh, k);  // (apply_regions has checked it names a region)
+    const std::string f = fmt::format("{}.regions[{}].material.fibres", field, k);
+    for (size_t t = 0; t < mesh.tets.size(); ++t)
+      if (mesh.tet_tags[t] == tag) in.element_fibres[t] = params_for(*b.regions[k].fibres, f, t);
+  }
+}
+
 /// Materials, constraints and loads of each body, validated against its mesh, as FEM inputs.
 std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes) {
   std::vector<FemBodyInput> inputs;
@@ -320,6 +365,7 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
     in.rayleigh_stiffness = mat.rayleigh_stiffness;
     in.mesh = &pm;
     apply_regions(b, pm, field, in);
+    apply_fibres(b, pm, field, in);
     for (size_t k = 0; k < b.fixed.size(); ++k) {
       auto sel = select_nodes(b.fixed[k], pm, fmt::format("{}.fixed[{}]", field, k));
       for (int32_t i : sel) in.fixed.push_back({i, b.fixed[k].axes});

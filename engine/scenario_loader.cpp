@@ -67,7 +67,8 @@ const Choices<DamageMeasure> kDamageMeasures = {{"von_mises", DamageMeasure::Von
                                                 {"principal_strain", DamageMeasure::PrincipalStrain}};
 const Choices<ElementModel> kElementModels = {{"corotational", ElementModel::Corotational},
                                               {"linear", ElementModel::Linear},
-                                              {"stable_neo_hookean", ElementModel::StableNeoHookean}};
+                                              {"stable_neo_hookean", ElementModel::StableNeoHookean},
+                                              {"st_venant_kirchhoff", ElementModel::StVenantKirchhoff}};
 const Choices<ColorFieldSpec> kColorFields = {{"none", ColorFieldSpec::None},
                                               {"stress", ColorFieldSpec::Stress},
                                               {"damage", ColorFieldSpec::Damage}};
@@ -171,9 +172,34 @@ DamageSpec parse_damage(const Field& f) {
   return d;
 }
 
+/// `fibres: {direction: [x, y, z] | mesh, k1: PA, k2: NUMBER}`.
+FibreSpec parse_fibres(const Field& f) {
+  const MapReader m = f.map({"direction", "k1", "k2"});
+  FibreSpec s;
+  s.where = location_of(m);
+  const Field dir = m.req("direction");
+  if (dir.is_scalar()) {
+    if (dir.string() != "mesh")
+      dir.fail("expected [x, y, z] (the rest fibre direction) or 'mesh' (each tetrahedron's from the mesh's "
+               "cell data 'fibres'), got " + dir.got());
+    s.from_mesh = true;
+  } else {
+    const Vec3 d = dir.vec3();
+    const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(len > 1e-12) || !std::isfinite(len)) dir.fail("the fibre direction must be a finite non-zero vector");
+    for (int k = 0; k < 3; ++k) s.direction[k] = d[k] / len;
+  }
+  m.require("k1", s.k1,
+            physical_range(1e-9, 1e12, "Pa: tendon and ligament fibres are ~1e5..1e8 Pa, arterial ~1e3..1e6 Pa"));
+  Range k2 = physical_range(0, 1e3, "");
+  k2.note_hi = "dimensionless: exp(k2 (I4-1)^2) overflows the stiffness beyond ~1e3";
+  m.read("k2", s.k2, k2);
+  return s;
+}
+
 MaterialSpec parse_material(const Field& f) {
   const MapReader m = f.map({"model", "rotation", "young_modulus", "poisson_ratio", "density",
-                             "rayleigh_mass", "rayleigh_stiffness", "damage"});
+                             "rayleigh_mass", "rayleigh_stiffness", "damage", "fibres"});
   MaterialSpec mat;
   mat.where = location_of(m);
   Range nu = open_interval(-1, 0.5);
@@ -195,6 +221,11 @@ MaterialSpec parse_material(const Field& f) {
   m.read("rayleigh_mass", mat.rayleigh_mass, alpha);
   m.read("rayleigh_stiffness", mat.rayleigh_stiffness, beta);
   if (auto f2 = m.opt("damage")) mat.damage = parse_damage(*f2);
+  if (auto f2 = m.opt("fibres")) {
+    mat.fibres = parse_fibres(*f2);
+    if (mat.model != ElementModel::StableNeoHookean && mat.model != ElementModel::StVenantKirchhoff)
+      f2->fail("fibres need a hyperelastic matrix: model stable_neo_hookean or st_venant_kirchhoff");
+  }
   return mat;
 }
 
@@ -212,7 +243,7 @@ RegionSpec parse_region(const Field& f) {
   if (ec == std::errc() && ptr == text.data() + text.size()) r.tag = tag;
   else r.name = text;
   const MapReader mm =
-      m.req("material").map({"young_modulus", "poisson_ratio", "density", "rayleigh_stiffness", "damage"});
+      m.req("material").map({"young_modulus", "poisson_ratio", "density", "rayleigh_stiffness", "damage", "fibres"});
   Range nu = open_interval(-1, 0.5);
   nu.note_hi = "0.5 is incompressible; use 0.49 or lower";
   Range beta = physical_range(0, 1e3, "");
@@ -230,9 +261,10 @@ RegionSpec parse_region(const Field& f) {
   optional("density", r.density, physical_range(1e-12, 1e6, "tissue is ~1000 kg/m^3 in SI"));
   optional("rayleigh_stiffness", r.rayleigh_stiffness, beta);
   if (auto d = mm.opt("damage")) r.damage = parse_damage(*d);
-  if (!r.young_modulus && !r.poisson_ratio && !r.density && !r.rayleigh_stiffness && !r.damage)
+  if (auto d = mm.opt("fibres")) r.fibres = parse_fibres(*d);
+  if (!r.young_modulus && !r.poisson_ratio && !r.density && !r.rayleigh_stiffness && !r.damage && !r.fibres)
     m.req("material").fail("a region's material changes at least one of young_modulus, poisson_ratio, density, "
-                           "rayleigh_stiffness, damage (the rest is the body's)");
+                           "rayleigh_stiffness, damage, fibres (the rest is the body's)");
   return r;
 }
 

@@ -106,6 +106,17 @@ struct DamageSpec {
 };
 
 /// `material:` section of a body.
+/// `fibres:` of a material: one family of exponential (Holzapfel–Gasser–Ogden) fibres on a
+/// hyperelastic matrix (tissue/fibre.hpp). Invariants: k1 > 0 (Pa); 0 ≤ k2 ≤ 1e3; `direction`
+/// has unit length unless `from_mesh`.
+struct FibreSpec {
+  Vec3 direction{1, 0, 0};  ///< rest fibre direction (normalised on load)
+  bool from_mesh = false;   ///< `direction: mesh`: each tetrahedron's from the mesh's cell data
+  double k1 = 0;            ///< Pa
+  double k2 = 0;            ///< dimensionless
+  SourceLocation where;
+};
+
 struct MaterialSpec {
   ElementModel model = ElementModel::Corotational;
   RotationMethod rotation = RotationMethod::Polar;
@@ -115,6 +126,7 @@ struct MaterialSpec {
   double rayleigh_mass = 0;        ///< α in C = αM + βK, ≥ 0
   double rayleigh_stiffness = 0;   ///< β in C = αM + βK, ≥ 0
   DamageSpec damage;
+  std::optional<FibreSpec> fibres;  ///< fibre reinforcement (hyperelastic models only)
   SourceLocation where;
 };
 
@@ -169,6 +181,7 @@ struct RegionSpec {
   int32_t tag = 0;        ///< the region tag (when chosen by number)
   std::optional<double> young_modulus, poisson_ratio, density, rayleigh_stiffness;
   std::optional<DamageSpec> damage;  ///< the region's own damage thresholds
+  std::optional<FibreSpec> fibres;   ///< the region's fibres (replace the body's there)
   SourceLocation where;   ///< the entry
   SourceLocation region_where;  ///< its `region:` key
 };

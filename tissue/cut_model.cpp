@@ -75,9 +75,10 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
     m.elements.push_back(ep);
     if (!u.rest_frame.empty()) m.rest_frame.push_back(u.rest_frame[c.tet]);
     if (!u.element_density.empty()) m.element_density.push_back(u.element_density[c.tet]);
+    if (!u.fibres.empty()) m.fibres.push_back(u.fibres[c.tet]);  // a copy keeps its parent's fibres
   }
   for (const ElementRange& r : u.ranges)
-    m.ranges.push_back({topo.tet_copy_begin[r.begin], topo.tet_copy_begin[r.end], r.kernel, r.fixed});
+    m.ranges.push_back({topo.tet_copy_begin[r.begin], topo.tet_copy_begin[r.end], r.kernel, r.fixed, r.fibres});
   for (size_t b = 0; b < u.bodies.size(); ++b) {
     const BodyRange& ub = u.bodies[b];
     BodyRange br;

@@ -12,7 +12,8 @@ namespace {
 
 /// Appends one body's nodes, elements (Dm⁻¹, volume, Lamé, β, QR rest frame), lumped masses,
 /// Rayleigh α, gravity, constraints and loads; `all_tets` gets its tetrahedra (global ids).
-void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_qr, bool densities, int32_t node_off,
+void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_qr, bool densities, bool fibres,
+              int32_t node_off,
               std::vector<Tet>& all_tets) {
   const TetMesh& mesh = b.mesh->mesh;
   const Lame lame = lame_from_young_poisson(b.young_modulus, b.poisson_ratio);
@@ -49,6 +50,7 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
       ep.beta = b.rayleigh_stiffness;
     }
     if (densities) m.element_density.push_back(density);
+    if (fibres) m.fibres.push_back(b.element_fibres.empty() ? FibreParams{{1, 0, 0}, 0, 0} : b.element_fibres[ti]);
     if (any_qr) {
       const double e1[3] = {Dm[0], Dm[3], Dm[6]};
       const double e2[3] = {Dm[1], Dm[4], Dm[7]};
@@ -63,7 +65,9 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
   ElementRange range{br.element_begin, br.element_end, ElementKernel::CorotationalPolar};
   if (b.model == ElementModel::Linear) range.kernel = ElementKernel::Linear;
   else if (b.model == ElementModel::StableNeoHookean) range.kernel = ElementKernel::StableNeoHookean;
+  else if (b.model == ElementModel::StVenantKirchhoff) range.kernel = ElementKernel::StVenantKirchhoff;
   else if (b.rotation == RotationMethod::QR) range.kernel = ElementKernel::CorotationalQR;
+  range.fibres = !b.element_fibres.empty();
   m.ranges.push_back(range);
   for (const Tri& f : b.mesh->boundary) br.boundary.push_back({f[0] + node_off, f[1] + node_off, f[2] + node_off});
   for (int32_t i = br.node_begin; i < br.node_end; ++i) {
@@ -148,11 +152,13 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
                        [&](const ElementMaterial& e) { return e.density != b.density; });
   });
   if (densities) m.element_density.reserve(ne);
+  const bool fibres = std::any_of(bodies.begin(), bodies.end(), [](const FemBodyInput& b) { return !b.element_fibres.empty(); });
+  if (fibres) m.fibres.reserve(ne);
   std::vector<Tet> all_tets;
   all_tets.reserve(ne);
   int32_t node_off = 0;
   for (const auto& b : bodies) {
-    add_body(m, b, gravity, any_qr, densities, node_off, all_tets);
+    add_body(m, b, gravity, any_qr, densities, fibres, node_off, all_tets);
     node_off += static_cast<int32_t>(b.mesh->mesh.nodes.size());
   }
   finish_fem_model(m, all_tets);

@@ -28,6 +28,9 @@ struct FemBodyInput {
   /// Per tetrahedron (file order) its own material, or empty: the body's for all. Regions of a
   /// heterogeneous body (a tumour in a liver) set it.
   std::vector<ElementMaterial> element_material;
+  /// Per tetrahedron (file order) its fibres (fibre.hpp), or empty: no fibres in this body.
+  /// Only the hyperelastic models (stable Neo-Hookean, St. Venant–Kirchhoff) take fibres.
+  std::vector<FibreParams> element_fibres;
 };
 
 /// Builds the global model: bodies are concatenated (node and element offsets in order).

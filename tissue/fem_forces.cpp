@@ -7,6 +7,7 @@
 #include "tissue/material.hpp"
 #include "tissue/rotation.hpp"
 #include "tissue/stable_neo_hookean.hpp"
+#include "tissue/st_venant_kirchhoff.hpp"
 
 namespace stroma {
 
@@ -318,7 +319,10 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
         energy += dispatch_flags<ElementKernel::CorotationalQR>(m, p, r.begin, r.end);
         break;
       case ElementKernel::StableNeoHookean:
-        energy += stable_neo_hookean_pass(m, p, r.begin, r.end);
+        energy += stable_neo_hookean_pass(m, p, r.begin, r.end, r.fibres);
+        break;
+      case ElementKernel::StVenantKirchhoff:
+        energy += st_venant_kirchhoff_pass(m, p, r.begin, r.end, r.fibres);
         break;
     }
   }
@@ -331,7 +335,8 @@ void element_von_mises(const FemModel& m, const double* x, double* out) {
       const ElementParams& ep = m.elements[e];
       double F[9], d1[3], d2[3], R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
       deformation_gradient(x, ep, F, d1, d2);
-      if (r.kernel == ElementKernel::CorotationalPolar || r.kernel == ElementKernel::StableNeoHookean)
+      if (r.kernel == ElementKernel::CorotationalPolar || r.kernel == ElementKernel::StableNeoHookean ||
+          r.kernel == ElementKernel::StVenantKirchhoff)
         polar_rotation(F, R);
       else if (r.kernel == ElementKernel::CorotationalQR)
         qr_rotation(m.rest_frame[e].data(), d1, d2, R);

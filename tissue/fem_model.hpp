@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "tissue/bsr_matrix.hpp"
+#include "tissue/fibre.hpp"
 #include "tissue/options.hpp"
 #include "tissue/tet_mesh.hpp"
 
@@ -29,7 +30,7 @@ struct ElementParams {
 };
 
 /// How a contiguous range of elements is computed (one body; one kernel, no per-element branch).
-enum class ElementKernel : uint8_t { Linear, CorotationalPolar, CorotationalQR, StableNeoHookean };
+enum class ElementKernel : uint8_t { Linear, CorotationalPolar, CorotationalQR, StableNeoHookean, StVenantKirchhoff };
 
 /// A contiguous range of elements sharing one kernel (one body).
 struct ElementRange {
@@ -40,6 +41,8 @@ struct ElementRange {
   /// elastic pass skips it — its forces and stiffness would only land on fixed DOFs, and it
   /// stays at rest with zero energy — so a fixed body costs nothing per tick.
   bool fixed = false;
+  /// Its elements carry fibres (FemModel::fibres): a hyperelastic kernel adds their term.
+  bool fibres = false;
 };
 
 /// One body's slice of the global arrays.
@@ -66,6 +69,9 @@ struct FemModel {
   /// Per element its density (kg/m³) when some body has regions of their own density; empty:
   /// each element has its body's (BodyRange::density). element_density() reads either.
   std::vector<double> element_density;
+  /// Per element its fibres (fibre.hpp) when some body is fibre-reinforced; empty otherwise.
+  /// Elements of ranges without `fibres` are never read (k1 = 0 there).
+  std::vector<FibreParams> fibres;
   std::vector<double> inv_mass;             ///< 1/mass (0 for nodes without mass)
   std::vector<double> alpha;                ///< Rayleigh mass coefficient per node
   /// Per node, bit k set: DOF k (x, y, z) is fixed. 7: the node does not move (fixed or

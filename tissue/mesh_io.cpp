@@ -740,6 +740,8 @@ struct CellArrays {
   std::string offsets_field, connectivity_field, types_field;
   /// Per cell its region tag (VTU cell data), or empty.
   std::vector<int64_t> cell_tags;
+  /// Per cell a fibre direction (3 values; VTU cell data), or empty.
+  std::vector<double> cell_fibres;
 };
 
 TetMesh assemble_vtk_mesh(ParseContext& ctx, std::vector<Vec3> points, const CellArrays& c) {
@@ -789,6 +791,7 @@ TetMesh assemble_vtk_mesh(ParseContext& ctx, std::vector<Vec3> points, const Cel
       const int64_t tag = c.cell_tags[i];
       mesh.tet_tags.push_back(tag < INT32_MIN || tag > INT32_MAX ? 0 : static_cast<int32_t>(tag));
     }
+    if (!c.cell_fibres.empty()) mesh.tet_fibres.push_back({c.cell_fibres[3 * i], c.cell_fibres[3 * i + 1], c.cell_fibres[3 * i + 2]});
   }
   if (std::none_of(mesh.tet_tags.begin(), mesh.tet_tags.end(), [](int32_t t) { return t != 0; })) mesh.tet_tags.clear();
   if (mesh.tets.empty())
@@ -1112,7 +1115,8 @@ class VtuReader {
                                          "connectivity values (last offset)");
     c.types = read_array<int64_t>(types, static_cast<size_t>(ncells), "types",
                                   "cell types (NumberOfCells)");
-    // Regions: an integer cell-data array with one of the names meshers use for them.
+    // Regions: an integer cell-data array with one of the names meshers use for them; fibre
+    // directions: a 3-component array named as fibre fields are.
     if (const auto cell_data = find_tag("CellData", piece->content_begin, piece_end)) {
       ctx_.field = "CellData";
       const size_t cd_end = find_closing("CellData", *cell_data);
@@ -1122,12 +1126,21 @@ class VtuReader {
         const auto name = xml_attribute(tag->tag, "Name");
         static constexpr std::string_view kNames[] = {"region", "regions", "tag", "label", "labels",
                                                       "gmsh:physical", "MaterialIds", "CellEntityIds"};
-        if (!name || std::find(std::begin(kNames), std::end(kNames), *name) == std::end(kNames)) continue;
+        static constexpr std::string_view kFibreNames[] = {"fibres", "fibers", "fibre", "fiber",
+                                                           "FibreDirection", "FiberDirection"};
+        if (!name) continue;
         const auto comps = xml_attribute(tag->tag, "NumberOfComponents");
-        if (comps && trim(*comps) != "1") continue;
-        c.cell_tags = read_array<int64_t>(*tag, static_cast<size_t>(ncells), "CellData",
-                                          "region tags (NumberOfCells)");
-        break;
+        if (c.cell_tags.empty() && std::find(std::begin(kNames), std::end(kNames), *name) != std::end(kNames) &&
+            (!comps || trim(*comps) == "1")) {
+          c.cell_tags = read_array<int64_t>(*tag, static_cast<size_t>(ncells), "CellData",
+                                            "region tags (NumberOfCells)");
+        } else if (c.cell_fibres.empty() &&
+                   std::find(std::begin(kFibreNames), std::end(kFibreNames), *name) != std::end(kFibreNames)) {
+          if (!comps || trim(*comps) != "3")
+            ctx_.fail(tag->begin, fmt::format("cell data '{}' (fibre directions) must have NumberOfComponents=\"3\"", *name));
+          c.cell_fibres = read_array<double>(*tag, 3 * static_cast<size_t>(ncells), "CellData",
+                                             "fibre directions (3 x NumberOfCells)");
+        }
       }
     }
     c.offsets_pos = offsets.begin;

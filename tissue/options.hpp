@@ -33,7 +33,10 @@ enum class WarmStart {
 enum class ElementModel {
   Corotational,  ///< small strain in a per-element rotated frame (large rotations)
   Linear,        ///< small strain, small rotation (fails under rotation: for comparison)
-  StableNeoHookean  ///< hyperelastic, inversion-robust (tissue/stable_neo_hookean.hpp): large strain
+  StableNeoHookean,  ///< hyperelastic, inversion-robust (tissue/stable_neo_hookean.hpp): large strain
+  /// hyperelastic in the Green strain (tissue/st_venant_kirchhoff.hpp): large rotation, moderate
+  /// strain; collapses under strong compression (its known failure)
+  StVenantKirchhoff
 };
 /// How the corotational element rotation is extracted.
 enum class RotationMethod {

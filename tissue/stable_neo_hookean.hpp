@@ -31,9 +31,10 @@
 namespace stroma {
 
 /// The elastic pass (fem_forces.hpp) over elements [begin, end) with the stable Neo-Hookean
-/// material; returns their energy. `rotations` (when requested, for the warped preconditioner)
-/// are the polar rotations of F.
-double stable_neo_hookean_pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end);
+/// material (hyperelastic_pass.hpp), plus FemModel::fibres' term when `fibres`; returns their
+/// energy. `rotations` (when requested, for the warped preconditioner) are the polar rotations
+/// of F.
+double stable_neo_hookean_pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end, bool fibres);
 
 /// Energy density Ψ(F) and first Piola stress P (row-major) for Lamé (λ, μ) of the scenario.
 double stable_neo_hookean_stress(const double* F, double lambda, double mu, double* P);

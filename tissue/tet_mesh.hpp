@@ -29,6 +29,10 @@ struct TetMesh {
   std::vector<int32_t> tet_tags;
   /// Names of region tags (gmsh $PhysicalNames of dimension 3), in file order.
   std::vector<std::pair<int32_t, std::string>> tag_names;
+  /// Per tetrahedron, a fibre direction (VTU cell data `fibres`, 3 components; not
+  /// normalised, (0, 0, 0): none there), or empty when the file has none. `fibres: {direction:
+  /// mesh}` reads it.
+  std::vector<Vec3> tet_fibres;
 };
 
 }  // namespace stroma

@@ -77,7 +77,10 @@ struct StaticConfig {
 };
 
 const char* model_name(ElementModel m) {
-  return m == ElementModel::Linear ? "linear" : m == ElementModel::StableNeoHookean ? "stable NH" : "corot.";
+  return m == ElementModel::Linear             ? "linear"
+         : m == ElementModel::StableNeoHookean  ? "stable NH"
+         : m == ElementModel::StVenantKirchhoff ? "StVK"
+                                                : "corot.";
 }
 
 AccuracyPoint run_static(const std::string& src, const StaticConfig& c, int runs) {
@@ -515,10 +518,13 @@ std::vector<AccuracyPoint> run_cantilever_static_problem(const AccuracyOptions& 
                                                          : std::vector<std::string>{"5p000", "3p333", "2p500", "2p000", "1p667"};
   for (const std::string& mesh : static_meshes) {
     // Stable neo-Hookean is on its own sweep: its peer is Bullet's neo-Hookean force.
-    for (ElementModel model : {ElementModel::Corotational, ElementModel::Linear, ElementModel::StableNeoHookean}) {
+    for (ElementModel model : {ElementModel::Corotational, ElementModel::Linear, ElementModel::StableNeoHookean,
+                               ElementModel::StVenantKirchhoff}) {
       if (o.quick && model != ElementModel::Corotational && mesh != "5p000" && mesh != "2p000") continue;
-      const bool nh = model == ElementModel::StableNeoHookean;
-      record(st, run_static(src, {mesh, nh ? "stable neo-Hookean (CHOLMOD)" : "mesh x element (CHOLMOD)", "cholmod", model, 0}, runs), o);
+      const char* sweep = model == ElementModel::StableNeoHookean    ? "stable neo-Hookean (CHOLMOD)"
+                          : model == ElementModel::StVenantKirchhoff ? "St. Venant-Kirchhoff (CHOLMOD)"
+                                                                     : "mesh x element (CHOLMOD)";
+      record(st, run_static(src, {mesh, sweep, "cholmod", model, 0}, runs), o);
     }
     for (double tol : o.quick ? std::vector<double>{1e-4} : std::vector<double>{1e-3, 1e-4, 1e-6})
       record(st, run_static(src, {mesh, "CG tolerance (warped Cholesky PCG)", "cg", ElementModel::Corotational, tol}, runs), o);
@@ -583,11 +589,14 @@ std::vector<AccuracyPoint> run_cantilever_dynamic_problem(const AccuracyOptions&
     c.label = fmt::format("warm start {}", ws == WarmStart::Off ? "off" : ws == WarmStart::Previous ? "previous" : "extrapolate");
     record(dy, run_dynamic(src, c, runs, T), o);
   }
-  for (ElementModel model : {ElementModel::Linear, ElementModel::StableNeoHookean}) {
+  for (ElementModel model : {ElementModel::Linear, ElementModel::StableNeoHookean, ElementModel::StVenantKirchhoff}) {
     DynamicConfig c;
     c.model = model;
     c.sweep = "element model";
-    c.label = fmt::format("{} elements, h 3.333 mm, dt 1 ms", model == ElementModel::Linear ? "linear" : "stable neo-Hookean");
+    c.label = fmt::format("{} elements, h 3.333 mm, dt 1 ms",
+                          model == ElementModel::Linear             ? "linear"
+                          : model == ElementModel::StableNeoHookean ? "stable neo-Hookean"
+                                                                    : "St. Venant-Kirchhoff");
     record(dy, run_dynamic(src, c, runs, T), o);
   }
   // Symplectic Euler needs ~100x more ticks (its stable step is ~0.01 ms here): the finest mesh
@@ -620,7 +629,8 @@ struct ProblemReport {
 const ProblemReport& problem_report(const std::string& name) {
   static const std::vector<ProblemReport> reports = {
       {"cantilever_static", "Cantilever (refs/a): static tip deflection vs -1.4735e-3 m", kToAnswer, "s to answer",
-       {"mesh x element (CHOLMOD)", "CG tolerance (warped Cholesky PCG)", "stable neo-Hookean (CHOLMOD)", "Bullet FEM (peer)",
+       {"mesh x element (CHOLMOD)", "CG tolerance (warped Cholesky PCG)", "stable neo-Hookean (CHOLMOD)",
+        "St. Venant-Kirchhoff (CHOLMOD)", "Bullet FEM (peer)",
         "Bullet FEM neo-Hookean (peer)", "Bullet FEM neo-Hookean matched (peer)", "Bullet soft body (peer)"}},
       {"cantilever_dynamic", "Cantilever (refs/d): first frequency from the released tip vs 16.100 Hz",
        "wall seconds per simulated second", "s per sim. s",

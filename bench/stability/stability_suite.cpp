@@ -251,7 +251,8 @@ void print_row(const StabilityResult& r, bool markdown) {
 
 /// The grid: time step × E × ν × mesh (good, slivers, initially inverted) with the corotational
 /// model, then its soft half (E ≤ 10 kPa, where corotational elements end inverted) again with
-/// stable Neo-Hookean, the material for that.
+/// stable Neo-Hookean, the material for that, and with St. Venant–Kirchhoff, to show its known
+/// failure (an inverted element is a mirrored rest state to it: nothing pushes it back).
 void add_grid_cases(const StabilityOptions& o, const std::string& good, const std::string& slivers,
                     std::vector<CaseSetup>& cases) {
   const std::string& src = o.source_dir;
@@ -259,23 +260,52 @@ void add_grid_cases(const StabilityOptions& o, const std::string& good, const st
   const std::vector<double> Es = o.quick ? std::vector<double>{1e3, 1e6} : std::vector<double>{1e3, 1e4, 1e5, 1e6};
   const std::vector<double> nus = o.quick ? std::vector<double>{0.3, 0.499} : std::vector<double>{0.3, 0.45, 0.49, 0.499};
   const double T = o.quick ? 0.2 : 0.5;
-  for (const bool snh : {false, true})
+  for (const ElementModel model : {ElementModel::Corotational, ElementModel::StableNeoHookean, ElementModel::StVenantKirchhoff})
     for (double dt : dts)
       for (double E : Es)
         for (double nu : nus)
           for (int mesh = 0; mesh < 3; ++mesh) {
+            const bool snh = model == ElementModel::StableNeoHookean, stvk = model == ElementModel::StVenantKirchhoff;
             if (snh && (E > 1e4 || (o.quick && (dt > 1e-3 || mesh != 0)))) continue;
+            if (stvk && (E > 1e4 || (o.quick && (dt > 1e-3 || mesh == 1)))) continue;
             CaseSetup c;
             c.group = "grid";
             const char* mname = mesh == 0 ? "good" : mesh == 1 ? "slivers" : "inverted";
             c.name = fmt::format("dt {:g} ms, E {}Pa, nu {}, {}{}", dt * 1e3, fmt_si(E), nu, mname,
-                                 snh ? ", stable neo-Hookean" : "");
+                                 snh ? ", stable neo-Hookean" : stvk ? ", St. Venant-Kirchhoff" : "");
             c.spec = cantilever(src, dt, E, nu, mesh == 1 ? slivers : good);
-            if (snh) c.spec.bodies[0].material.model = ElementModel::StableNeoHookean;
+            c.spec.bodies[0].material.model = model;
             c.duration = T;
             if (mesh == 2) c.init = invert_free_end;
             cases.push_back(std::move(c));
           }
+}
+
+/// Fibre-reinforced tissue (tissue/fibre.hpp): the soft beam as a tendon — stable Neo-Hookean
+/// matrix with exponential fibres along its axis (k1 = 50 kPa, k2 = 8, so the fibres stiffen
+/// ~50× between 1 % and 20 % stretch) — on the good mesh and with its free end inverted.
+void add_fibre_cases(const StabilityOptions& o, const std::string& good, std::vector<CaseSetup>& cases) {
+  const std::vector<double> dts = o.quick ? std::vector<double>{1e-3} : std::vector<double>{1e-3, 10e-3, 33e-3};
+  const std::vector<double> Es = o.quick ? std::vector<double>{1e3} : std::vector<double>{1e3, 1e4};
+  for (double dt : dts)
+    for (double E : Es)
+      for (double nu : {0.45, 0.499})
+        for (int mesh : {0, 2}) {
+          CaseSetup c;
+          c.group = "grid";
+          c.name = fmt::format("dt {:g} ms, E {}Pa, nu {}, {}, fibres", dt * 1e3, fmt_si(E), nu, mesh == 0 ? "good" : "inverted");
+          c.spec = cantilever(o.source_dir, dt, E, nu, good);
+          MaterialSpec& mat = c.spec.bodies[0].material;
+          mat.model = ElementModel::StableNeoHookean;
+          FibreSpec f;
+          f.direction = {1, 0, 0};
+          f.k1 = 5e4;
+          f.k2 = 8;
+          mat.fibres = f;
+          c.duration = o.quick ? 0.2 : 0.5;
+          if (mesh == 2) c.init = invert_free_end;
+          cases.push_back(std::move(c));
+        }
 }
 
 /// Extreme loads: the clamp turned 180°, random initial velocities, the tool at 5 m/s into the
@@ -382,6 +412,7 @@ std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
   const std::string slivers = make_sliver_mesh(good, (tmp / "beam_slivers.vtk").string(), &sliver_ratio);
   std::vector<CaseSetup> cases;
   add_grid_cases(o, good, slivers, cases);
+  add_fibre_cases(o, good, cases);
   add_extreme_cases(o, good, cases);
   if (o.newton_iterations > 0)
     for (CaseSetup& c : cases) c.spec.solver.newton_iterations = o.newton_iterations;
