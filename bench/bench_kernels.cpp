@@ -121,6 +121,43 @@ void BM_ElementPass(benchmark::State& st) {
 }
 BENCHMARK(BM_ElementPass)->ArgsProduct({{0, 1, 3}, {0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMicrosecond);
 
+/// The implicit tick's element pass (forces + assembly) per element model on the same organ.
+/// arg0: scenario; arg1: 0 corotational, 1 stable Neo-Hookean, 2 St. Venant-Kirchhoff,
+/// 3 stable Neo-Hookean with fibres (k1 50 kPa, k2 8, along x).
+void BM_ElementModel(benchmark::State& st) {
+  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/" + kScenarioNames[st.range(0)] + ".yaml");
+  const ElementModel models[] = {ElementModel::Corotational, ElementModel::StableNeoHookean,
+                                 ElementModel::StVenantKirchhoff, ElementModel::StableNeoHookean};
+  const char* names[] = {"corotational", "stable NH", "StVK", "stable NH + fibres"};
+  for (auto& b : s.bodies) {
+    b.material.model = models[st.range(1)];
+    if (st.range(1) == 3) {
+      FibreSpec f;
+      f.k1 = 5e4;
+      f.k2 = 8;
+      b.material.fibres = f;
+    }
+  }
+  auto m = compile_model(s);
+  TickWorkspace w(*m);
+  State state = warmed_state(*m, w);
+  std::vector<double> f(m->fem.dofs()), K(9 * m->fem.pattern.nnzb());
+  ElasticPass p;
+  p.x = state.tissue.x.data();
+  p.force = f.data();
+  p.kvals = K.data();
+  p.k_beta = m->time_step;
+  p.k_const = m->time_step * m->time_step;
+  for (auto _ : st) {
+    benchmark::DoNotOptimize(elastic_pass(m->fem, p));
+    benchmark::ClobberMemory();
+  }
+  st.SetLabel(std::string(kScenarioNames[st.range(0)]) + " " + names[st.range(1)]);
+  st.counters["ns_per_element"] = benchmark::Counter(static_cast<double>(m->fem.elements.size()),
+                                                     benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ElementModel)->ArgsProduct({{0, 3}, {0, 1, 2, 3}})->Unit(benchmark::kMicrosecond);
+
 void BM_Spmv(benchmark::State& st) {
   auto m = model_for(static_cast<int>(st.range(0)));
   TickWorkspace w(*m);
