@@ -363,6 +363,24 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
     in.density = mat.density;
     in.rayleigh_mass = mat.rayleigh_mass;
     in.rayleigh_stiffness = mat.rayleigh_stiffness;
+    if (const auto& ve = mat.viscoelastic) {
+      const std::string vf = field + ".material.viscoelastic";
+      if (ve->model == "kelvin_voigt") {
+        in.rayleigh_stiffness = ve->kelvin_voigt_tau;  // σ = Eε + ηε̇: stiffness damping β = η/E
+      } else {
+        if (spec.solver.integrator != Integrator::ImplicitEuler)
+          throw InputError(ve->where.file, ve->where.line, vf,
+                           "a Prony series needs solver.integrator implicit_euler (its internal variables step with "
+                           "the ticks: a static solve has no time, symplectic Euler is not supported)");
+        for (size_t ti = 0; ti < spec.tools.size(); ++ti)
+          if (spec.tools[ti].spec.cuts)
+            throw InputError(ve->where.file, ve->where.line, vf,
+                             fmt::format("cutting a visco-elastic body is not supported yet (tools[{}] cuts)", ti));
+        if (spec.solver.fem_every != 1)
+          throw InputError(ve->where.file, ve->where.line, vf, "a Prony series needs solver.fem_every 1 for now");
+        in.visco = ve->series;
+      }
+    }
     in.mesh = &pm;
     apply_regions(b, pm, field, in);
     apply_fibres(b, pm, field, in);

@@ -197,9 +197,66 @@ FibreSpec parse_fibres(const Field& f) {
   return s;
 }
 
+/// `viscoelastic: {model: prony, terms: [{g, tau}, ...]}` | `{model: standard_linear_solid, g,
+/// tau}` | `{model: maxwell, tau}` | `{model: kelvin_voigt, tau}` (tissue/viscoelastic.hpp).
+ViscoSpec parse_viscoelastic(const Field& f) {
+  const MapReader m = f.map({"model", "terms", "g", "tau"});
+  ViscoSpec v;
+  v.where = location_of(m);
+  static const Choices<std::string> kModels = {{"prony", "prony"},
+                                               {"standard_linear_solid", "standard_linear_solid"},
+                                               {"maxwell", "maxwell"},
+                                               {"kelvin_voigt", "kelvin_voigt"}};
+  m.require("model", v.model, kModels);
+  Range g_range{0.0, 1.0, true, false, "", "g = 1 leaves no long-term stiffness (a fluid: model maxwell)"};
+  Range tau_range = greater_than(0);
+  tau_range.hi = 1e9;
+  tau_range.hi_closed = true;
+  auto only = [&](std::initializer_list<const char*> keys, const char* why) {
+    for (const char* k : {"terms", "g", "tau"}) {
+      bool allowed = false;
+      for (const char* a : keys) allowed |= std::string(a) == k;
+      if (!allowed)
+        if (auto x = m.opt(k)) x->fail(fmt::format("'{}' is not a parameter of model {} ({})", k, v.model, why));
+    }
+  };
+  if (v.model == "prony") {
+    only({"terms"}, "give terms: [{g, tau}, ...]");
+    const std::vector<Field> items = m.req("terms").list();
+    if (items.empty() || items.size() > static_cast<size_t>(kMaxPronyTerms))
+      m.req("terms").fail(fmt::format("a Prony series has 1 to {} terms, got {}", kMaxPronyTerms, items.size()));
+    double sum = 0;
+    for (const Field& item : items) {
+      const MapReader t = item.map({"g", "tau"});
+      const int i = v.series.terms++;
+      t.require("g", v.series.g[i], g_range);
+      t.require("tau", v.series.tau[i], tau_range);
+      sum += v.series.g[i];
+    }
+    if (!(sum < 1))
+      m.req("terms").fail(fmt::format("the relative moduli g sum to {:g}: they must sum to less than 1 (the long-term "
+                                      "modulus E(1 - sum g) must stay > 0)",
+                                      sum));
+  } else if (v.model == "standard_linear_solid") {
+    only({"g", "tau"}, "g: the Maxwell arm's share of the instantaneous modulus, tau: its relaxation time");
+    v.series.terms = 1;
+    m.require("g", v.series.g[0], g_range);
+    m.require("tau", v.series.tau[0], tau_range);
+  } else if (v.model == "maxwell") {
+    only({"tau"}, "a Maxwell fluid relaxes completely: tau = viscosity / young_modulus");
+    v.series.terms = 1;
+    v.series.g[0] = 1.0;
+    m.require("tau", v.series.tau[0], tau_range);
+  } else {
+    only({"tau"}, "tau = viscosity / young_modulus");
+    m.require("tau", v.kelvin_voigt_tau, tau_range);
+  }
+  return v;
+}
+
 MaterialSpec parse_material(const Field& f) {
   const MapReader m = f.map({"model", "rotation", "young_modulus", "poisson_ratio", "density",
-                             "rayleigh_mass", "rayleigh_stiffness", "damage", "fibres"});
+                             "rayleigh_mass", "rayleigh_stiffness", "damage", "fibres", "viscoelastic"});
   MaterialSpec mat;
   mat.where = location_of(m);
   Range nu = open_interval(-1, 0.5);
@@ -225,6 +282,15 @@ MaterialSpec parse_material(const Field& f) {
     mat.fibres = parse_fibres(*f2);
     if (mat.model != ElementModel::StableNeoHookean && mat.model != ElementModel::StVenantKirchhoff)
       f2->fail("fibres need a hyperelastic matrix: model stable_neo_hookean or st_venant_kirchhoff");
+  }
+  if (auto f2 = m.opt("viscoelastic")) {
+    mat.viscoelastic = parse_viscoelastic(*f2);
+    if (mat.viscoelastic->model != "kelvin_voigt" &&
+        (mat.model != ElementModel::Corotational || mat.rotation != RotationMethod::Polar))
+      f2->fail("a Prony series needs model corotational with rotation polar for now (stable Neo-Hookean "
+               "visco-elasticity is not in yet)");
+    if (mat.viscoelastic->model == "kelvin_voigt" && m.opt("rayleigh_stiffness"))
+      f2->fail("kelvin_voigt is stiffness damping with rayleigh_stiffness = tau: give one of them");
   }
   return mat;
 }

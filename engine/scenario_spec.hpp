@@ -12,6 +12,7 @@
 #include "haptics/tool.hpp"
 #include "tissue/options.hpp"
 #include "tissue/tet_mesh.hpp"
+#include "tissue/viscoelastic.hpp"
 
 namespace stroma {
 
@@ -117,6 +118,16 @@ struct FibreSpec {
   SourceLocation where;
 };
 
+/// `viscoelastic:` of a material (tissue/viscoelastic.hpp). A Prony series (the named models
+/// are one-branch series) or Kelvin–Voigt (`kelvin_voigt`: stiffness damping β = τ).
+/// Invariants: 1..8 terms, g ∈ [0, 1), τ > 0, Σ g < 1 — except `maxwell`: one term, g = 1.
+struct ViscoSpec {
+  std::string model;           ///< prony | standard_linear_solid | maxwell | kelvin_voigt
+  PronySeries series;          ///< (prony, standard_linear_solid, maxwell)
+  double kelvin_voigt_tau = 0; ///< s: η/E (kelvin_voigt)
+  SourceLocation where;
+};
+
 struct MaterialSpec {
   ElementModel model = ElementModel::Corotational;
   RotationMethod rotation = RotationMethod::Polar;
@@ -127,6 +138,7 @@ struct MaterialSpec {
   double rayleigh_stiffness = 0;   ///< β in C = αM + βK, ≥ 0
   DamageSpec damage;
   std::optional<FibreSpec> fibres;  ///< fibre reinforcement (hyperelastic models only)
+  std::optional<ViscoSpec> viscoelastic;  ///< visco-elasticity (corotational, polar, for now)
   SourceLocation where;
 };
 

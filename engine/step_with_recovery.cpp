@@ -20,6 +20,8 @@ bool all_finite(const std::vector<double>& a) {
 void restore(TissueState& t, const TickWorkspace& w) {
   std::copy(w.backup_x.begin(), w.backup_x.end(), t.x.begin());
   std::copy(w.backup_v.begin(), w.backup_v.end(), t.v.begin());
+  std::copy(w.backup_visco_q.begin(), w.backup_visco_q.end(), t.visco_q.begin());
+  std::copy(w.backup_visco_s0.begin(), w.backup_visco_s0.end(), t.visco_s0.begin());
   std::fill(t.dv.begin(), t.dv.end(), 0.0);
   std::fill(t.dv_prev.begin(), t.dv_prev.end(), 0.0);
 }
@@ -100,6 +102,8 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
   // Rollback point: the tissue's positions and velocities (two copies of 3n doubles).
   std::copy(s.tissue.x.begin(), s.tissue.x.end(), w.backup_x.begin());
   std::copy(s.tissue.v.begin(), s.tissue.v.end(), w.backup_v.begin());
+  std::copy(s.tissue.visco_q.begin(), s.tissue.visco_q.end(), w.backup_visco_q.begin());
+  std::copy(s.tissue.visco_s0.begin(), s.tissue.visco_s0.end(), w.backup_visco_s0.begin());
   const bool cap_fails = m.substep_on_cg_cap;
   bool ok = step(m, s, w, h, r, true, cap_fails, deadline);
   // Speculative body contacts whose vertex never reached its face would pull it in: release them

@@ -46,6 +46,8 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
   stepper_.prepare(m.fem_step);
   backup_x.resize(m.fem.rest.size());
   backup_v.resize(m.fem.rest.size());
+  backup_visco_q.resize(static_cast<size_t>(m.fem.visco_q_size));
+  backup_visco_s0.resize(static_cast<size_t>(m.fem.visco_s0_size));
   report.tools.resize(m.tools.size());
   if (m.has_damage) report.damage_records.reserve(kMaxDamageRecords);
   if (m.has_contact) {  // pay only for use: no tool shape, no BVH

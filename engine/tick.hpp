@@ -126,6 +126,8 @@ class TickWorkspace {
   std::vector<double> surface_x, surface_v;
   /// Positions and velocities at the start of the tick, for rollback (sized once).
   std::vector<double> backup_x, backup_v;
+  /// The visco-elastic internal variables at the start of the tick (empty without them).
+  std::vector<double> backup_visco_q, backup_visco_s0;
   TickReport report;  ///< the last tick's outputs
   /// What the energy guard that follows an inexact step costs (one energy-only element pass):
   /// the median of three passes timed when the workspace is made, then a running mean (1/8) of

@@ -68,6 +68,15 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
   else if (b.model == ElementModel::StVenantKirchhoff) range.kernel = ElementKernel::StVenantKirchhoff;
   else if (b.rotation == RotationMethod::QR) range.kernel = ElementKernel::CorotationalQR;
   range.fibres = !b.element_fibres.empty();
+  if (b.visco.terms > 0) {  // its internal variables' place in the state arrays
+    range.visco = static_cast<int32_t>(m.visco.size());
+    m.visco.push_back(b.visco);
+    const int64_t ne = range.end - range.begin;
+    range.visco_q_begin = m.visco_q_size;
+    range.visco_s0_begin = m.visco_s0_size;
+    m.visco_q_size += 6 * b.visco.terms * ne;
+    m.visco_s0_size += 6 * ne;
+  }
   m.ranges.push_back(range);
   for (const Tri& f : b.mesh->boundary) br.boundary.push_back({f[0] + node_off, f[1] + node_off, f[2] + node_off});
   for (int32_t i = br.node_begin; i < br.node_end; ++i) {

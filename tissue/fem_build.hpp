@@ -31,6 +31,8 @@ struct FemBodyInput {
   /// Per tetrahedron (file order) its fibres (fibre.hpp), or empty: no fibres in this body.
   /// Only the hyperelastic models (stable Neo-Hookean, St. Venant–Kirchhoff) take fibres.
   std::vector<FibreParams> element_fibres;
+  /// Visco-elastic: the body's Prony series (terms = 0: elastic). Corotational polar only.
+  PronySeries visco;
 };
 
 /// Builds the global model: bodies are concatenated (node and element offsets in order).

@@ -248,24 +248,68 @@ void scatter_blocks(const FemModel& m, const ElasticPass& p, const double (&R)[9
   }
 }
 
+/// The visco-elastic history stress of a batch's elements (viscoelastic.hpp): per lane the
+/// force −V·R·H·g_a added to `fo` (when given) and the energy V·H:ε added to `en`, with
+/// H = Σ(decayᵢ·Qᵢ − ggᵢ·σ₀ⁿ) from the state. Per batch of a visco-elastic range only.
+void add_visco_history(const ElementRange& r, const ElasticPass& p, const ViscoStep& st, int32_t e0, int count,
+                       const double (&R)[9][kBatch], const double (&F)[9][kBatch], const BatchInput& in,
+                       double (*fo)[kBatch], double* en) {
+  for (int l = 0; l < count; ++l) {
+    const int64_t j = e0 + l - r.begin;
+    double h6[6];
+    visco_history(st, p.visco_q + r.visco_q_begin + 6 * st.terms * j, p.visco_s0 + r.visco_s0_begin + 6 * j, h6);
+    const double H[9] = {h6[0], h6[3], h6[4], h6[3], h6[1], h6[5], h6[4], h6[5], h6[2]};
+    double S[9];  // RᵀF
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) S[3 * i + k] = R[i][l] * F[k][l] + R[3 + i][l] * F[3 + k][l] + R[6 + i][l] * F[6 + k][l];
+    const double eps[9] = {S[0] - 1, 0.5 * (S[1] + S[3]), 0.5 * (S[2] + S[6]), 0.5 * (S[1] + S[3]), S[4] - 1,
+                           0.5 * (S[5] + S[7]), 0.5 * (S[2] + S[6]), 0.5 * (S[5] + S[7]), S[8] - 1};
+    double he = 0;
+    for (int k = 0; k < 9; ++k) he += H[k] * eps[k];
+    en[l] += in.vol[l] * he;
+    if (!fo) continue;
+    double P[9];  // R·H
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) P[3 * i + k] = R[3 * i][l] * H[k] + R[3 * i + 1][l] * H[3 + k] + R[3 * i + 2][l] * H[6 + k];
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < 3; ++i) {
+        const double v = -in.vol[l] * (P[3 * i] * in.g[3 * a][l] + P[3 * i + 1] * in.g[3 * a + 1][l] +
+                                       P[3 * i + 2] * in.g[3 * a + 2][l]);
+        fo[3 * (a + 1) + i][l] += v;
+        fo[i][l] -= v;
+      }
+  }
+}
+
 template <ElementKernel K, bool kHasKv, bool kHasK>
-double pass_range(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end) {
+double pass_range(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
+  const int32_t begin = r.begin, end = r.end;
   double energy = 0.0;
   BatchInput in;
   double F[9][kBatch], R[9][kBatch], fo[12][kBatch], en[kBatch];
   Lanes force_scale, kv_scale, k_scale;  // force_scale = +V: the forces are −V·P·g_a
+  // A visco-elastic range stepped over h: stiffness c(h)·(λ, μ) plus the history stress.
+  const bool visco = r.visco >= 0 && p.visco_q != nullptr;
+  const ViscoStep vstep = visco ? visco_step(m.visco[r.visco], p.visco_h) : ViscoStep{};
   for (int32_t e0 = begin; e0 < end; e0 += kBatch) {
     const int count = std::min<int32_t>(kBatch, end - e0);
     gather(m, p.x, e0, count, in, p.damage);
+    if (visco)
+      for (int l = 0; l < count; ++l) {
+        in.lambda[l] *= vstep.c;
+        in.mu[l] *= vstep.c;
+      }
     batch_gradient(in.d, in.g, F);
     batch_rotations<K>(m, e0, count, in, F, R);
     if (!kHasKv && !kHasK && !p.force && !p.rotations) {  // energy only
       batch_energy(R, F, in, en);
+      if (visco) add_visco_history(r, p, vstep, e0, count, R, F, in, nullptr, en);
       for (int l = 0; l < count; ++l) energy += en[l];
       continue;
     }
     for (int l = 0; l < kBatch; ++l) force_scale[l] = in.vol[l];
     batch_stress_forces(R, F, in, 1.0, force_scale, fo, en);
+    if (visco) add_visco_history(r, p, vstep, e0, count, R, F, in, fo, en);
     for (int l = 0; l < count; ++l) {
       const ElementParams& ep = m.elements[e0 + l];
       energy += en[l];
@@ -294,12 +338,12 @@ double pass_range(const FemModel& m, const ElasticPass& p, int32_t begin, int32_
 }
 
 template <ElementKernel K>
-double dispatch_flags(const FemModel& m, const ElasticPass& p, int32_t b, int32_t e) {
+double dispatch_flags(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
   const bool kv = p.kv != nullptr, k = p.kvals != nullptr;
-  if (kv && k) return pass_range<K, true, true>(m, p, b, e);
-  if (kv) return pass_range<K, true, false>(m, p, b, e);
-  if (k) return pass_range<K, false, true>(m, p, b, e);
-  return pass_range<K, false, false>(m, p, b, e);
+  if (kv && k) return pass_range<K, true, true>(m, p, r);
+  if (kv) return pass_range<K, true, false>(m, p, r);
+  if (k) return pass_range<K, false, true>(m, p, r);
+  return pass_range<K, false, false>(m, p, r);
 }
 
 }  // namespace
@@ -310,13 +354,13 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
     if (r.fixed) continue;  // a fixed body: nothing it computes could move anything
     switch (r.kernel) {
       case ElementKernel::Linear:
-        energy += dispatch_flags<ElementKernel::Linear>(m, p, r.begin, r.end);
+        energy += dispatch_flags<ElementKernel::Linear>(m, p, r);
         break;
       case ElementKernel::CorotationalPolar:
-        energy += dispatch_flags<ElementKernel::CorotationalPolar>(m, p, r.begin, r.end);
+        energy += dispatch_flags<ElementKernel::CorotationalPolar>(m, p, r);
         break;
       case ElementKernel::CorotationalQR:
-        energy += dispatch_flags<ElementKernel::CorotationalQR>(m, p, r.begin, r.end);
+        energy += dispatch_flags<ElementKernel::CorotationalQR>(m, p, r);
         break;
       case ElementKernel::StableNeoHookean:
         energy += stable_neo_hookean_pass(m, p, r.begin, r.end, r.fibres);
@@ -324,6 +368,60 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
       case ElementKernel::StVenantKirchhoff:
         energy += st_venant_kirchhoff_pass(m, p, r.begin, r.end, r.fibres);
         break;
+    }
+  }
+  return energy;
+}
+
+void viscous_update(const FemModel& m, const double* x, const float* damage, double h, double* visco_q,
+                    double* visco_s0) {
+  BatchInput in;
+  double F[9][kBatch], R[9][kBatch];
+  for (const ElementRange& r : m.ranges) {
+    if (r.visco < 0 || r.fixed) continue;
+    const ViscoStep st = visco_step(m.visco[r.visco], h);
+    // The pass's batched polar rotations (visco-elastic ranges are corotational polar: compile
+    // checks), then per element σ₀ = λ tr(ε) I + 2με in the rotated frame.
+    for (int32_t e0 = r.begin; e0 < r.end; e0 += kBatch) {
+      const int count = std::min<int32_t>(kBatch, r.end - e0);
+      gather(m, x, e0, count, in, damage);
+      batch_gradient(in.d, in.g, F);
+      polar_rotation_batch<kBatch>(F, R);
+      for (int l = 0; l < count; ++l) {
+        double S[9];  // RᵀF
+        for (int i = 0; i < 3; ++i)
+          for (int k = 0; k < 3; ++k) S[3 * i + k] = R[i][l] * F[k][l] + R[3 + i][l] * F[3 + k][l] + R[6 + i][l] * F[6 + k][l];
+        const double e00 = S[0] - 1, e11 = S[4] - 1, e22 = S[8] - 1;
+        const double e01 = 0.5 * (S[1] + S[3]), e02 = 0.5 * (S[2] + S[6]), e12 = 0.5 * (S[5] + S[7]);
+        const double lt = in.lambda[l] * (e00 + e11 + e22), mu2 = 2 * in.mu[l];
+        const double s0[6] = {mu2 * e00 + lt, mu2 * e11 + lt, mu2 * e22 + lt, mu2 * e01, mu2 * e02, mu2 * e12};
+        const int64_t j = e0 + l - r.begin;
+        double* q = visco_q + r.visco_q_begin + 6 * st.terms * j;
+        double* sn = visco_s0 + r.visco_s0_begin + 6 * j;
+        for (int i = 0; i < st.terms; ++i)
+          for (int k = 0; k < 6; ++k) q[6 * i + k] = st.decay[i] * q[6 * i + k] + st.gg[i] * (s0[k] - sn[k]);
+        for (int k = 0; k < 6; ++k) sn[k] = s0[k];
+      }
+    }
+  }
+}
+
+double viscous_stored_energy(const FemModel& m, const double* visco_q) {
+  double energy = 0;
+  for (const ElementRange& r : m.ranges) {
+    if (r.visco < 0) continue;
+    const PronySeries& ps = m.visco[r.visco];
+    for (int32_t e = r.begin; e < r.end; ++e) {
+      const ElementParams& ep = m.elements[e];
+      const double* q = visco_q + r.visco_q_begin + 6 * ps.terms * (e - r.begin);
+      for (int i = 0; i < ps.terms; ++i) {
+        // ½ Q : C⁻¹ : Q for the isotropic C = g·(λ, μ): (Q:Q − λ/(3λ + 2μ)·tr²Q)/(4μ)/g.
+        const double* Q = q + 6 * i;
+        const double qq = Q[0] * Q[0] + Q[1] * Q[1] + Q[2] * Q[2] + 2 * (Q[3] * Q[3] + Q[4] * Q[4] + Q[5] * Q[5]);
+        const double tr = Q[0] + Q[1] + Q[2];
+        if (!(ps.g[i] > 0) || !(ep.mu > 0)) continue;
+        energy += ep.volume * (qq - ep.lambda / (3 * ep.lambda + 2 * ep.mu) * tr * tr) / (4 * ep.mu * ps.g[i]);
+      }
     }
   }
   return energy;

@@ -25,11 +25,27 @@ struct ElasticPass {
   double k_beta = 0, k_const = 0;
   double* rotations = nullptr; ///< 9 per element: the element rotation (row-major)
   const float* damage = nullptr;  ///< per element damage d: λ, μ scaled by (1 − d); null = none
+  /// Visco-elastic state (TissueState::visco_q / visco_s0) and the step length h ≥ 0 it is
+  /// stepped over: a visco-elastic range's stress is c(h)·σ₀ + H (viscoelastic.hpp). Null: the
+  /// instantaneous elastic response (c = 1, H = 0).
+  const double* visco_q = nullptr;
+  const double* visco_s0 = nullptr;
+  double visco_h = 0;
 };
 
 /// Runs the pass over every element; returns the total elastic energy
 /// Σ V (μ ε:ε + λ/2 tr²ε).
 double elastic_pass(const FemModel& m, const ElasticPass& pass);
+
+/// Brings the visco-elastic internal variables to positions x at the end of a step of length h
+/// (viscoelastic.hpp): Qᵢ ← e^(−h/τᵢ)Qᵢ + gᵢγᵢ(σ₀(x) − σ₀ⁿ), σ₀ⁿ ← σ₀(x). `damage` scales σ₀
+/// as it scales the element (null: none). Nothing without visco-elastic ranges.
+void viscous_update(const FemModel& m, const double* x, const float* damage, double h, double* visco_q,
+                    double* visco_s0);
+
+/// Energy stored in the visco-elastic branches, Σ V·½·Qᵢ : Cᵢ⁻¹ : Qᵢ with Cᵢ = gᵢ·C₀ (0
+/// without visco-elastic ranges). Total mechanical energy = kinetic + elastic + this.
+double viscous_stored_energy(const FemModel& m, const double* visco_q);
 
 /// Per-element von Mises stress of the corotated small strain (Pa) at positions x.
 void element_von_mises(const FemModel& m, const double* x, double* out);

@@ -12,6 +12,7 @@
 
 #include "tissue/bsr_matrix.hpp"
 #include "tissue/fibre.hpp"
+#include "tissue/viscoelastic.hpp"
 #include "tissue/options.hpp"
 #include "tissue/tet_mesh.hpp"
 
@@ -43,6 +44,11 @@ struct ElementRange {
   bool fixed = false;
   /// Its elements carry fibres (FemModel::fibres): a hyperelastic kernel adds their term.
   bool fibres = false;
+  /// Visco-elastic (viscoelastic.hpp): index into FemModel::visco, −1 for none. Its elements'
+  /// internal variables start at visco_q_begin (terms × 6 per element) and visco_s0_begin (6 per
+  /// element) of TissueState::visco_q / visco_s0.
+  int32_t visco = -1;
+  int64_t visco_q_begin = 0, visco_s0_begin = 0;
 };
 
 /// One body's slice of the global arrays.
@@ -72,6 +78,10 @@ struct FemModel {
   /// Per element its fibres (fibre.hpp) when some body is fibre-reinforced; empty otherwise.
   /// Elements of ranges without `fibres` are never read (k1 = 0 there).
   std::vector<FibreParams> fibres;
+  /// Prony series of the visco-elastic ranges (ElementRange::visco), and the sizes of the
+  /// state's internal-variable arrays (0: no visco-elastic body).
+  std::vector<PronySeries> visco;
+  int64_t visco_q_size = 0, visco_s0_size = 0;
   std::vector<double> inv_mass;             ///< 1/mass (0 for nodes without mass)
   std::vector<double> alpha;                ///< Rayleigh mass coefficient per node
   /// Per node, bit k set: DOF k (x, y, z) is fixed. 7: the node does not move (fixed or

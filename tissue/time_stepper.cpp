@@ -21,6 +21,8 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
   if (cfg_.newton_iterations > 1 && cfg_.integrator == Integrator::ImplicitEuler)
     for (auto* v : {&newton_x_, &newton_v_, &newton_r_, &newton_trial_r_, &newton_delta_, &newton_dv_}) v->assign(n3, 0.0);
   A_.assign(9 * static_cast<size_t>(m_.pattern.nnzb()), 0.0);
+  visco_q_start_.assign(static_cast<size_t>(m_.visco_q_size), 0.0);
+  visco_s0_start_.assign(static_cast<size_t>(m_.visco_s0_size), 0.0);
   const bool needs_direct = cfg_.linear_solver == LinearSolverKind::Cholmod &&
                             cfg_.integrator != Integrator::SymplecticEuler;
   if (needs_direct) cholmod_ = std::make_unique<CholmodSolver>(m_.pattern);
@@ -88,6 +90,13 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
   p.force = force_.data();
   p.rotations = rot_.data();
   p.damage = in_.damage;
+  // Visco-elastic bodies: the implicit step's stress c(h)·σ₀ + H; an explicit step's force is
+  // the present stress (h = 0).
+  p.visco_q = s.visco_q.data();
+  p.visco_s0 = s.visco_s0.data();
+  p.visco_h = implicit ? h : 0.0;
+  std::copy(s.visco_q.begin(), s.visco_q.end(), visco_q_start_.begin());
+  std::copy(s.visco_s0.begin(), s.visco_s0.end(), visco_s0_start_.begin());
   const bool any_beta = m_.any_stiffness_damping;
   if (implicit) {
     // A = (1 + hα) M + h(β + h) K. The damping and h·K·v terms of the right-hand side come
@@ -245,6 +254,9 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
   p.x = xk;
   p.force = force_.data();
   p.damage = in_.damage;
+  p.visco_q = s.visco_q.data();  // the step's history, its stress at the iterate
+  p.visco_s0 = s.visco_s0.data();
+  p.visco_h = h;
   if (matrix) {
     std::fill(A_.begin(), A_.end(), 0.0);
     p.kvals = A_.data();
@@ -439,7 +451,7 @@ EnergyLimit TimeStepper::energy_guard(TissueState& s, double h, double* removed)
     }
   }
   const double e0 = ke0 + u_start_ + potential_terms(x0.data());
-  const double v1 = elastic_energy(s) + potential_terms(s.x.data());
+  const double v1 = step_potential(s.x.data()) + potential_terms(s.x.data());
   const double tol = 1e-12 * (std::abs(e0) + ke1 + std::abs(v1)) + 1e-300;
   if (ke1 + v1 <= e0 + tol) return EnergyLimit::None;
   auto scale_velocities = [&](double available, double ke) {
@@ -457,19 +469,28 @@ EnergyLimit TimeStepper::energy_guard(TissueState& s, double h, double* removed)
   std::copy(s.x.begin(), s.x.end(), x1.begin());
   for (double theta = 0.5; theta >= 1.0 / 64; theta *= 0.5) {
     for (size_t d = 0; d < n3; ++d) s.x[d] = x0[d] + theta * (x1[d] - x0[d]);
-    const double vt = elastic_energy(s) + potential_terms(s.x.data());
+    const double vt = step_potential(s.x.data()) + potential_terms(s.x.data());
     if (vt <= e0) {
       const double ke = theta * theta * ke1;
       for (double& v : s.v) v *= theta;
       scale_velocities(e0 - vt, ke);
       *removed = ke1 + v1 - e0;
+      redo_viscous_update(s);
       return EnergyLimit::PositionsPulled;
     }
   }
   std::copy(x0.begin(), x0.end(), s.x.begin());
   std::fill(s.v.begin(), s.v.end(), 0.0);
   *removed = ke1 + v1 - e0;
+  redo_viscous_update(s);
   return EnergyLimit::Held;
+}
+
+void TimeStepper::redo_viscous_update(TissueState& s) const {
+  if (m_.visco_q_size == 0) return;
+  std::copy(visco_q_start_.begin(), visco_q_start_.end(), s.visco_q.begin());
+  std::copy(visco_s0_start_.begin(), visco_s0_start_.end(), s.visco_s0.begin());
+  viscous_update(m_, s.x.data(), in_.damage, h_, s.visco_q.data(), s.visco_s0.data());
 }
 
 void TimeStepper::integrate(TissueState& s, double h) {
@@ -486,6 +507,8 @@ void TimeStepper::integrate(TissueState& s, double h) {
       s.x[d] += h * s.v[d];
     }
   }
+  // The visco-elastic internal variables follow the step to its end positions.
+  if (m_.visco_q_size > 0) viscous_update(m_, s.x.data(), in_.damage, h, s.visco_q.data(), s.visco_s0.data());
 }
 
 double TimeStepper::kinetic_energy(const TissueState& s) const {
@@ -503,10 +526,22 @@ double TimeStepper::external_potential(const TissueState& s) const {
   return e;
 }
 
+double TimeStepper::step_potential(const double* x) const {
+  ElasticPass p;
+  p.x = x;
+  p.damage = in_.damage;
+  p.visco_q = visco_q_start_.data();  // the step's history, as in assemble()
+  p.visco_s0 = visco_s0_start_.data();
+  p.visco_h = h_;
+  return elastic_pass(m_, p);
+}
+
 double TimeStepper::elastic_energy(const TissueState& s) const {
   ElasticPass p;
   p.x = s.x.data();
   p.damage = in_.damage;  // damaged elements store (1 − d) of the energy
+  p.visco_q = s.visco_q.data();  // present stress (h = 0); the branches' own energy is
+  p.visco_s0 = s.visco_s0.data();  // viscous_stored_energy's
   return elastic_pass(m_, p);
 }
 
@@ -515,6 +550,8 @@ void TimeStepper::elastic_force(const TissueState& s, double* f) const {
   ElasticPass p;
   p.x = s.x.data();
   p.force = f;
+  p.visco_q = s.visco_q.data();  // the present stress of visco-elastic bodies (h = 0)
+  p.visco_s0 = s.visco_s0.data();
   elastic_pass(m_, p);
 }
 

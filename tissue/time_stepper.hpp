@@ -212,6 +212,15 @@ class TimeStepper {
   int converged_in_a_row_ = 2;
   double h_ = 0;  ///< the step of the last assemble()
   double u_start_ = 0;  ///< elastic energy at the last assemble()'s positions
+  /// The visco-elastic state at the last assemble() (integrate() moves the state's on): the
+  /// energy guard measures the step's own potential c·Ψ₀ + H:ε with it, before and after.
+  std::vector<double> visco_q_start_, visco_s0_start_;
+  /// The step's potential at positions x: the elastic energy with the step's visco-elastic
+  /// history (= elastic_energy without visco-elastic bodies).
+  double step_potential(const double* x) const;
+  /// The visco-elastic internal variables stepped again from the step's start to the state's
+  /// (changed) positions, after the energy guard moved them.
+  void redo_viscous_update(TissueState& s) const;
   /// −f_ext·(x − X) (gravity following the current masses) plus the contact springs' potential
   /// relative to their origin, at positions x.
   double potential_terms(const double* x) const;
