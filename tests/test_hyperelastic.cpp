@@ -31,6 +31,7 @@
 #include "engine/state.hpp"
 #include "engine/static_run.hpp"
 #include "engine/tick.hpp"
+#include "test_fem.hpp"
 #include "test_meshes.hpp"
 #include "test_scenarios.hpp"
 #include "tissue/fem_forces.hpp"
@@ -41,6 +42,8 @@
 
 using namespace stroma;
 using test_scenarios::write_temp;
+using test_fem::dense_stiffness;
+using test_fem::energy_and_force;
 
 namespace {
 
@@ -190,36 +193,6 @@ FibreSpec fibres_along(Vec3 d, double k1, double k2) {
   return f;
 }
 
-double energy_and_force(const FemModel& fem, const std::vector<double>& x, std::vector<double>* f) {
-  ElasticPass p;
-  p.x = x.data();
-  if (f) {
-    f->assign(x.size(), 0.0);
-    p.force = f->data();
-  }
-  return elastic_pass(fem, p);
-}
-
-Eigen::MatrixXd dense_stiffness(const FemModel& fem, const std::vector<double>& x) {
-  std::vector<double> vals(9 * fem.pattern.col.size(), 0.0);
-  ElasticPass p;
-  p.x = x.data();
-  p.kvals = vals.data();
-  p.k_const = 1.0;
-  elastic_pass(fem, p);
-  const int n = fem.num_nodes;
-  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(3 * n, 3 * n);
-  for (int i = 0; i < n; ++i)
-    for (int s = fem.pattern.row_ptr[i]; s < fem.pattern.row_ptr[i + 1]; ++s)
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          const int j = fem.pattern.col[s];
-          K(3 * i + a, 3 * j + b) = vals[9 * s + 3 * a + b];
-          if (j != i) K(3 * j + b, 3 * i + a) = vals[9 * s + 3 * a + b];
-        }
-  return K;
-}
-
 /// The rest positions stretched by `s` along x about the origin, squeezed 1/√s across, plus a
 /// seeded perturbation: the fibres along the beam are stretched.
 std::vector<double> stretched(const FemModel& fem, double s, double noise, unsigned seed) {
@@ -352,21 +325,7 @@ constexpr double kE = 1e4, kNu = 0.45;  // matrix: stable Neo-Hookean, soft tiss
 constexpr double kK1 = 5e4, kK2 = 8;    // fibres: tendon-like exponential stiffening
 
 /// The bar as a gmsh 2.2 file, and as VTU with a fibre direction per cell.
-std::string bar_msh() {
-  const TetMesh m = test_meshes::box_mesh(10, 2, 2, {kL, kW, kW});
-  std::ostringstream o;
-  o.precision(17);
-  o << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n" << m.nodes.size() << "\n";
-  for (size_t i = 0; i < m.nodes.size(); ++i) o << i + 1 << " " << m.nodes[i][0] << " " << m.nodes[i][1] << " " << m.nodes[i][2] << "\n";
-  o << "$EndNodes\n$Elements\n" << m.tets.size() << "\n";
-  for (size_t e = 0; e < m.tets.size(); ++e) {
-    o << e + 1 << " 4 0";
-    for (int32_t n : m.tets[e]) o << " " << n + 1;
-    o << "\n";
-  }
-  o << "$EndElements\n";
-  return o.str();
-}
+std::string bar_msh() { return test_fem::gmsh22(test_meshes::box_mesh(10, 2, 2, {kL, kW, kW})); }
 
 std::string bar_vtu(Vec3 fibre) {
   const TetMesh m = test_meshes::box_mesh(10, 2, 2, {kL, kW, kW});
@@ -435,18 +394,7 @@ Pulled pull(const Model& model, double P) {
   Model m = model;
   const FemModel& f = model.fem;
   std::fill(m.fem.f_ext.begin(), m.fem.f_ext.end(), 0.0);
-  for (const Tri& t : f.bodies[0].boundary) {
-    bool end = true;
-    for (int32_t n : t) end &= std::abs(f.rest[3 * n] - kL) < 1e-9;
-    if (!end) continue;
-    const double* a = &f.rest[3 * t[0]];
-    const double* b = &f.rest[3 * t[1]];
-    const double* c = &f.rest[3 * t[2]];
-    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    const double area = 0.5 * std::sqrt(std::pow(u[1] * v[2] - u[2] * v[1], 2) + std::pow(u[2] * v[0] - u[0] * v[2], 2) +
-                                        std::pow(u[0] * v[1] - u[1] * v[0], 2));
-    for (int32_t n : t) m.fem.f_ext[3 * n] += P * area / 3.0;
-  }
+  test_fem::add_end_traction(m.fem, kL, P);
   State s = State::initial(m);
   TickWorkspace w(m);
   StaticParameters from, to;

@@ -27,6 +27,7 @@
 #include "engine/state.hpp"
 #include "engine/static_run.hpp"
 #include "engine/tick.hpp"
+#include "test_fem.hpp"
 #include "test_meshes.hpp"
 #include "test_scenarios.hpp"
 #include "tissue/input_error.hpp"
@@ -45,22 +46,14 @@ constexpr double kRho1 = 1000, kRho2 = 1100;
 /// The bar as a gmsh 2.2 file: physical volumes 1 "soft" (x < kSplit) and 2 "stiff".
 std::string bimaterial_msh() {
   const TetMesh m = test_meshes::box_mesh(10, 2, 2, {kL, kW, kW});
-  std::ostringstream o;
-  o.precision(17);
-  o << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n2\n3 1 \"soft\"\n3 2 \"stiff\"\n$EndPhysicalNames\n";
-  o << "$Nodes\n" << m.nodes.size() << "\n";
-  for (size_t i = 0; i < m.nodes.size(); ++i) o << i + 1 << " " << m.nodes[i][0] << " " << m.nodes[i][1] << " " << m.nodes[i][2] << "\n";
-  o << "$EndNodes\n$Elements\n" << m.tets.size() << "\n";
-  for (size_t e = 0; e < m.tets.size(); ++e) {
-    double cx = 0;
-    for (int32_t n : m.tets[e]) cx += 0.25 * m.nodes[n][0];
-    const int tag = cx < kSplit ? 1 : 2;
-    o << e + 1 << " 4 2 " << tag << " " << tag;
-    for (int32_t n : m.tets[e]) o << " " << n + 1;
-    o << "\n";
-  }
-  o << "$EndElements\n";
-  return o.str();
+  return test_fem::gmsh22(
+      m,
+      [&](size_t e) {
+        double cx = 0;
+        for (int32_t n : m.tets[e]) cx += 0.25 * m.nodes[n][0];
+        return cx < kSplit ? 1 : 2;
+      },
+      {"3 1 \"soft\"", "3 2 \"stiff\""});
 }
 
 std::string bar_yaml(const std::string& mesh, const std::string& regions) {
@@ -141,20 +134,7 @@ TEST(Regions, ABimaterialBarStretchesAsTwoSpringsInSeries) {
   const double F = 1e-4 * kE1 * kW * kW;  // strain 1e-4 in the soft region
   Model m = *model;
   std::fill(m.fem.f_ext.begin(), m.fem.f_ext.end(), 0.0);
-  double face_area = 0;
-  for (const Tri& t : f.bodies[0].boundary) {
-    bool end = true;
-    for (int32_t n : t) end &= std::abs(f.rest[3 * n] - kL) < 1e-9;
-    if (!end) continue;
-    const double* a = &f.rest[3 * t[0]];
-    const double* b = &f.rest[3 * t[1]];
-    const double* c = &f.rest[3 * t[2]];
-    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    const double area = 0.5 * std::sqrt(std::pow(u[1] * v[2] - u[2] * v[1], 2) + std::pow(u[2] * v[0] - u[0] * v[2], 2) +
-                                        std::pow(u[0] * v[1] - u[1] * v[0], 2));
-    face_area += area;
-    for (int32_t n : t) m.fem.f_ext[3 * n] += F / (kW * kW) * area / 3.0;
-  }
+  const double face_area = test_fem::add_end_traction(m.fem, kL, F / (kW * kW));
   ASSERT_NEAR(face_area, kW * kW, 1e-15);
   State s = State::initial(m);
   TickWorkspace w(m);

@@ -19,8 +19,11 @@
 #include "tissue/fem_forces.hpp"
 #include "tissue/stable_neo_hookean.hpp"
 #include "tissue/mesh_prepare.hpp"
+#include "test_fem.hpp"
 
 using namespace stroma;
+using test_fem::dense_stiffness;
+using test_fem::energy_and_force;
 
 namespace {
 
@@ -30,37 +33,6 @@ std::shared_ptr<const Model> beam(ElementModel model) {
   s.bodies[0].material.young_modulus = 1e4;
   s.bodies[0].material.poisson_ratio = 0.45;
   return compile_model(s);
-}
-
-double energy_and_force(const FemModel& fem, const std::vector<double>& x, std::vector<double>* f) {
-  ElasticPass p;
-  p.x = x.data();
-  if (f) {
-    f->assign(x.size(), 0.0);
-    p.force = f->data();
-  }
-  return elastic_pass(fem, p);
-}
-
-/// Dense stiffness of the whole mesh at x (kvals with k_const = 1, expanded).
-Eigen::MatrixXd dense_stiffness(const FemModel& fem, const std::vector<double>& x) {
-  std::vector<double> vals(9 * fem.pattern.col.size(), 0.0);
-  ElasticPass p;
-  p.x = x.data();
-  p.kvals = vals.data();
-  p.k_const = 1.0;
-  elastic_pass(fem, p);
-  const int n = fem.num_nodes;
-  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(3 * n, 3 * n);
-  for (int i = 0; i < n; ++i)
-    for (int s = fem.pattern.row_ptr[i]; s < fem.pattern.row_ptr[i + 1]; ++s)
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          const int j = fem.pattern.col[s];
-          K(3 * i + a, 3 * j + b) = vals[9 * s + 3 * a + b];
-          if (j != i) K(3 * j + b, 3 * i + a) = vals[9 * s + 3 * a + b];  // upper-triangle storage
-        }
-  return K;
 }
 
 std::vector<double> randomly_deformed(const FemModel& fem, double amount, unsigned seed) {

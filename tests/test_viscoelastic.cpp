@@ -30,6 +30,7 @@
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "test_fem.hpp"
 #include "test_meshes.hpp"
 #include "test_scenarios.hpp"
 #include "tissue/fem_forces.hpp"
@@ -44,21 +45,7 @@ constexpr double kL = 0.04, kW = 0.01;  // bar 40 × 10 × 10 mm
 constexpr double kE0 = 1e4;             // instantaneous Young's modulus, Pa
 constexpr double kA = kW * kW;
 
-std::string bar_msh() {
-  const TetMesh m = test_meshes::box_mesh(4, 1, 1, {kL, kW, kW});
-  std::ostringstream o;
-  o.precision(17);
-  o << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n" << m.nodes.size() << "\n";
-  for (size_t i = 0; i < m.nodes.size(); ++i) o << i + 1 << " " << m.nodes[i][0] << " " << m.nodes[i][1] << " " << m.nodes[i][2] << "\n";
-  o << "$EndNodes\n$Elements\n" << m.tets.size() << "\n";
-  for (size_t e = 0; e < m.tets.size(); ++e) {
-    o << e + 1 << " 4 0";
-    for (int32_t n : m.tets[e]) o << " " << n + 1;
-    o << "\n";
-  }
-  o << "$EndElements\n";
-  return o.str();
-}
+std::string bar_msh() { return test_fem::gmsh22(test_meshes::box_mesh(4, 1, 1, {kL, kW, kW})); }
 
 /// The bar, ν = 0, its end x = 0 sliding on its plane; `end_fixed`: the end x = L held in x too
 /// (strain control), else free (stress control).
@@ -114,18 +101,7 @@ double mean_end_strain(const Model& m, const State& s) {
 /// Consistent end traction σ on the face x = L (nodal forces: σ × a third of each triangle).
 void load_end(Model& m, double sigma) {
   std::fill(m.fem.f_ext.begin(), m.fem.f_ext.end(), 0.0);
-  for (const Tri& t : m.fem.bodies[0].boundary) {
-    bool end = true;
-    for (int32_t n : t) end &= std::abs(m.fem.rest[3 * n] - kL) < 1e-9;
-    if (!end) continue;
-    const double* a = &m.fem.rest[3 * t[0]];
-    const double* b = &m.fem.rest[3 * t[1]];
-    const double* c = &m.fem.rest[3 * t[2]];
-    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    const double area = 0.5 * std::sqrt(std::pow(u[1] * v[2] - u[2] * v[1], 2) + std::pow(u[2] * v[0] - u[0] * v[2], 2) +
-                                        std::pow(u[0] * v[1] - u[1] * v[0], 2));
-    for (int32_t n : t) m.fem.f_ext[3 * n] += sigma * area / 3.0;
-  }
+  test_fem::add_end_traction(m.fem, kL, sigma);
 }
 
 }  // namespace
