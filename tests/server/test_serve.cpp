@@ -478,6 +478,10 @@ TEST(Serve, MalformedCommandsAreCountedAndPhysicsStaysFinite) {
   for (int i = 0; i < 100 && !(client.wait_status(0.05, [](const stroma_SimStatus& st) { return st.commands_accepted > 0; }, &s)); ++i)
     send("probe", 0, 7, 0, {1, 0, 0, 0}, 1000000, 1);          // valid: becomes the last pose
   ASSERT_GT(s.commands_accepted, 0u);
+  // A repeat sent before that status was published may still be landing: count from a status
+  // taken after the last repeat has had time to arrive (seen once in CI: accepted0 one short).
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  client.wait_status(0.3, [](const stroma_SimStatus&) { return false; }, &s);  // the newest status seen
   const uint64_t accepted0 = s.commands_accepted;
   send("probe", nan, 7, 0, {1, 0, 0, 0}, 2000000, 2);          // NaN
   send("probe", 0, 7, 0, {0.5, 0.5, 0, 0}, 3000000, 3);        // not a unit quaternion
