@@ -36,6 +36,8 @@ int main(int argc, char** argv) {
   double tolerance = -1;
   bool markdown = false;
   std::string pc;
+  double poisson = -1, locking_free = -1, budget = -1;
+  int max_iterations = -1;
   app.add_option("scenario", scenario, "Scenario YAML")->required()->check(CLI::ExistingFile);
   app.add_option("--mesh", mesh, "Replace the first body's mesh")->check(CLI::ExistingFile);
   app.add_option("--runs", runs, "Repetitions")->capture_default_str();
@@ -45,11 +47,21 @@ int main(int argc, char** argv) {
   app.add_flag("--markdown", markdown, "Print a markdown table row");
   app.add_option("--preconditioner", pc, "Override the CG preconditioner")
       ->check(CLI::IsMember({"jacobi", "block_jacobi", "none", "warped_cholesky"}));
+  app.add_option("--poisson", poisson, "Override the first body's Poisson ratio")->check(CLI::Range(0.0, 0.4999));
+  app.add_option("--locking-free", locking_free,
+                 "Make the first body locking-free (node smoothing) with this stabilisation share")
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--max-iterations", max_iterations, "Override the CG iteration cap")->check(CLI::PositiveNumber);
+  app.add_option("--time-budget", budget, "Override solver.time_budget (s; 0: none)")->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
 
   ScenarioSpec spec = load_scenario(scenario);
   if (!mesh.empty()) spec.bodies.at(0).mesh_path = mesh;
   if (tolerance > 0) spec.solver.tolerance = tolerance;
+  if (poisson >= 0) spec.bodies.at(0).material.poisson_ratio = poisson;
+  if (locking_free >= 0) spec.bodies.at(0).material.locking_free = LockingFreeSpec{"node_smoothing", locking_free, {}};
+  if (max_iterations > 0) spec.solver.max_iterations = max_iterations;
+  if (budget >= 0) spec.solver.time_budget = budget;
   if (pc == "jacobi") spec.solver.preconditioner = Preconditioner::Jacobi;
   if (pc == "block_jacobi") spec.solver.preconditioner = Preconditioner::BlockJacobi;
   if (pc == "none") spec.solver.preconditioner = Preconditioner::None;

@@ -1,3 +1,4 @@
+#include <stdexcept>
 #include <algorithm>
 #include <map>
 #include <cmath>
@@ -381,6 +382,14 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
         in.visco = ve->series;
       }
     }
+    if (const auto& lf = mat.locking_free) {
+      const std::string lff = field + ".material.locking_free";
+      for (size_t ti = 0; ti < spec.tools.size(); ++ti)
+        if (spec.tools[ti].spec.cuts)
+          throw InputError(lf->where.file, lf->where.line, lff,
+                           fmt::format("cutting a locking-free body is not supported yet (tools[{}] cuts)", ti));
+      in.locking_free_share = lf->stabilisation;
+    }
     in.mesh = &pm;
     apply_regions(b, pm, field, in);
     apply_fibres(b, pm, field, in);
@@ -606,7 +615,16 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
   model->time_budget = s.time_budget;
 
   const std::vector<PreparedMesh> meshes = load_meshes(spec, out.notes);
-  model->fem = build_fem_model(body_inputs(spec, meshes), spec.gravity);
+  try {
+    model->fem = build_fem_model(body_inputs(spec, meshes), spec.gravity);
+  } catch (const std::invalid_argument& e) {  // a mesh the locking-free smoothing cannot take
+    const BodySpec* lf = nullptr;
+    for (const BodySpec& b : spec.bodies)
+      if (b.material.locking_free && !lf) lf = &b;
+    if (!lf) throw;
+    throw InputError(lf->material.locking_free->where.file, lf->material.locking_free->where.line,
+                     "material.locking_free", e.what());
+  }
   model->max_step_displacement = 0.5 * bounding_box(model->fem.rest.data(), model->fem.rest.size() / 3).diagonal();
   out.visuals = compile_visuals(spec, meshes, *model, out.notes);
   compile_damage(spec, meshes, *model);

@@ -254,9 +254,35 @@ ViscoSpec parse_viscoelastic(const Field& f) {
   return v;
 }
 
+/// `locking_free: node_smoothing` | `{method: node_smoothing, stabilisation: SHARE}`.
+LockingFreeSpec parse_locking_free(const Field& f) {
+  LockingFreeSpec l;
+  l.where = location_of(f);
+  auto method = [&](const Field& m) {
+    const std::string name = m.string();
+    if (name != "node_smoothing")
+      m.fail("expected node_smoothing (node-based strain smoothing, the only locking-free method so far), got " +
+             m.got());
+    l.method = name;
+  };
+  if (f.is_scalar()) {
+    method(f);
+    return l;
+  }
+  const MapReader m = f.map({"method", "stabilisation"});
+  l.where = location_of(m);
+  method(m.req("method"));
+  Range share = physical_range(0, 1, "");
+  share.note_lo = "the share of the deviatoric stiffness kept on the elements: 0 is pure node smoothing";
+  share.note_hi = "1 keeps all of it on the elements: only the bulk is smoothed";
+  m.read("stabilisation", l.stabilisation, share);
+  return l;
+}
+
 MaterialSpec parse_material(const Field& f) {
   const MapReader m = f.map({"model", "rotation", "young_modulus", "poisson_ratio", "density",
-                             "rayleigh_mass", "rayleigh_stiffness", "damage", "fibres", "viscoelastic"});
+                             "rayleigh_mass", "rayleigh_stiffness", "damage", "fibres", "viscoelastic",
+                             "locking_free"});
   MaterialSpec mat;
   mat.where = location_of(m);
   Range nu = open_interval(-1, 0.5);
@@ -291,6 +317,13 @@ MaterialSpec parse_material(const Field& f) {
                "visco-elasticity is not in yet)");
     if (mat.viscoelastic->model == "kelvin_voigt" && m.opt("rayleigh_stiffness"))
       f2->fail("kelvin_voigt is stiffness damping with rayleigh_stiffness = tau: give one of them");
+  }
+  if (auto f2 = m.opt("locking_free")) {
+    mat.locking_free = parse_locking_free(*f2);
+    if (mat.model != ElementModel::Corotational && mat.model != ElementModel::Linear)
+      f2->fail("locking_free needs model corotational or linear (the hyperelastic models have no smoothed form yet)");
+    if (mat.viscoelastic && mat.viscoelastic->model != "kelvin_voigt")
+      f2->fail("locking_free with a Prony series is not supported yet");
   }
   return mat;
 }

@@ -128,6 +128,14 @@ struct ViscoSpec {
   SourceLocation where;
 };
 
+/// `locking_free:` of a material (tissue/nodal_smoothing.hpp): node-based strain smoothing.
+/// Invariant: 0 ≤ stabilisation ≤ 1.
+struct LockingFreeSpec {
+  std::string method = "node_smoothing";  ///< the only one so far
+  double stabilisation = 0.1;  ///< share of the deviatoric stiffness kept on the elements
+  SourceLocation where;
+};
+
 struct MaterialSpec {
   ElementModel model = ElementModel::Corotational;
   RotationMethod rotation = RotationMethod::Polar;
@@ -139,6 +147,7 @@ struct MaterialSpec {
   DamageSpec damage;
   std::optional<FibreSpec> fibres;  ///< fibre reinforcement (hyperelastic models only)
   std::optional<ViscoSpec> viscoelastic;  ///< visco-elasticity (corotational, polar, for now)
+  std::optional<LockingFreeSpec> locking_free;  ///< near-incompressibility without locking
   SourceLocation where;
 };
 

@@ -11,14 +11,18 @@ int32_t BsrPattern::find(int32_t i, int32_t j) const {
   return (it != e && *it == j) ? static_cast<int32_t>(it - col.begin()) : -1;
 }
 
-BsrPattern build_bsr_pattern(int32_t n, const std::vector<Tet>& tets,
-                             std::vector<ElementSlots>& slots) {
+BsrPattern build_bsr_pattern(int32_t n, const std::vector<Tet>& tets, std::vector<ElementSlots>& slots,
+                             const std::vector<int32_t>& group_ptr, const std::vector<int32_t>& group_node) {
   std::vector<std::vector<int32_t>> adj(n);
   for (int32_t i = 0; i < n; ++i) adj[i].push_back(i);
   for (const Tet& t : tets)
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b)
         if (t[a] <= t[b]) adj[t[a]].push_back(t[b]);  // upper triangle only
+  for (size_t g = 0; g + 1 < group_ptr.size(); ++g)
+    for (int32_t a = group_ptr[g]; a < group_ptr[g + 1]; ++a)
+      for (int32_t b = group_ptr[g]; b < group_ptr[g + 1]; ++b)
+        if (group_node[a] <= group_node[b]) adj[group_node[a]].push_back(group_node[b]);
   BsrPattern p;
   p.n = n;
   p.row_ptr.assign(n + 1, 0);

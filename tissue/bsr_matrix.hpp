@@ -38,8 +38,11 @@ using ElementSlots = std::array<int32_t, 16>;
 
 /// Builds the pattern coupling the nodes of each tetrahedron, and each element's scatter map.
 /// Nodes are 0..n-1; `tets` may be the concatenation of several bodies (already offset).
-BsrPattern build_bsr_pattern(int32_t n, const std::vector<Tet>& tets,
-                             std::vector<ElementSlots>& slots);
+/// `group_ptr`/`group_node` (CSR, may be empty): further node groups whose every pair is
+/// coupled too (the locking-free node domains, tissue/nodal_smoothing.hpp).
+BsrPattern build_bsr_pattern(int32_t n, const std::vector<Tet>& tets, std::vector<ElementSlots>& slots,
+                             const std::vector<int32_t>& group_ptr = {},
+                             const std::vector<int32_t>& group_node = {});
 
 /// y = A·x for the symmetric matrix whose upper triangle `vals` holds (9 doubles per slot,
 /// row-major blocks): each off-diagonal block is applied as (i, j) and, transposed, as (j, i).

@@ -68,6 +68,10 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
   else if (b.model == ElementModel::StVenantKirchhoff) range.kernel = ElementKernel::StVenantKirchhoff;
   else if (b.rotation == RotationMethod::QR) range.kernel = ElementKernel::CorotationalQR;
   range.fibres = !b.element_fibres.empty();
+  if (b.locking_free_share >= 0) {
+    range.smoothed = true;
+    range.element_share = b.locking_free_share;
+  }
   if (b.visco.terms > 0) {  // its internal variables' place in the state arrays
     range.visco = static_cast<int32_t>(m.visco.size());
     m.visco.push_back(b.visco);
@@ -102,7 +106,8 @@ void build_pattern(FemModel& m, const std::vector<Tet>& all_tets) {
   for (const ElementRange& r : m.ranges)
     if (!r.fixed) moving_tets.insert(moving_tets.end(), all_tets.begin() + r.begin, all_tets.begin() + r.end);
   std::vector<ElementSlots> moving_slots;
-  m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots);
+  // Node domains (locking-free bodies) couple every pair of nodes in their patch.
+  m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots, m.smoothing.ptr, m.smoothing.patch_node);
   m.slots.resize(all_tets.size());
   size_t next = 0;
   for (const ElementRange& r : m.ranges)
@@ -183,8 +188,10 @@ void finish_fem_model(FemModel& m, const std::vector<Tet>& all_tets) {
     if (m.constrained[i]) m.constrained_nodes.push_back(i);
     m.inv_mass[i] = m.mass[i] <= 0 ? 0.0 : 1.0 / m.mass[i];
   }
-  build_pattern(m, all_tets);
   build_node_elements(m);
+  build_nodal_smoothing(m);
+  build_pattern(m, all_tets);
+  assign_smoothing_slots(m);
   m.any_stiffness_damping =
       std::any_of(m.elements.begin(), m.elements.end(), [](const ElementParams& e) { return e.beta != 0.0; });
 }

@@ -33,6 +33,9 @@ struct FemBodyInput {
   std::vector<FibreParams> element_fibres;
   /// Visco-elastic: the body's Prony series (terms = 0: elastic). Corotational polar only.
   PronySeries visco;
+  /// Locking-free node smoothing (nodal_smoothing.hpp): the share of the deviatoric stiffness
+  /// kept on the elements, in [0, 1]; negative: off (plain elements).
+  double locking_free_share = -1;
 };
 
 /// Builds the global model: bodies are concatenated (node and element offsets in order).

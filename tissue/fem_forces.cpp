@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "tissue/mat3.hpp"
+#include "tissue/nodal_smoothing.hpp"
 #include "tissue/material.hpp"
 #include "tissue/rotation.hpp"
 #include "tissue/stable_neo_hookean.hpp"
@@ -299,6 +300,11 @@ double pass_range(const FemModel& m, const ElasticPass& p, const ElementRange& r
         in.lambda[l] *= vstep.c;
         in.mu[l] *= vstep.c;
       }
+    if (r.smoothed)  // locking-free: the elements keep a share of the deviatoric part only
+      for (int l = 0; l < count; ++l) {
+        in.mu[l] *= r.element_share;
+        in.lambda[l] = -(2.0 / 3.0) * in.mu[l];
+      }
     batch_gradient(in.d, in.g, F);
     batch_rotations<K>(m, e0, count, in, F, R);
     if (!kHasKv && !kHasK && !p.force && !p.rotations) {  // energy only
@@ -370,6 +376,7 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
         break;
     }
   }
+  if (!m.smoothing.empty()) energy += nodal_smoothing_pass(m, p);
   return energy;
 }
 

@@ -12,6 +12,7 @@
 
 #include "tissue/bsr_matrix.hpp"
 #include "tissue/fibre.hpp"
+#include "tissue/nodal_smoothing.hpp"
 #include "tissue/viscoelastic.hpp"
 #include "tissue/options.hpp"
 #include "tissue/tet_mesh.hpp"
@@ -49,6 +50,12 @@ struct ElementRange {
   /// element) of TissueState::visco_q / visco_s0.
   int32_t visco = -1;
   int64_t visco_q_begin = 0, visco_s0_begin = 0;
+  /// Locking-free (nodal_smoothing.hpp): the elements keep only `element_share` of the
+  /// deviatoric stiffness — the kernel runs with (μ, λ) → (share·μ, −⅔·share·μ) — and the node
+  /// domains of FemModel::smoothing carry the rest and all of the bulk. Linear and corotational
+  /// kernels only.
+  bool smoothed = false;
+  double element_share = 1.0;
 };
 
 /// One body's slice of the global arrays.
@@ -82,6 +89,9 @@ struct FemModel {
   /// state's internal-variable arrays (0: no visco-elastic body).
   std::vector<PronySeries> visco;
   int64_t visco_q_size = 0, visco_s0_size = 0;
+  /// Node domains of the locking-free bodies (nodal_smoothing.hpp); empty: none. The pattern
+  /// then couples every pair of nodes of each domain's patch (the two-ring).
+  NodalSmoothing smoothing;
   std::vector<double> inv_mass;             ///< 1/mass (0 for nodes without mass)
   std::vector<double> alpha;                ///< Rayleigh mass coefficient per node
   /// Per node, bit k set: DOF k (x, y, z) is fixed. 7: the node does not move (fixed or

@@ -70,10 +70,17 @@ void timed_static_runs(const CompiledScenario& sc, int runs, const std::function
 // ---------------------------------------------------------------------------------------------
 // Static tip deflection (refs/a)
 
+/// ", locking_free: {...}" for a material, or "" (share < 0: plain elements).
+std::string locking_free_yaml(double share) {
+  return share < 0 ? "" : fmt::format(", locking_free: {{method: node_smoothing, stabilisation: {:g}}}", share);
+}
+std::string locking_free_label(double share) { return share < 0 ? "" : fmt::format(", node-smoothed s {:g}", share); }
+
 struct StaticConfig {
   std::string mesh, sweep, solver;  // solver: "cholmod" or "cg 1e-6"
   ElementModel model = ElementModel::Corotational;
   double tolerance = 1e-6;
+  double locking_free = -1;  ///< ≥ 0: node smoothing with this stabilisation
 };
 
 const char* model_name(ElementModel m) {
@@ -87,6 +94,7 @@ AccuracyPoint run_static(const std::string& src, const StaticConfig& c, int runs
   ScenarioSpec spec = load_scenario(src + "/scenarios/cantilever_static.yaml");
   spec.bodies[0].mesh_path = mesh_path(src, c.mesh);
   spec.bodies[0].material.model = c.model;
+  if (c.locking_free >= 0) spec.bodies[0].material.locking_free = LockingFreeSpec{"node_smoothing", c.locking_free, {}};
   if (c.solver == "cholmod") {
     spec.solver.linear_solver = LinearSolverKind::Cholmod;
   } else {
@@ -100,7 +108,7 @@ AccuracyPoint run_static(const std::string& src, const StaticConfig& c, int runs
   AccuracyPoint p;
   p.problem = "cantilever_static";
   p.sweep = c.sweep;
-  p.label = fmt::format("h {} mm, {}, {}", tag_mm(c.mesh), model_name(c.model),
+  p.label = fmt::format("h {} mm, {}{}, {}", tag_mm(c.mesh), model_name(c.model), locking_free_label(c.locking_free),
                         c.solver == "cholmod" ? "CHOLMOD" : fmt::format("CG {:.0e}", c.tolerance));
   p.nodes = m->fem.num_nodes;
   p.reference = kStaticReference;
@@ -126,7 +134,9 @@ struct BlockConfig {
   bool linear = false;
   bool cholmod = true;
   double tolerance = 1e-8;  ///< CG tolerance inside each Newton step (Newton itself to 1e-10)
+  double locking_free = -1; ///< ≥ 0: node smoothing with this stabilisation (nodal_smoothing.hpp)
 };
+
 
 AccuracyPoint run_block(const std::string& src, const BlockConfig& c, int runs) {
   // E 1e4, nu 0.49, no gravity; bottom z = 0 held, top z = a held with u_z = −0.5 mm.
@@ -137,18 +147,18 @@ solver: {{integrator: static, linear_solver: {}, preconditioner: warped_cholesky
 bodies:
   - name: block
     mesh: {}
-    material: {{model: {}, young_modulus: 1.0e4, poisson_ratio: 0.49, density: 1000}}
+    material: {{model: {}, young_modulus: 1.0e4, poisson_ratio: 0.49, density: 1000{}}}
     fixed:
       - box: {{min: [-1, -1, -1.0e-7], max: [1, 1, 1.0e-7]}}
       - box: {{min: [-1, -1, 0.0499999], max: [1, 1, 1]}}
 )", c.cholmod ? "cholmod" : "cg", c.tolerance, src + "/scenarios/meshes/cube_tet4_h" + c.mesh + "mm.msh",
-                                       c.linear ? "linear" : "corotational");
+                                       c.linear ? "linear" : "corotational", locking_free_yaml(c.locking_free));
   auto m = compile_model(parse_scenario(yaml, "block_compression (accuracy suite)", src));
   AccuracyPoint p;
   p.problem = "block_compression";
   p.sweep = c.sweep;
-  p.label = fmt::format("h {} mm, {}, {}", tag_mm(c.mesh), c.linear ? "linear" : "corot.",
-                        c.cholmod ? "CHOLMOD" : fmt::format("CG {:.0e}", c.tolerance));
+  p.label = fmt::format("h {} mm, {}{}, {}", tag_mm(c.mesh), c.linear ? "linear" : "corot.",
+                        locking_free_label(c.locking_free), c.cholmod ? "CHOLMOD" : fmt::format("CG {:.0e}", c.tolerance));
   p.nodes = m->fem.num_nodes;
   p.reference = kBlockForce;
   std::vector<double> secs;
@@ -187,6 +197,7 @@ struct IndentConfig {
   double stiffness = 1e9;      // penalty (Pa/m)
   bool linear = true;
   std::string sweep;
+  double locking_free = -1;  // ≥ 0: node smoothing with this stabilisation
 };
 
 AccuracyPoint run_indentation(const std::string& src, const std::string& out_dir, const IndentConfig& c, int runs) {
@@ -203,7 +214,7 @@ solver: {{integrator: static, linear_solver: cholmod, static_tolerance: 1.0e-9, 
 bodies:
   - name: block
     mesh: {}
-    material: {{model: {}, young_modulus: 5000, poisson_ratio: 0.45, density: 1000}}
+    material: {{model: {}, young_modulus: 5000, poisson_ratio: 0.45, density: 1000{}}}
     fixed:
       - box: {{min: [-1, -1, -1.0e-9], max: [1, 1, 1.0e-9]}}
       - {{box: {{min: [-1.0e-9, -1, -1], max: [1.0e-9, 1, 1]}}, axes: [x]}}
@@ -213,13 +224,14 @@ tools:
     script: {}
     shape: {{type: sphere, radius: 0.005}}
     contact: {{stiffness: {:g}}}
-)", mesh, c.linear ? "linear" : "corotational", traj, c.stiffness);
+)", mesh, c.linear ? "linear" : "corotational", locking_free_yaml(c.locking_free), traj, c.stiffness);
   const CompiledScenario sc = compile_scenario(parse_scenario(yaml, "indentation (accuracy suite)", src));
   const auto& m = sc.model;
   AccuracyPoint p;
   p.problem = "indentation";
   p.sweep = c.sweep;
-  p.label = fmt::format("first cell {:g} mm, penalty {:.0e}, {}", c.h0 * 1e3, c.stiffness, c.linear ? "linear" : "corot.");
+  p.label = fmt::format("first cell {:g} mm, penalty {:.0e}, {}{}", c.h0 * 1e3, c.stiffness,
+                        c.linear ? "linear" : "corot.", locking_free_label(c.locking_free));
   p.nodes = m->fem.num_nodes;
   p.reference = kIndentForce;
   // Force = 4 × the quarter model's.
@@ -487,6 +499,8 @@ std::vector<AccuracyPoint> run_indentation_problem(const AccuracyOptions& o, int
   for (double k : o.quick ? std::vector<double>{1e8} : std::vector<double>{1e8, 1e10})
     record(in, run_indentation(src, o.out_dir, {2e-4, k, true, "penalty stiffness (first cell 0.2 mm)"}, runs), o);
   record(in, run_indentation(src, o.out_dir, {2e-4, 1e9, false, "element model (first cell 0.2 mm)"}, runs), o);
+  for (double h0 : o.quick ? std::vector<double>{4e-4, 2e-4} : std::vector<double>{8e-4, 4e-4, 2e-4, 1e-4})
+    record(in, run_indentation(src, o.out_dir, {h0, 1e9, false, "locking-free (corot., penalty 1e9)", 0.1}, runs), o);
   return in;
 }
 
@@ -507,6 +521,22 @@ std::vector<AccuracyPoint> run_block_compression_problem(const AccuracyOptions& 
     BlockConfig c{"3p333", "CG tolerance (warped Cholesky PCG, h 3.333 mm)", false, false, tol};
     record(bl, run_block(src, c, runs), o);
   }
+  // Locking-free (node smoothing, default stabilisation 0.1) on every mesh, and its
+  // stabilisation swept on the coarsest two (0: pure NS-FEM, 1: only the bulk smoothed).
+  for (const std::string& mesh : o.quick ? std::vector<std::string>{"8p333", "6p250", "3p333"}
+                                         : std::vector<std::string>{"8p333", "6p250", "5p000", "3p333", "2p500"})
+    for (bool cholmod : {true, false}) {
+      if (o.quick && !cholmod) continue;
+      BlockConfig c{mesh, cholmod ? "locking-free (CHOLMOD)" : "locking-free (CG 1e-8)", false, cholmod};
+      c.locking_free = 0.1;
+      record(bl, run_block(src, c, runs), o);
+    }
+  for (const std::string& mesh : {"8p333", "6p250"})
+    for (double share : o.quick ? std::vector<double>{0.0, 1.0} : std::vector<double>{0.0, 0.05, 0.2, 0.5, 1.0}) {
+      BlockConfig c{mesh, "locking-free stabilisation (CHOLMOD)", false, true};
+      c.locking_free = share;
+      record(bl, run_block(src, c, runs), o);
+    }
   return bl;
 }
 
@@ -526,6 +556,8 @@ std::vector<AccuracyPoint> run_cantilever_static_problem(const AccuracyOptions& 
                                                                      : "mesh x element (CHOLMOD)";
       record(st, run_static(src, {mesh, sweep, "cholmod", model, 0}, runs), o);
     }
+    // Locking-free: bending must not get worse than the plain corotational element's.
+    record(st, run_static(src, {mesh, "locking-free (CHOLMOD)", "cholmod", ElementModel::Corotational, 0, 0.1}, runs), o);
     for (double tol : o.quick ? std::vector<double>{1e-4} : std::vector<double>{1e-3, 1e-4, 1e-6})
       record(st, run_static(src, {mesh, "CG tolerance (warped Cholesky PCG)", "cg", ElementModel::Corotational, tol}, runs), o);
   }

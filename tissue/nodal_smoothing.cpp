@@ -1,0 +1,217 @@
+#include "tissue/nodal_smoothing.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+#include "tissue/fem_forces.hpp"
+#include "tissue/fem_model.hpp"
+#include "tissue/mat3.hpp"
+#include "tissue/rotation.hpp"
+
+namespace stroma {
+
+namespace {
+
+/// The four shape gradients of element e (rows of g are ∇N1..∇N3; ∇N0 = −Σ).
+inline void element_gradients(const ElementParams& ep, double (&G)[4][3]) {
+  for (int k = 0; k < 3; ++k) {
+    G[1][k] = ep.g[k];
+    G[2][k] = ep.g[3 + k];
+    G[3][k] = ep.g[6 + k];
+    G[0][k] = -(G[1][k] + G[2][k] + G[3][k]);
+  }
+}
+
+}  // namespace
+
+void build_nodal_smoothing(FemModel& m) {
+  NodalSmoothing& s = m.smoothing;
+  s = NodalSmoothing{};
+  s.ptr.push_back(0);
+  s.pair_ptr.push_back(0);
+  std::vector<int32_t> patch;
+  std::vector<double> g;
+  for (size_t ri = 0; ri < m.ranges.size(); ++ri) {
+    const ElementRange& r = m.ranges[ri];
+    if (!r.smoothed || r.fixed) continue;
+    const BodyRange* body = nullptr;
+    for (const BodyRange& b : m.bodies)
+      if (b.element_begin == r.begin) body = &b;
+    if (body == nullptr) throw std::logic_error("nodal smoothing: a smoothed range without its body");
+    const double share = r.element_share;
+    for (int32_t a = body->node_begin; a < body->node_end; ++a) {
+      const int32_t e0 = m.node_element_ptr[a], e1 = m.node_element_ptr[a + 1];
+      if (e0 == e1) continue;  // an unused node (a fixed node's domain still acts on its neighbours)
+      patch.clear();
+      double va = 0, lam = 0, mu = 0, beta = 0;
+      for (int32_t k = e0; k < e1; ++k) {
+        const ElementParams& ep = m.elements[m.node_element[k]];
+        for (int32_t n : ep.node) patch.push_back(n);
+        const double w = ep.volume / 4.0;
+        va += w;
+        lam += w * ep.lambda;
+        mu += w * ep.mu;
+        beta += w * ep.beta;
+      }
+      std::sort(patch.begin(), patch.end());
+      patch.erase(std::unique(patch.begin(), patch.end()), patch.end());
+      if (patch.size() > static_cast<size_t>(kMaxPatch))
+        throw std::invalid_argument("locking_free: node " + std::to_string(a - body->node_begin) + " of body '" +
+                                    body->name + "' has " + std::to_string(patch.size() - 1) +
+                                    " neighbours; node smoothing supports up to " + std::to_string(kMaxPatch - 1) +
+                                    " (a degenerate mesh?)");
+      g.assign(3 * patch.size(), 0.0);
+      for (int32_t k = e0; k < e1; ++k) {
+        const ElementParams& ep = m.elements[m.node_element[k]];
+        double G[4][3];
+        element_gradients(ep, G);
+        const double w = ep.volume / 4.0 / va;
+        for (int i = 0; i < 4; ++i) {
+          const auto at = std::lower_bound(patch.begin(), patch.end(), ep.node[i]) - patch.begin();
+          for (int c = 0; c < 3; ++c) g[3 * at + c] += w * G[i][c];
+        }
+      }
+      lam /= va;
+      mu /= va;
+      beta /= va;
+      s.centre.push_back(a);
+      s.patch_node.insert(s.patch_node.end(), patch.begin(), patch.end());
+      s.grad.insert(s.grad.end(), g.begin(), g.end());
+      s.ptr.push_back(static_cast<int32_t>(s.patch_node.size()));
+      const int32_t n = static_cast<int32_t>(patch.size());
+      s.pair_ptr.push_back(s.pair_ptr.back() + n * (n + 1) / 2);
+      s.volume.push_back(va);
+      s.mu.push_back((1.0 - share) * mu);
+      s.lambda.push_back(lam + (2.0 / 3.0) * share * mu);
+      s.beta.push_back(beta);
+      s.linear.push_back(r.kernel == ElementKernel::Linear ? 1 : 0);
+    }
+  }
+  s.pair_slot.assign(s.pair_ptr.back(), -1);
+}
+
+void assign_smoothing_slots(FemModel& m) {
+  NodalSmoothing& s = m.smoothing;
+  for (int32_t d = 0; d < s.domains(); ++d) {
+    int32_t q = s.pair_ptr[d];
+    for (int32_t a = s.ptr[d]; a < s.ptr[d + 1]; ++a)
+      for (int32_t b = a; b < s.ptr[d + 1]; ++b) {
+        const int32_t slot = m.pattern.find(s.patch_node[a], s.patch_node[b]);
+        if (slot < 0) throw std::logic_error("nodal smoothing: a patch pair is missing from the BSR pattern");
+        s.pair_slot[q++] = slot;
+      }
+  }
+}
+
+double nodal_smoothing_pass(const FemModel& m, const ElasticPass& p) {
+  const NodalSmoothing& s = m.smoothing;
+  double energy = 0.0;
+  double r[3 * kMaxPatch];  // rotated gradients R·g of the current domain
+  for (int32_t d = 0; d < s.domains(); ++d) {
+    const int32_t j0 = s.ptr[d], j1 = s.ptr[d + 1];
+    const int32_t* nodes = s.patch_node.data();
+    const double* g = s.grad.data();
+    double lambda = s.lambda[d], mu = s.mu[d];
+    if (p.damage) {  // the patch's volume-weighted intactness
+      const int32_t a = s.centre[d];
+      double keep = 0, w = 0;
+      for (int32_t k = m.node_element_ptr[a]; k < m.node_element_ptr[a + 1]; ++k) {
+        const int32_t e = m.node_element[k];
+        keep += m.elements[e].volume * (1.0 - static_cast<double>(p.damage[e]));
+        w += m.elements[e].volume;
+      }
+      keep /= w;
+      lambda *= keep;
+      mu *= keep;
+    }
+    // F = Σ x_j ⊗ g_j (row-major F[3i+k] = Σ x_j[i] g_j[k]).
+    double F[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    for (int32_t j = j0; j < j1; ++j) {
+      const double* x = p.x + 3 * nodes[j];
+      const double* gj = g + 3 * j;
+      for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) F[3 * i + k] += x[i] * gj[k];
+    }
+    double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    if (!s.linear[d]) polar_rotation(F, R);
+    const double V = s.volume[d];
+    // ε = sym(RᵀF) − I, σ = λ tr ε I + 2μ ε, P = R σ.
+    auto stress = [&](const double* Grad, double shift, double* P) {
+      double S[9];
+      m3::mul_tn(R, Grad, S);
+      double e[9];
+      e[0] = S[0] - shift;
+      e[4] = S[4] - shift;
+      e[8] = S[8] - shift;
+      e[1] = e[3] = 0.5 * (S[1] + S[3]);
+      e[2] = e[6] = 0.5 * (S[2] + S[6]);
+      e[5] = e[7] = 0.5 * (S[5] + S[7]);
+      const double tr = e[0] + e[4] + e[8];
+      double sig[9];
+      double ee = 0;
+      for (int k = 0; k < 9; ++k) {
+        sig[k] = 2.0 * mu * e[k];
+        ee += e[k] * e[k];
+      }
+      sig[0] += lambda * tr;
+      sig[4] += lambda * tr;
+      sig[8] += lambda * tr;
+      m3::mul(R, sig, P);
+      return V * (mu * ee + 0.5 * lambda * tr * tr);
+    };
+    double P[9];
+    energy += stress(F, 1.0, P);
+    if (p.force)
+      for (int32_t j = j0; j < j1; ++j) {
+        double f[3];
+        m3::mulv(P, g + 3 * j, f);
+        double* out = p.force + 3 * nodes[j];
+        for (int i = 0; i < 3; ++i) out[i] -= V * f[i];
+      }
+    if (p.kv) {
+      double L[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+      for (int32_t j = j0; j < j1; ++j) {
+        const double* v = p.v + 3 * nodes[j];
+        const double* gj = g + 3 * j;
+        for (int i = 0; i < 3; ++i)
+          for (int k = 0; k < 3; ++k) L[3 * i + k] += v[i] * gj[k];
+      }
+      double Pv[9];
+      stress(L, 0.0, Pv);
+      const double scale = V * (p.kv_beta * s.beta[d] + p.kv_const);
+      for (int32_t j = j0; j < j1; ++j) {
+        double f[3];
+        m3::mulv(Pv, g + 3 * j, f);
+        double* out = p.kv + 3 * nodes[j];
+        for (int i = 0; i < 3; ++i) out[i] += scale * f[i];
+      }
+    }
+    if (p.kvals) {
+      const double scale = V * (p.k_beta * s.beta[d] + p.k_const);
+      const int32_t n = j1 - j0;
+      for (int32_t a = 0; a < n; ++a) m3::mulv(R, g + 3 * (j0 + a), r + 3 * a);
+      const double sl = scale * lambda, sm = scale * mu;
+      const int32_t* slot = s.pair_slot.data() + s.pair_ptr[d];
+      for (int32_t a = 0; a < n; ++a) {
+        const double* ra = r + 3 * a;
+        const double* ga = g + 3 * (j0 + a);
+        for (int32_t b = a; b < n; ++b) {
+          const double* rb = r + 3 * b;
+          const double* gb = g + 3 * (j0 + b);
+          // block (a, b) = V(λ r_a r_bᵀ + μ r_b r_aᵀ + μ (g_a·g_b) I); a ≤ b in node order.
+          double* S = p.kvals + 9 * static_cast<size_t>(*slot++);
+          const double gg = sm * (ga[0] * gb[0] + ga[1] * gb[1] + ga[2] * gb[2]);
+          for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) S[3 * i + k] += sl * ra[i] * rb[k] + sm * rb[i] * ra[k];
+          S[0] += gg;
+          S[4] += gg;
+          S[8] += gg;
+        }
+      }
+    }
+  }
+  return energy;
+}
+
+}  // namespace stroma

@@ -1,0 +1,78 @@
+#pragma once
+/// \file nodal_smoothing.hpp
+/// Locking-free near-incompressible tetrahedra: node-based strain smoothing (selective NS-FEM,
+/// `material.locking_free`).
+///
+/// Linear tetrahedra lock at ν → 0.5: one volume constraint per element, ~5 elements per node,
+/// only 3 DOFs per node. Here the strain is instead measured on a smoothing domain around each
+/// node: the node's patch (the elements around it), each element counting with a quarter of its
+/// volume. Its deformation gradient is the patch average
+///   F_a = Σ_e (V_e/4)/V_a · F_e = Σ_j x_j ⊗ g_aj,   V_a = Σ_e V_e/4,
+/// with g_aj the averaged shape gradients. One volume constraint per node, not per element:
+/// no locking. The domain is a corotational element with as many nodes as its patch: polar
+/// R_a of F_a, ε_a = sym(R_aᵀF_a) − I, stress σ = λ_a tr(ε) I + 2μ_a ε, energy V_a(μ_a ε:ε +
+/// λ_a/2 tr²ε), forces f_j = −V_a R_a σ g_aj, tangent blocks V_a(λ r_j r_kᵀ + μ r_k r_jᵀ +
+/// μ (g_aj·g_ak) I) with r = R_a g — symmetric positive semi-definite, as the element's.
+///
+/// Smoothing the deviatoric part as well is what removes locking's bending stiffness, but pure
+/// NS-FEM has spurious low-energy modes (its free-free spectrum collapses into a cluster at the
+/// bottom; docs/TISSUE.md). So a share s (`stabilisation`, default 0.1) of the deviatoric
+/// stiffness stays on the elements: the element kernel runs with (μ, λ) → (s·μ, −⅔·s·μ), a
+/// purely deviatoric element energy s·μ|dev ε|², and each node domain carries the rest,
+/// μ_a = (1 − s)·μ̄, λ_a = λ̄ + ⅔·s·μ̄ (so the bulk modulus κ = λ + ⅔μ is entirely nodal), with
+/// μ̄, λ̄ (and the Rayleigh β) the patch's volume-weighted averages (regions mix at their
+/// interface). Total: exactly the material's μ and κ, split across the two.
+///
+/// Cost: a domain couples every pair of its patch nodes, so the BSR pattern grows to the
+/// two-ring (~4× the blocks; docs/PERFORMANCE.md).
+
+#include <cstdint>
+#include <vector>
+
+namespace stroma {
+
+struct FemModel;
+struct ElasticPass;
+
+/// The node domains of all smoothed bodies, in CSR form.
+/// Invariants: `ptr`/`pair_ptr` have domains()+1 entries; domain d's patch is entries
+/// ptr[d] .. ptr[d+1] of `patch_node` (ascending global node ids, the centre node among them)
+/// and `grad` (3 per entry; Σ of a domain's gradients = 0, Σ_j X_j ⊗ g_j = I at rest); its
+/// upper pairs (a ≤ b in patch order) are pair_ptr[d] .. pair_ptr[d+1] of `pair_slot`, row by
+/// row: (0,0), (0,1) … (0,n−1), (1,1) …, each the slot of block (node a, node b), a ≤ b.
+/// volume > 0; mu ≥ 0; lambda + ⅔mu ≥ 0.
+struct NodalSmoothing {
+  std::vector<int32_t> centre;      ///< the domain's node
+  std::vector<int32_t> ptr;         ///< CSR offsets into patch_node / grad
+  std::vector<int32_t> patch_node;  ///< global node ids of each patch, ascending
+  std::vector<double> grad;         ///< 3 per patch entry: smoothed shape gradient (1/m)
+  std::vector<int32_t> pair_ptr;    ///< CSR offsets into pair_slot
+  std::vector<int32_t> pair_slot;   ///< BSR slot of each upper pair
+  std::vector<double> volume;       ///< V_a (m³)
+  std::vector<double> lambda, mu;   ///< the domain's Lamé parameters (after the element share)
+  std::vector<double> beta;         ///< Rayleigh stiffness coefficient
+  std::vector<uint8_t> linear;      ///< 1: a linear body (R = I), 0: corotational (polar R)
+  int32_t domains() const { return static_cast<int32_t>(centre.size()); }
+  bool empty() const { return centre.empty(); }
+};
+
+/// Largest patch a node may have (its neighbours and itself); a larger one is a load error
+/// (a degenerate mesh). The pass keeps its rotated gradients on the stack.
+inline constexpr int kMaxPatch = 256;
+
+/// Builds the node domains of every range with `smoothed` set (not fixed), from the elements
+/// and node → element lists of `m` (set before). Returns, per domain, its patch as a node group
+/// for the BSR pattern; pair_slot is filled later by assign_smoothing_slots(). Throws
+/// std::invalid_argument for a patch over kMaxPatch nodes.
+void build_nodal_smoothing(FemModel& m);
+
+/// Fills NodalSmoothing::pair_slot from m.pattern (which must contain every patch pair).
+void assign_smoothing_slots(FemModel& m);
+
+/// Adds the node domains' energy, forces, K·v and tangent blocks as ElasticPass asks (the same
+/// outputs and scalings as the element pass: kv by kv_beta·β + kv_const, blocks by
+/// k_beta·β + k_const; damage scales each domain by its patch's volume-weighted (1 − d)).
+/// Returns the domains' energy. Visco-elastic state is not read (load refuses the combination).
+double nodal_smoothing_pass(const FemModel& m, const ElasticPass& p);
+
+}  // namespace stroma
