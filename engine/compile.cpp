@@ -616,7 +616,9 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
 
   const std::vector<PreparedMesh> meshes = load_meshes(spec, out.notes);
   try {
-    model->fem = build_fem_model(body_inputs(spec, meshes), spec.gravity);
+    // Locking-free node domains: matrix-free under CG, assembled (two-ring) for CHOLMOD.
+    model->fem = build_fem_model(body_inputs(spec, meshes), spec.gravity,
+                                 spec.solver.linear_solver == LinearSolverKind::CG);
   } catch (const std::invalid_argument& e) {  // a mesh the locking-free smoothing cannot take
     const BodySpec* lf = nullptr;
     for (const BodySpec& b : spec.bodies)

@@ -30,16 +30,21 @@ void CgSolver::resize(int32_t n) {
   inv_diag_.assign(9 * n, 0.0);
 }
 
-void CgSolver::build_preconditioner(const BsrPattern& p, const double* A, Preconditioner prec) {
+void CgSolver::build_preconditioner(const BsrPattern& p, const double* A, Preconditioner prec, const double* extra_diag) {
   if (prec == Preconditioner::Jacobi) {
     for (int32_t i = 0; i < n_; ++i) {
       const double* D = A + 9 * p.diag[i];
-      inv_diag_[3 * i] = 1.0 / D[0];
-      inv_diag_[3 * i + 1] = 1.0 / D[4];
-      inv_diag_[3 * i + 2] = 1.0 / D[8];
+      const double* X = extra_diag ? extra_diag + 9 * i : nullptr;
+      inv_diag_[3 * i] = 1.0 / (D[0] + (X ? X[0] : 0.0));
+      inv_diag_[3 * i + 1] = 1.0 / (D[4] + (X ? X[4] : 0.0));
+      inv_diag_[3 * i + 2] = 1.0 / (D[8] + (X ? X[8] : 0.0));
     }
   } else if (prec == Preconditioner::BlockJacobi) {
-    for (int32_t i = 0; i < n_; ++i) m3::inverse(A + 9 * p.diag[i], inv_diag_.data() + 9 * i);
+    for (int32_t i = 0; i < n_; ++i) {
+      double B[9];
+      for (int k = 0; k < 9; ++k) B[k] = A[9 * p.diag[i] + k] + (extra_diag ? extra_diag[9 * i + k] : 0.0);
+      m3::inverse(B, inv_diag_.data() + 9 * i);
+    }
   }
 }
 
@@ -58,7 +63,8 @@ void CgSolver::apply_preconditioner(Preconditioner prec, const double* r, double
 
 SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double* b, double* x,
                            Preconditioner prec, int max_iterations, double tolerance,
-                           const ExternalPreconditioner* external, Deadline* deadline, bool safe_start) {
+                           const ExternalPreconditioner* external, Deadline* deadline, bool safe_start,
+                           const ExtraOperator* extra) {
   external_ = external;
   const int32_t m = 3 * n_;
   SolveStats st;
@@ -72,12 +78,13 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
     for (int32_t i = 0; i < m; ++i) x[i] = 0.0;
     return st;
   }
-  build_preconditioner(pat, A, prec);
+  build_preconditioner(pat, A, prec, extra ? extra->diag : nullptr);
   double* r = r_.data();
   double* z = z_.data();
   double* p = p_.data();
   double* q = q_.data();
   bsr_spmv(pat, A, x, q);
+  if (extra) extra->apply(extra->context, x, q);
   for (int32_t i = 0; i < m; ++i) r[i] = b[i] - q[i];
   if (safe_start) {
     // ½x₀ᵀAx₀ − bᵀx₀ = −½x₀ᵀ(b + r₀): positive means x₀ is worse than x = 0.
@@ -106,6 +113,7 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
   }
   while (k < max_iterations) {
     bsr_spmv(pat, A, p, q);
+    if (extra) extra->apply(extra->context, p, q);
     const double pq = dotn(p, q, m);
     if (!(pq > 0.0)) break;  // not positive definite along p (or NaN): stop, report
     const double alpha = rz / pq;

@@ -41,6 +41,15 @@ struct ExternalPreconditioner {
   void* context = nullptr;
 };
 
+/// A further, matrix-free part of the system supplied by the caller: A = A_bsr + A_x, with
+/// apply(context, x, y) adding A_x·x to y and `diag` (9 per node, may be null) A_x's diagonal
+/// blocks for the Jacobi preconditioners (the locking-free node domains, nodal_smoothing.hpp).
+struct ExtraOperator {
+  void (*apply)(void* context, const double* x, double* y) = nullptr;
+  void* context = nullptr;
+  const double* diag = nullptr;
+};
+
 /// Reusable PCG workspace for one system size. Invariant: every vector holds 3n entries (9n for
 /// the block-Jacobi inverse) from resize() on; solve() allocates nothing.
 class CgSolver {
@@ -56,12 +65,12 @@ class CgSolver {
   SolveStats solve(const BsrPattern& p, const double* A, const double* b, double* x,
                    Preconditioner prec, int max_iterations, double tolerance,
                    const ExternalPreconditioner* external = nullptr, Deadline* deadline = nullptr,
-                   bool safe_start = false);
+                   bool safe_start = false, const ExtraOperator* extra = nullptr);
   /// The residual b − A x of the last solve (3n).
   const double* residual() const { return r_.data(); }
 
  private:
-  void build_preconditioner(const BsrPattern& p, const double* A, Preconditioner prec);
+  void build_preconditioner(const BsrPattern& p, const double* A, Preconditioner prec, const double* extra_diag);
   void apply_preconditioner(Preconditioner prec, const double* r, double* z) const;
   const ExternalPreconditioner* external_ = nullptr;
   int32_t n_ = 0;

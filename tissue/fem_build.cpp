@@ -107,7 +107,8 @@ void build_pattern(FemModel& m, const std::vector<Tet>& all_tets) {
     if (!r.fixed) moving_tets.insert(moving_tets.end(), all_tets.begin() + r.begin, all_tets.begin() + r.end);
   std::vector<ElementSlots> moving_slots;
   // Node domains (locking-free bodies) couple every pair of nodes in their patch.
-  m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots, m.smoothing.ptr, m.smoothing.patch_node);
+  if (m.smoothing.matrix_free) m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots);
+  else m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots, m.smoothing.ptr, m.smoothing.patch_node);
   m.slots.resize(all_tets.size());
   size_t next = 0;
   for (const ElementRange& r : m.ranges)
@@ -141,8 +142,9 @@ void build_node_elements(FemModel& m) {
 
 }  // namespace
 
-FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity) {
+FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity, bool smoothing_matrix_free) {
   FemModel m;
+  m.smoothing.matrix_free = smoothing_matrix_free;
   int32_t nn = 0, ne = 0;
   for (const auto& b : bodies) {
     nn += static_cast<int32_t>(b.mesh->mesh.nodes.size());

@@ -40,7 +40,10 @@ struct FemBodyInput {
 
 /// Builds the global model: bodies are concatenated (node and element offsets in order).
 /// Lumped mass: each tetrahedron gives ρV/4 to each of its nodes. Gravity enters f_ext as m·g.
-FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity);
+/// `smoothing_matrix_free`: locking-free bodies' node domains are applied by NodalSystem
+/// instead of assembled (nodal_smoothing.hpp; for CG solves — CHOLMOD needs the matrix).
+FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity,
+                         bool smoothing_matrix_free = false);
 
 /// The derived parts of a model whose nodes, elements, ranges, masses, constraints and loads are
 /// set (`all_tets`: each element's nodes): inverse masses, the constrained-node list, the BSR

@@ -300,7 +300,7 @@ double pass_range(const FemModel& m, const ElasticPass& p, const ElementRange& r
         in.lambda[l] *= vstep.c;
         in.mu[l] *= vstep.c;
       }
-    if (r.smoothed)  // locking-free: the elements keep a share of the deviatoric part only
+    if (r.smoothed && !p.unsmoothed)  // locking-free: the elements keep a share of the deviatoric part only
       for (int l = 0; l < count; ++l) {
         in.mu[l] *= r.element_share;
         in.lambda[l] = -(2.0 / 3.0) * in.mu[l];
@@ -376,7 +376,7 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
         break;
     }
   }
-  if (!m.smoothing.empty()) energy += nodal_smoothing_pass(m, p);
+  if (!m.smoothing.empty() && !p.unsmoothed) energy += nodal_smoothing_pass(m, p);
   return energy;
 }
 

@@ -31,6 +31,12 @@ struct ElasticPass {
   const double* visco_q = nullptr;
   const double* visco_s0 = nullptr;
   double visco_h = 0;
+  /// Locking-free bodies with a matrix-free tangent (NodalSmoothing::matrix_free): where the
+  /// node domains record their part of the system when kvals is set (required then).
+  NodalSystem* nodal_system = nullptr;
+  /// Compute locking-free bodies as plain elements with their full material, without node
+  /// domains: the warped preconditioner's one-ring stand-in for the smoothed system.
+  bool unsmoothed = false;
 };
 
 /// Runs the pass over every element; returns the total elastic energy

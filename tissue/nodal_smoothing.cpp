@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "tissue/cg_solver.hpp"
 #include "tissue/fem_forces.hpp"
 #include "tissue/fem_model.hpp"
 #include "tissue/mat3.hpp"
@@ -27,7 +28,9 @@ inline void element_gradients(const ElementParams& ep, double (&G)[4][3]) {
 
 void build_nodal_smoothing(FemModel& m) {
   NodalSmoothing& s = m.smoothing;
+  const bool matrix_free = s.matrix_free;  // chosen by the caller before
   s = NodalSmoothing{};
+  s.matrix_free = matrix_free;
   s.ptr.push_back(0);
   s.pair_ptr.push_back(0);
   std::vector<int32_t> patch;
@@ -88,11 +91,12 @@ void build_nodal_smoothing(FemModel& m) {
       s.linear.push_back(r.kernel == ElementKernel::Linear ? 1 : 0);
     }
   }
-  s.pair_slot.assign(s.pair_ptr.back(), -1);
+  if (!s.matrix_free) s.pair_slot.assign(s.pair_ptr.back(), -1);
 }
 
 void assign_smoothing_slots(FemModel& m) {
   NodalSmoothing& s = m.smoothing;
+  if (s.matrix_free) return;
   for (int32_t d = 0; d < s.domains(); ++d) {
     int32_t q = s.pair_ptr[d];
     for (int32_t a = s.ptr[d]; a < s.ptr[d + 1]; ++a)
@@ -187,7 +191,10 @@ double nodal_smoothing_pass(const FemModel& m, const ElasticPass& p) {
         for (int i = 0; i < 3; ++i) out[i] += scale * f[i];
       }
     }
-    if (p.kvals) {
+    if (p.kvals && s.matrix_free) {
+      const double scale = V * (p.k_beta * s.beta[d] + p.k_const);
+      if (p.nodal_system) p.nodal_system->record(d, R, scale * lambda, scale * mu);
+    } else if (p.kvals) {
       const double scale = V * (p.k_beta * s.beta[d] + p.k_const);
       const int32_t n = j1 - j0;
       for (int32_t a = 0; a < n; ++a) m3::mulv(R, g + 3 * (j0 + a), r + 3 * a);
@@ -212,6 +219,111 @@ double nodal_smoothing_pass(const FemModel& m, const ElasticPass& p) {
     }
   }
   return energy;
+}
+
+// ---------------------------------------------------------------------------------------------
+// NodalSystem
+
+NodalSystem::NodalSystem(const FemModel& m) : m_(m), op_(std::make_unique<ExtraOperator>()) {
+  const size_t d = static_cast<size_t>(m.smoothing.domains());
+  rot_.assign(9 * d, 0.0);
+  lambda_.assign(d, 0.0);
+  mu_.assign(d, 0.0);
+  diag_.assign(9 * static_cast<size_t>(m.num_nodes), 0.0);
+  op_->apply = &NodalSystem::apply_fn;
+  op_->context = this;
+  op_->diag = diag_.data();
+}
+
+NodalSystem::~NodalSystem() = default;
+
+const ExtraOperator* NodalSystem::op() const { return op_.get(); }
+
+void NodalSystem::apply_fn(void* self, const double* x, double* y) { static_cast<const NodalSystem*>(self)->apply(x, y); }
+
+void NodalSystem::begin() {
+  std::fill(diag_.begin(), diag_.end(), 0.0);
+  std::fill(lambda_.begin(), lambda_.end(), 0.0);
+  std::fill(mu_.begin(), mu_.end(), 0.0);
+}
+
+void NodalSystem::record(int32_t d, const double* R, double lambda, double mu) {
+  const NodalSmoothing& s = m_.smoothing;
+  for (int k = 0; k < 9; ++k) rot_[9 * d + k] = R[k];
+  lambda_[d] = lambda;
+  mu_[d] = mu;
+  // Diagonal blocks V(λ r rᵀ + μ r rᵀ + μ|g|² I), r = R·g (V·scale already in λ, μ).
+  for (int32_t j = s.ptr[d]; j < s.ptr[d + 1]; ++j) {
+    const double* g = s.grad.data() + 3 * j;
+    double r[3];
+    m3::mulv(R, g, r);
+    double* D = diag_.data() + 9 * s.patch_node[j];
+    const double gg = mu * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) D[3 * a + b] += (lambda + mu) * r[a] * r[b];
+    D[0] += gg;
+    D[4] += gg;
+    D[8] += gg;
+  }
+}
+
+void NodalSystem::finish() {
+  for (int32_t i : m_.constrained_nodes) {
+    const uint8_t c = m_.constrained[i];
+    double* D = diag_.data() + 9 * i;
+    for (int a = 0; a < 3; ++a)
+      if (c & (1u << a))
+        for (int b = 0; b < 3; ++b) D[3 * a + b] = D[3 * b + a] = 0.0;
+  }
+}
+
+void NodalSystem::apply(const double* x, double* y) const {
+  const NodalSmoothing& s = m_.smoothing;
+  const int32_t* nodes = s.patch_node.data();
+  const uint8_t* fixed = m_.constrained.data();
+  for (int32_t d = 0; d < s.domains(); ++d) {
+    const double lambda = lambda_[d], mu = mu_[d];
+    if (lambda == 0.0 && mu == 0.0) continue;  // not recorded (a damaged-through patch)
+    const int32_t j0 = s.ptr[d], j1 = s.ptr[d + 1];
+    const double* g = s.grad.data() + 3 * j0;
+    // L = Σ x_j ⊗ g_j over the free DOFs (a constrained DOF's column is zero).
+    double L[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    for (int32_t j = j0; j < j1; ++j, g += 3) {
+      const int32_t n = nodes[j];
+      double xv[3] = {x[3 * n], x[3 * n + 1], x[3 * n + 2]};
+      if (fixed[n])
+        for (int a = 0; a < 3; ++a)
+          if (fixed[n] & (1u << a)) xv[a] = 0.0;
+      for (int a = 0; a < 3; ++a)
+        for (int k = 0; k < 3; ++k) L[3 * a + k] += xv[a] * g[k];
+    }
+    // P = R·σ(sym(RᵀL)), σ = λ tr I + 2μ sym.
+    const double* R = rot_.data() + 9 * d;
+    double S[9];
+    m3::mul_tn(R, L, S);
+    const double tr = S[0] + S[4] + S[8];
+    double sig[9];
+    sig[0] = 2 * mu * S[0] + lambda * tr;
+    sig[4] = 2 * mu * S[4] + lambda * tr;
+    sig[8] = 2 * mu * S[8] + lambda * tr;
+    sig[1] = sig[3] = mu * (S[1] + S[3]);
+    sig[2] = sig[6] = mu * (S[2] + S[6]);
+    sig[5] = sig[7] = mu * (S[5] + S[7]);
+    double P[9];
+    m3::mul(R, sig, P);
+    g = s.grad.data() + 3 * j0;
+    for (int32_t j = j0; j < j1; ++j, g += 3) {
+      const int32_t n = nodes[j];
+      double f[3];
+      m3::mulv(P, g, f);
+      if (fixed[n])
+        for (int a = 0; a < 3; ++a)
+          if (fixed[n] & (1u << a)) f[a] = 0.0;
+      y[3 * n] += f[0];
+      y[3 * n + 1] += f[1];
+      y[3 * n + 2] += f[2];
+    }
+  }
 }
 
 }  // namespace stroma

@@ -23,16 +23,25 @@
 /// μ̄, λ̄ (and the Rayleigh β) the patch's volume-weighted averages (regions mix at their
 /// interface). Total: exactly the material's μ and κ, split across the two.
 ///
-/// Cost: a domain couples every pair of its patch nodes, so the BSR pattern grows to the
-/// two-ring (~4× the blocks; docs/PERFORMANCE.md).
+/// Two ways to put the domains' tangent into the implicit system (NodalSmoothing::matrix_free):
+///  - assembled: a domain couples every pair of its patch's nodes, so the BSR pattern grows to
+///    the two-ring (~4× the blocks) and every solver takes the matrix as it is. Needed by
+///    CHOLMOD (linear_solver: cholmod);
+///  - matrix-free (linear_solver: cg): the pattern stays the elements' one-ring and CG applies
+///    the domains as an extra operator (NodalSystem): per domain a gradient, a rotation and a
+///    scatter, ~20 flops per patch node, where the assembled two-ring stores ~90 blocks. Jacobi
+///    preconditioners add the domains' diagonal blocks; the warped Cholesky factor is built from
+///    the plain (unsmoothed) element matrix, a nearby SPD one-ring matrix (docs/PERFORMANCE.md).
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace stroma {
 
 struct FemModel;
 struct ElasticPass;
+struct ExtraOperator;
 
 /// The node domains of all smoothed bodies, in CSR form.
 /// Invariants: `ptr`/`pair_ptr` have domains()+1 entries; domain d's patch is entries
@@ -52,6 +61,9 @@ struct NodalSmoothing {
   std::vector<double> lambda, mu;   ///< the domain's Lamé parameters (after the element share)
   std::vector<double> beta;         ///< Rayleigh stiffness coefficient
   std::vector<uint8_t> linear;      ///< 1: a linear body (R = I), 0: corotational (polar R)
+  /// The domains' tangent is applied by NodalSystem, not assembled: the pattern is the
+  /// elements' only and pair_slot is empty.
+  bool matrix_free = false;
   int32_t domains() const { return static_cast<int32_t>(centre.size()); }
   bool empty() const { return centre.empty(); }
 };
@@ -67,7 +79,38 @@ inline constexpr int kMaxPatch = 256;
 void build_nodal_smoothing(FemModel& m);
 
 /// Fills NodalSmoothing::pair_slot from m.pattern (which must contain every patch pair).
+/// Nothing when matrix-free.
 void assign_smoothing_slots(FemModel& m);
+
+/// The node domains' part of an implicit system, matrix-free (NodalSmoothing::matrix_free):
+/// what the element pass records instead of assembling, and its product. Sized once; no
+/// allocation afterwards. Invariant after the pass and finish(): apply() adds A_n·x with A_n the
+/// domains' tangent scaled as the pass was asked (k_beta·β + k_const), with the rows and
+/// columns of constrained DOFs zero; diag() holds A_n's 3×3 diagonal blocks (9 per node), with
+/// the same rows and columns zero.
+class NodalSystem {
+ public:
+  explicit NodalSystem(const FemModel& m);
+  ~NodalSystem();
+  /// Start of an assembly (the pass then records each domain).
+  void begin();
+  /// Records domain d: rotation R (row-major) and its scaled Lamé pair V·scale·(λ, μ); adds its
+  /// diagonal blocks.
+  void record(int32_t d, const double* R, double lambda, double mu);
+  /// After the pass: zeroes the constrained rows and columns of the diagonal blocks.
+  void finish();
+  /// y += A_n·x.
+  void apply(const double* x, double* y) const;
+  const double* diag() const { return diag_.data(); }
+  /// A function-pointer view for CgSolver (valid while this object lives).
+  const ExtraOperator* op() const;
+
+ private:
+  static void apply_fn(void* self, const double* x, double* y);
+  const FemModel& m_;
+  std::vector<double> rot_, lambda_, mu_, diag_;
+  std::unique_ptr<ExtraOperator> op_;
+};
 
 /// Adds the node domains' energy, forces, K·v and tangent blocks as ElasticPass asks (the same
 /// outputs and scalings as the element pass: kv by kv_beta·β + kv_const, blocks by

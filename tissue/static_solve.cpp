@@ -42,6 +42,10 @@ StaticResult TimeStepper::solve_static(TissueState& s, double load_factor,
     p.k_const = 1.0;
     p.rotations = rot_.data();
     p.damage = in_.damage;
+    if (nodal_) {
+      nodal_->begin();
+      p.nodal_system = nodal_.get();
+    }
     elastic_pass(m_, p);
     scatter_springs(force_.data(), A_.data(), 1.0, 0.0);  // contact: force and stiffness at this iterate
     double rn = 0, dsum = 0;
@@ -71,6 +75,7 @@ StaticResult TimeStepper::solve_static(TissueState& s, double load_factor,
     // Constrained rows get the mean free diagonal: keeps CG's conditioning; rhs there is 0.
     const double scale = dcount ? dsum / dcount : 1.0;
     stroma::project_constraints(m_, A_.data(), scale, false);
+    if (nodal_) nodal_->finish();
     std::fill(tmp_.begin(), tmp_.end(), 0.0);
     if (direct) {
       if (!direct->factor(A_.data())) return res;
@@ -83,7 +88,7 @@ StaticResult TimeStepper::solve_static(TissueState& s, double load_factor,
       // Inner solves need not be tighter than the Newton target relative to this residual.
       const double tol = std::clamp(0.1 * cfg_.static_tolerance / std::max(res.relative_residual, 1e-300), 1e-14, 0.1);
       const SolveStats cs = cg_.solve(m_.pattern, A_.data(), rhs_.data(), tmp_.data(), cfg_.preconditioner,
-                                      20 * cfg_.max_iterations, tol, external());
+                                      20 * cfg_.max_iterations, tol, external(), nullptr, false, extra());
       res.linear_iterations += cs.iterations;
     }
     for (size_t d = 0; d < s.x.size(); ++d) s.x[d] += tmp_[d];

@@ -28,6 +28,7 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
   if (needs_direct) cholmod_ = std::make_unique<CholmodSolver>(m_.pattern);
   if (cfg_.preconditioner == Preconditioner::WarpedCholesky && cfg_.linear_solver == LinearSolverKind::CG)
     warped_ = std::make_unique<WarpedPreconditioner>(m_);
+  if (m_.smoothing.matrix_free && !m_.smoothing.empty()) nodal_ = std::make_unique<NodalSystem>(m_);
 }
 
 void TimeStepper::set_realtime(bool realtime) {
@@ -41,6 +42,8 @@ void TimeStepper::prepare(double h) {
   if (cfg_.integrator != Integrator::ImplicitEuler) return;
   warped_->factor(h, h, h * h);
   int& period = cfg_.preconditioner_refresh;
+  // A refreshed factor is of the assembled system, which lacks the matrix-free node domains.
+  if (nodal_) period = 0;
   if (period < 0) period = m_.dofs() >= kRefreshMinDofs ? auto_refresh_period(warped_->factor_entries(), h) : 0;
   if (period > 0) warped_->enable_refresh(period, !realtime_);
 }
@@ -105,6 +108,10 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
     p.kvals = A_.data();
     p.k_beta = h;
     p.k_const = h * h;
+    if (nodal_) {
+      nodal_->begin();
+      p.nodal_system = nodal_.get();
+    }
   } else if (any_beta) {
     std::fill(kv_.begin(), kv_.end(), 0.0);
     p.v = s.v.data();
@@ -125,6 +132,7 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
     add_mass_diagonal(A_.data(), h);
     // h(f_ext + f − αMv − (β + h)Kv) = h(f_ext + f) + Mv − Av   (constrained v are 0).
     bsr_spmv(m_.pattern, A_.data(), s.v.data(), tmp_.data());
+    if (nodal_) nodal_->apply(s.v.data(), tmp_.data());
     for (int32_t i = 0; i < n; ++i) {
       const double mi = mass(i), dm = mi - m_.mass[i];  // gravity follows the current mass
       for (int k = 0; k < 3; ++k) {
@@ -134,6 +142,7 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
       }
     }
     project_constraints(A_.data(), 1.0);
+    if (nodal_) nodal_->finish();
     if (warped_) {
       // Rest-pose factor with this step's coefficients, built once (prepare). Sub-steps keep
       // the factor made for the tick's h: a nearby matrix preconditions them well, where
@@ -220,17 +229,17 @@ SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
     // 7,457-node block, where one warped iteration costs ~40 Jacobi iterations.
     const int share = std::max(3, static_cast<int>(cfg_.max_iterations / warped_->relative_cost()));
     st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, std::min(share, cfg_.max_iterations),
-                   cfg_.tolerance, external(), deadline, converged_in_a_row_ == 0);
+                   cfg_.tolerance, external(), deadline, converged_in_a_row_ == 0, extra());
     if (!st.converged && !st.budget_stopped && share < cfg_.max_iterations) {
       const int warped_iterations = st.iterations;
       st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, Preconditioner::Jacobi, cfg_.max_iterations,
-                     cfg_.tolerance, nullptr, deadline, false);
+                     cfg_.tolerance, nullptr, deadline, false, extra());
       st.iterations += warped_iterations;
       st.preconditioner_fallback = true;
     }
   } else {
     st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, cfg_.max_iterations, cfg_.tolerance,
-                   nullptr, deadline, converged_in_a_row_ == 0);
+                   nullptr, deadline, converged_in_a_row_ == 0, extra());
   }
   converged_in_a_row_ = st.converged ? converged_in_a_row_ + 1 : 0;
   error_bounds(cg_.residual(), h_, st);
@@ -263,6 +272,10 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
     p.k_beta = h;
     p.k_const = h * h;
     p.rotations = rot_.data();
+    if (nodal_) {
+      nodal_->begin();
+      p.nodal_system = nodal_.get();
+    }
   }
   const bool any_beta = m_.any_stiffness_damping;
   if (any_beta) {  // hβK(x)v: the stiffness damping at the iterate
@@ -313,6 +326,7 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
   }
   if (matrix) {
     project_constraints(A_.data(), 1.0);
+    if (nodal_) nodal_->finish();
     if (warped_) warped_->update_rotations(rot_.data());
   }
   if (merit) *merit = phi;
@@ -374,7 +388,7 @@ NewtonStats TimeStepper::newton(TissueState& s, double h, Deadline* deadline) {
       cholmod_->solve(newton_r_.data(), newton_delta_.data());
     } else {
       const SolveStats cs = cg_.solve(m_.pattern, A_.data(), newton_r_.data(), newton_delta_.data(), cfg_.preconditioner,
-                                      cfg_.max_iterations, cfg_.tolerance, external(), deadline);
+                                      cfg_.max_iterations, cfg_.tolerance, external(), deadline, false, extra());
       st.linear_iterations += cs.iterations;
     }
     ++st.iterations;

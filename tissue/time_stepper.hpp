@@ -233,6 +233,9 @@ class TimeStepper {
   std::unique_ptr<CholmodSolver> cholmod_;
   std::unique_ptr<WarpedPreconditioner> warped_;  ///< only when selected
   const ExternalPreconditioner* external() const { return warped_ ? warped_->op() : nullptr; }
+  /// Locking-free bodies under CG: the node domains' matrix-free part of A_ (nodal_smoothing.hpp).
+  std::unique_ptr<NodalSystem> nodal_;
+  const ExtraOperator* extra() const { return nodal_ ? nodal_->op() : nullptr; }
 };
 
 /// A static Newton attempt whose residual grows beyond this multiple of its starting value is

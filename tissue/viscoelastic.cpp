@@ -17,10 +17,4 @@ ViscoStep visco_step(const PronySeries& s, double h) {
   return st;
 }
 
-double relaxation_ratio(const PronySeries& s, double t) {
-  double r = 1;
-  for (int i = 0; i < s.terms; ++i) r -= s.g[i] * (1.0 - std::exp(-t / s.tau[i]));
-  return r;
-}
-
 }  // namespace stroma

@@ -66,7 +66,4 @@ inline void visco_history(const ViscoStep& st, const double* q, const double* s0
     for (int k = 0; k < 6; ++k) H[k] += st.decay[i] * q[6 * i + k] - st.gg[i] * s0[k];
 }
 
-/// Relaxation modulus ratio E(t)/E₀ of a series (the closed form the tests compare with).
-double relaxation_ratio(const PronySeries& s, double t);
-
 }  // namespace stroma

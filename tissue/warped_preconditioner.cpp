@@ -35,6 +35,9 @@ void WarpedPreconditioner::factor(double h_mass, double k_beta, double k_const) 
   p.kvals = A0.data();
   p.k_beta = k_beta;
   p.k_const = k_const;
+  // Matrix-free locking-free bodies: the factor is of the plain elements with the full material
+  // (a one-ring SPD matrix near the smoothed one; the pattern has no room for the node domains).
+  p.unsmoothed = m_.smoothing.matrix_free;
   elastic_pass(m_, p);
   if (h_mass >= 0) add_mass_diagonal(m_, A0.data(), h_mass, m_.mass.data());
   project_constraints(m_, A0.data(), 1.0, false);
