@@ -180,10 +180,12 @@ TEST(LockingFree, RestTangentIsTheForceDerivativeSymmetricWithSixZeroModes) {
 namespace {
 
 /// Top force of the bonded ν = 0.49 block pressed 1 % (refs/c), static, on `mesh`.
-double block_force(const std::string& mesh, const std::string& locking_free) {
+/// `solver`: the linear solver's settings (CHOLMOD: node domains assembled; CG: matrix-free).
+double block_force(const std::string& mesh, const std::string& locking_free,
+                   const std::string& solver = "linear_solver: cholmod", bool expect_matrix_free = false) {
   const std::string yaml = R"(name: block
 gravity: [0, 0, 0]
-solver: {integrator: static, linear_solver: cholmod, static_tolerance: 1.0e-10}
+solver: {integrator: static, )" + solver + R"(, static_tolerance: 1.0e-10}
 bodies:
   - name: block
     mesh: )" + std::string(STROMA_SOURCE_DIR) + "/scenarios/meshes/cube_tet4_h" + mesh + R"(mm.msh
@@ -193,6 +195,7 @@ bodies:
       - box: {min: [-1, -1, 0.0499999], max: [1, 1, 1]}
 )";
   auto m = compile_model(parse_scenario(yaml, "block.yaml", STROMA_SOURCE_DIR));
+  EXPECT_EQ(m->fem.smoothing.matrix_free, expect_matrix_free);
   State s = State::initial(*m);
   std::vector<int32_t> top;
   for (int32_t i = 0; i < m->fem.num_nodes; ++i)
@@ -280,34 +283,9 @@ TEST(LockingFree, MatrixFreeNodeDomainsApplyTheAssembledTangent) {
 TEST(LockingFree, MatrixFreeCgAndAssembledCholmodGiveTheSameStaticBlock) {
   const std::string lf = ", locking_free: node_smoothing";
   const double direct = block_force("8p333", lf);
-  // block_force with CG: the same scenario text with the CG linear solver (matrix-free).
-  const std::string yaml = R"(name: block
-gravity: [0, 0, 0]
-solver: {integrator: static, linear_solver: cg, preconditioner: warped_cholesky, tolerance: 1.0e-10,
-         max_iterations: 5000, static_tolerance: 1.0e-10}
-bodies:
-  - name: block
-    mesh: )" + std::string(STROMA_SOURCE_DIR) + R"(/scenarios/meshes/cube_tet4_h8p333mm.msh
-    material: {model: corotational, young_modulus: 1.0e4, poisson_ratio: 0.49, density: 1000)" + lf + R"(}
-    fixed:
-      - box: {min: [-1, -1, -1.0e-7], max: [1, 1, 1.0e-7]}
-      - box: {min: [-1, -1, 0.0499999], max: [1, 1, 1]}
-)";
-  auto m = compile_model(parse_scenario(yaml, "block_cg.yaml", STROMA_SOURCE_DIR));
-  ASSERT_TRUE(m->fem.smoothing.matrix_free);
-  State s = State::initial(*m);
-  std::vector<int32_t> top;
-  for (int32_t i = 0; i < m->fem.num_nodes; ++i)
-    if (m->fem.rest[3 * i + 2] > 0.0499999) {
-      s.tissue.x[3 * i + 2] -= 5.0e-4;
-      top.push_back(i);
-    }
-  TickWorkspace w(*m);
-  ASSERT_TRUE(w.stepper().solve_static(s.tissue).converged);
-  std::vector<double> f(m->fem.rest.size());
-  w.stepper().elastic_force(s.tissue, f.data());
-  double fz = 0;
-  for (int32_t i : top) fz += f[3 * i + 2];
+  const double fz = block_force("8p333", lf,
+                                "linear_solver: cg, preconditioner: warped_cholesky, tolerance: 1.0e-10, max_iterations: 5000",
+                                true);
   EXPECT_NEAR(fz, direct, 1e-7 * direct);
 }
 
