@@ -32,26 +32,6 @@ inline void deformation_gradient(const double* __restrict x, const ElementParams
   }
 }
 
-/// P = R·σ(sym(RᵀG) − I·shift): the rotated small-strain stress of gradient G.
-/// shift = 1 for positions (strain), 0 for velocities (strain rate).
-inline void rotated_stress(const double* R, const double* G, double lambda, double mu,
-                           double shift, double* P, double* eps_out) {
-  double S[9];
-  m3::mul_tn(R, G, S);
-  double e[9];
-  e[0] = S[0] - shift; e[4] = S[4] - shift; e[8] = S[8] - shift;
-  e[1] = e[3] = 0.5 * (S[1] + S[3]);
-  e[2] = e[6] = 0.5 * (S[2] + S[6]);
-  e[5] = e[7] = 0.5 * (S[5] + S[7]);
-  const double tr = e[0] + e[4] + e[8];
-  double sig[9];
-  for (int k = 0; k < 9; ++k) sig[k] = 2.0 * mu * e[k];
-  sig[0] += lambda * tr; sig[4] += lambda * tr; sig[8] += lambda * tr;
-  m3::mul(R, sig, P);
-  if (eps_out)
-    for (int k = 0; k < 9; ++k) eps_out[k] = e[k];
-}
-
 /// Elements per batch. Everything up to the final scatter into nodal arrays and matrix slots is
 /// computed for 16 elements at once in [entry][lane] (structure-of-arrays) form, so the compiler
 /// vectorises across elements: two AVX-512 registers per entry. Why 16 and not 8 (one

@@ -8,6 +8,7 @@
 #include "tissue/fem_forces.hpp"
 #include "tissue/fem_model.hpp"
 #include "tissue/mat3.hpp"
+#include "tissue/material.hpp"
 #include "tissue/rotation.hpp"
 
 namespace stroma {
@@ -21,6 +22,27 @@ inline void element_gradients(const ElementParams& ep, double (&G)[4][3]) {
     G[2][k] = ep.g[3 + k];
     G[3][k] = ep.g[6 + k];
     G[0][k] = -(G[1][k] + G[2][k] + G[3][k]);
+  }
+}
+
+/// G = Σ_j u_j ⊗ g_j over patch entries j0..j1 (row-major G[3i+k] = Σ u_j[i] g_j[k]).
+inline void patch_gradient(const NodalSmoothing& s, int32_t j0, int32_t j1, const double* u, double* G) {
+  std::fill(G, G + 9, 0.0);
+  for (int32_t j = j0; j < j1; ++j) {
+    const double* uj = u + 3 * s.patch_node[j];
+    const double* gj = s.grad.data() + 3 * j;
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) G[3 * i + k] += uj[i] * gj[k];
+  }
+}
+
+/// out_j += scale·P·g_j for every patch entry.
+inline void patch_scatter(const NodalSmoothing& s, int32_t j0, int32_t j1, const double* P, double scale, double* out) {
+  for (int32_t j = j0; j < j1; ++j) {
+    double f[3];
+    m3::mulv(P, s.grad.data() + 3 * j, f);
+    double* o = out + 3 * s.patch_node[j];
+    for (int i = 0; i < 3; ++i) o[i] += scale * f[i];
   }
 }
 
@@ -114,7 +136,6 @@ double nodal_smoothing_pass(const FemModel& m, const ElasticPass& p) {
   double r[3 * kMaxPatch];  // rotated gradients R·g of the current domain
   for (int32_t d = 0; d < s.domains(); ++d) {
     const int32_t j0 = s.ptr[d], j1 = s.ptr[d + 1];
-    const int32_t* nodes = s.patch_node.data();
     const double* g = s.grad.data();
     double lambda = s.lambda[d], mu = s.mu[d];
     if (p.damage) {  // the patch's volume-weighted intactness
@@ -129,73 +150,30 @@ double nodal_smoothing_pass(const FemModel& m, const ElasticPass& p) {
       lambda *= keep;
       mu *= keep;
     }
-    // F = Σ x_j ⊗ g_j (row-major F[3i+k] = Σ x_j[i] g_j[k]).
-    double F[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-    for (int32_t j = j0; j < j1; ++j) {
-      const double* x = p.x + 3 * nodes[j];
-      const double* gj = g + 3 * j;
-      for (int i = 0; i < 3; ++i)
-        for (int k = 0; k < 3; ++k) F[3 * i + k] += x[i] * gj[k];
-    }
+    double F[9];
+    patch_gradient(s, j0, j1, p.x, F);
     double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     if (!s.linear[d]) polar_rotation(F, R);
     const double V = s.volume[d];
-    // ε = sym(RᵀF) − I, σ = λ tr ε I + 2μ ε, P = R σ.
-    auto stress = [&](const double* Grad, double shift, double* P) {
-      double S[9];
-      m3::mul_tn(R, Grad, S);
-      double e[9];
-      e[0] = S[0] - shift;
-      e[4] = S[4] - shift;
-      e[8] = S[8] - shift;
-      e[1] = e[3] = 0.5 * (S[1] + S[3]);
-      e[2] = e[6] = 0.5 * (S[2] + S[6]);
-      e[5] = e[7] = 0.5 * (S[5] + S[7]);
-      const double tr = e[0] + e[4] + e[8];
-      double sig[9];
-      double ee = 0;
-      for (int k = 0; k < 9; ++k) {
-        sig[k] = 2.0 * mu * e[k];
-        ee += e[k] * e[k];
-      }
-      sig[0] += lambda * tr;
-      sig[4] += lambda * tr;
-      sig[8] += lambda * tr;
-      m3::mul(R, sig, P);
-      return V * (mu * ee + 0.5 * lambda * tr * tr);
-    };
-    double P[9];
-    energy += stress(F, 1.0, P);
-    if (p.force)
-      for (int32_t j = j0; j < j1; ++j) {
-        double f[3];
-        m3::mulv(P, g + 3 * j, f);
-        double* out = p.force + 3 * nodes[j];
-        for (int i = 0; i < 3; ++i) out[i] -= V * f[i];
-      }
+    // ε = sym(RᵀF) − I, P = R·σ(ε); energy V(μ ε:ε + λ/2 tr²ε).
+    double P[9], e[9];
+    rotated_stress(R, F, lambda, mu, 1.0, P, e);
+    double ee = 0;
+    for (int k = 0; k < 9; ++k) ee += e[k] * e[k];
+    const double tr = e[0] + e[4] + e[8];
+    energy += V * (mu * ee + 0.5 * lambda * tr * tr);
+    if (p.force) patch_scatter(s, j0, j1, P, -V, p.force);
     if (p.kv) {
-      double L[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-      for (int32_t j = j0; j < j1; ++j) {
-        const double* v = p.v + 3 * nodes[j];
-        const double* gj = g + 3 * j;
-        for (int i = 0; i < 3; ++i)
-          for (int k = 0; k < 3; ++k) L[3 * i + k] += v[i] * gj[k];
-      }
-      double Pv[9];
-      stress(L, 0.0, Pv);
-      const double scale = V * (p.kv_beta * s.beta[d] + p.kv_const);
-      for (int32_t j = j0; j < j1; ++j) {
-        double f[3];
-        m3::mulv(Pv, g + 3 * j, f);
-        double* out = p.kv + 3 * nodes[j];
-        for (int i = 0; i < 3; ++i) out[i] += scale * f[i];
-      }
+      double L[9], Pv[9];
+      patch_gradient(s, j0, j1, p.v, L);
+      rotated_stress(R, L, lambda, mu, 0.0, Pv, nullptr);
+      patch_scatter(s, j0, j1, Pv, V * (p.kv_beta * s.beta[d] + p.kv_const), p.kv);
     }
-    if (p.kvals && s.matrix_free) {
-      const double scale = V * (p.k_beta * s.beta[d] + p.k_const);
+    if (!p.kvals) continue;
+    const double scale = V * (p.k_beta * s.beta[d] + p.k_const);
+    if (s.matrix_free) {
       if (p.nodal_system) p.nodal_system->record(d, R, scale * lambda, scale * mu);
-    } else if (p.kvals) {
-      const double scale = V * (p.k_beta * s.beta[d] + p.k_const);
+    } else {
       const int32_t n = j1 - j0;
       for (int32_t a = 0; a < n; ++a) m3::mulv(R, g + 3 * (j0 + a), r + 3 * a);
       const double sl = scale * lambda, sm = scale * mu;
@@ -297,20 +275,8 @@ void NodalSystem::apply(const double* x, double* y) const {
       for (int a = 0; a < 3; ++a)
         for (int k = 0; k < 3; ++k) L[3 * a + k] += xv[a] * g[k];
     }
-    // P = R·σ(sym(RᵀL)), σ = λ tr I + 2μ sym.
-    const double* R = rot_.data() + 9 * d;
-    double S[9];
-    m3::mul_tn(R, L, S);
-    const double tr = S[0] + S[4] + S[8];
-    double sig[9];
-    sig[0] = 2 * mu * S[0] + lambda * tr;
-    sig[4] = 2 * mu * S[4] + lambda * tr;
-    sig[8] = 2 * mu * S[8] + lambda * tr;
-    sig[1] = sig[3] = mu * (S[1] + S[3]);
-    sig[2] = sig[6] = mu * (S[2] + S[6]);
-    sig[5] = sig[7] = mu * (S[5] + S[7]);
     double P[9];
-    m3::mul(R, sig, P);
+    rotated_stress(rot_.data() + 9 * d, L, lambda, mu, 0.0, P, nullptr);
     g = s.grad.data() + 3 * j0;
     for (int32_t j = j0; j < j1; ++j, g += 3) {
       const int32_t n = nodes[j];
