@@ -311,10 +311,11 @@ MaterialSpec parse_material(const Field& f) {
   }
   if (auto f2 = m.opt("viscoelastic")) {
     mat.viscoelastic = parse_viscoelastic(*f2);
-    if (mat.viscoelastic->model != "kelvin_voigt" &&
-        (mat.model != ElementModel::Corotational || mat.rotation != RotationMethod::Polar))
-      f2->fail("a Prony series needs model corotational with rotation polar for now (stable Neo-Hookean "
-               "visco-elasticity is not in yet)");
+    const bool polar = mat.model == ElementModel::Corotational && mat.rotation == RotationMethod::Polar;
+    const bool hyper = mat.model == ElementModel::StableNeoHookean || mat.model == ElementModel::StVenantKirchhoff;
+    if (mat.viscoelastic->model != "kelvin_voigt" && !polar && !hyper)
+      f2->fail("a Prony series needs model corotational with rotation polar, stable_neo_hookean or "
+               "st_venant_kirchhoff (its overstresses live in the element's polar frame)");
     if (mat.viscoelastic->model == "kelvin_voigt" && m.opt("rayleigh_stiffness"))
       f2->fail("kelvin_voigt is stiffness damping with rayleigh_stiffness = tau: give one of them");
   }

@@ -36,7 +36,14 @@ run_one() {
     echo "fuzz: $t ok ($(grep -o 'stat::number_of_executed_units: *[0-9]*' "$work/$t.log" | grep -o '[0-9]*$') inputs in ${secs} s)"
   else
     echo "fuzz: $t FAILED — the report:"
-    grep -E "ERROR|SUMMARY|runtime error|Test unit written|timeout|leak" "$work/$t.log" | head -20
+    # The report from its first line (a sanitizer's ERROR, UBSan's "runtime error", an uncaught
+    # exception's "terminate called") with the stack, so a CI log alone says where it crashed.
+    awk '/ERROR|runtime error|terminate called|what\(\)/ { on = 1 } on && n < 60 { print; n++ }' "$work/$t.log"
+    grep -E "Test unit written" "$work/$t.log" | head -2
+    # The input itself (base64, when small), so a crash found on another machine reproduces here.
+    for a in "$artifacts/$t-"*; do
+      [ -f "$a" ] && [ "$(stat -c %s "$a")" -le 16384 ] && { echo "fuzz: $(basename "$a") (base64):"; base64 -w 120 "$a"; }
+    done
     echo "fuzz: reproduce with $build/tests/fuzz/fuzz_$t $artifacts/$t-<file>   (full log: $work/$t.log)"
     return 1
   fi

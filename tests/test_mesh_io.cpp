@@ -462,5 +462,21 @@ TEST(MeshIoErrors, QuotedFileTextIsEscapedAndCapped) {
   }
 }
 
+// Inputs the fuzzer found (tests/fuzz/corpus/tet_mesh/regress_*): a count or last offset the
+// data cannot hold must be an InputError, never a std::length_error (which aborted the fuzz
+// target: "deadly signal") nor a multi-gigabyte allocation.
+TEST(MeshIo, FuzzFoundHugeCountsAreInputErrors) {
+  const std::string dir = std::string(STROMA_SOURCE_DIR) + "/tests/fuzz/corpus/tet_mesh/";
+  for (const char* name : {"regress_vtu_huge_offset.vtu", "regress_vtk_huge_cell_count.vtk"}) {
+    std::ifstream f(dir + name, std::ios::binary);
+    ASSERT_TRUE(f) << name;
+    std::stringstream text;
+    text << f.rdbuf();
+    std::istringstream in(text.str());
+    const bool vtu = std::string(name).ends_with(".vtu");
+    EXPECT_THROW(vtu ? read_vtu(in, name) : read_vtk_legacy(in, name), InputError) << name;
+  }
+}
+
 }  // namespace
 }  // namespace stroma

@@ -349,10 +349,10 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
         energy += dispatch_flags<ElementKernel::CorotationalQR>(m, p, r);
         break;
       case ElementKernel::StableNeoHookean:
-        energy += stable_neo_hookean_pass(m, p, r.begin, r.end, r.fibres);
+        energy += stable_neo_hookean_pass(m, p, r);
         break;
       case ElementKernel::StVenantKirchhoff:
-        energy += st_venant_kirchhoff_pass(m, p, r.begin, r.end, r.fibres);
+        energy += st_venant_kirchhoff_pass(m, p, r);
         break;
     }
   }
@@ -367,8 +367,9 @@ void viscous_update(const FemModel& m, const double* x, const float* damage, dou
   for (const ElementRange& r : m.ranges) {
     if (r.visco < 0 || r.fixed) continue;
     const ViscoStep st = visco_step(m.visco[r.visco], h);
-    // The pass's batched polar rotations (visco-elastic ranges are corotational polar: compile
-    // checks), then per element σ₀ = λ tr(ε) I + 2με in the rotated frame.
+    // Corotational (polar: the loader checks) or hyperelastic, whose branches are corotational
+    // (hyperelastic_pass.hpp): the batched polar rotations U·Vᵀ both passes use, then per
+    // element σ₀ = λ tr(ε) I + 2με in the rotated frame.
     for (int32_t e0 = r.begin; e0 < r.end; e0 += kBatch) {
       const int count = std::min<int32_t>(kBatch, r.end - e0);
       gather(m, x, e0, count, in, damage);

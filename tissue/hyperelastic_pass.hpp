@@ -25,6 +25,7 @@
 #include "tissue/fem_forces.hpp"
 #include "tissue/fibre.hpp"
 #include "tissue/rotation.hpp"
+#include "tissue/viscoelastic.hpp"
 
 namespace stroma::hyperelastic {
 
@@ -128,13 +129,59 @@ void eigensystem(const double* F, double lambda, double mu, double* values, doub
 /// sweeps' latency there: tissue/fem_forces.cpp).
 inline constexpr int kBatch = 16;
 
-/// The pass over elements [begin, end) of one range; `Fibres`: the range's elements carry
-/// FemModel::fibres. Returns their energy.
+/// The Biot strain ε = sym(Rᵀ·F) − I (row-major) of an element with polar rotation R, and the
+/// linear stress σ = λ·tr(ε)·I + 2μ·ε on it (6 values xx yy zz xy xz yz; null: not wanted): the
+/// corotational element's measures, which the visco-elastic branches use (see pass()).
+inline void corotated_strain(const double* R, const double* F, double lambda, double mu, double* eps, double* s6) {
+  double S[9];  // RᵀF
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) S[3 * i + k] = R[i] * F[k] + R[3 + i] * F[3 + k] + R[6 + i] * F[6 + k];
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) eps[3 * i + k] = 0.5 * (S[3 * i + k] + S[3 * k + i]) - (i == k ? 1.0 : 0.0);
+  if (s6) {
+    const double lt = lambda * (eps[0] + eps[4] + eps[8]), mu2 = 2 * mu;
+    s6[0] = mu2 * eps[0] + lt;
+    s6[1] = mu2 * eps[4] + lt;
+    s6[2] = mu2 * eps[8] + lt;
+    s6[3] = mu2 * eps[1];
+    s6[4] = mu2 * eps[2];
+    s6[5] = mu2 * eps[5];
+  }
+}
+
+/// The polar rotation R = U·Vᵀ (row-major) from the rotation-variant SVD's U and V.
+inline void polar_from_svd(const double* U, const double* V, double* R) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) R[3 * i + j] = U[3 * i] * V[3 * j] + U[3 * i + 1] * V[3 * j + 1] + U[3 * i + 2] * V[3 * j + 2];
+}
+
+/// The pass over one range's elements; `Fibres`: they carry FemModel::fibres. Returns their
+/// energy.
+///
+/// A visco-elastic range (viscoelastic.hpp) is a generalised Maxwell solid whose equilibrium
+/// spring is the hyperelastic matrix, scaled by g∞ = 1 − Σgᵢ, and whose branches (moduli gᵢ·(λ,
+/// μ)) are corotational linear in the element's polar frame: Ψ = g∞·Ψ_M(F) + Σ ½·Qᵢ:(gᵢC)⁻¹:Qᵢ.
+/// Over a step h (p.visco_h; h = 0 without p.visco_q) the branches add the stress
+/// c_b·σ(ε) + H (c_b = Σgᵢγᵢ; H the history held over the step), so energy, forces and the
+/// tangent are g∞·(matrix) + c_b·(corotational element) + H's energy V·H:ε and forces
+/// −V·R·H·g_a. Why linear branches: their stored energy is exact, so the free energy above is
+/// a Lyapunov function (energy is never created, tested and stress-tested); branches driven by
+/// the hyperelastic stress itself have no such energy, and at ν → 0.5 the pressure's finite-
+/// strain terms swamp it. At small strain the model is the Prony series on the hyperelastic
+/// material; the fibres (when present) stay elastic.
 template <class M, bool Fibres>
-double pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end) {
+double pass(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
+  const int32_t begin = r.begin, end = r.end;
   double energy = 0;
+  const bool visco = r.visco >= 0;
+  const bool history = visco && p.visco_q != nullptr;
+  const ViscoStep vstep = visco ? visco_step(m.visco[r.visco], history ? p.visco_h : 0.0) : ViscoStep{};
+  double g_inf = 1;  // the matrix's share
+  if (visco)
+    for (int i = 0; i < vstep.terms; ++i) g_inf -= m.visco[r.visco].g[i];
+  const double cb = vstep.c - g_inf;  // the branches' instantaneous share over the step
   const bool want_k = p.kvals != nullptr || p.kv != nullptr;
-  const bool want_svd = want_k || p.rotations != nullptr;
+  const bool want_svd = want_k || p.rotations != nullptr || visco;
   double Fb[9][kBatch], Ub[9][kBatch], Vb[9][kBatch], sb[3][kBatch], Ab[9][kBatch], Eb[9][kBatch];
   double lb[kBatch], mb[kBatch];
   for (int32_t e0 = begin; e0 < end; e0 += kBatch) {
@@ -164,20 +211,20 @@ double pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end)
       double F[9];
       for (int k = 0; k < 9; ++k) F[k] = Fb[k][l];
       double P[9];
-      energy += V * M::stress(F, lambda, mu, P);
+      double element_energy = M::stress(F, lambda, mu, P);
       // The fibre term: P_f = 2ψ′·b⊗a with b = F·a, so its force on node a is −V·2ψ′·(a·g_a)·b.
       FibreResponse fr;
       double s[4] = {0, 0, 0, 0};  // a·g_a
       if constexpr (Fibres) {
         const FibreParams& fp = m.fibres[e];
         fr = fibre_response(F, fp, keep);
-        energy += V * fr.psi;
         for (int a = 0; a < 4; ++a) s[a] = fp.a[0] * g[a][0] + fp.a[1] * g[a][1] + fp.a[2] * g[a][2];
       }
+      energy += V * (g_inf * element_energy + fr.psi);
       if (p.force)
         for (int a = 0; a < 4; ++a)
           for (int i = 0; i < 3; ++i) {
-            double f = P[3 * i] * g[a][0] + P[3 * i + 1] * g[a][1] + P[3 * i + 2] * g[a][2];
+            double f = g_inf * (P[3 * i] * g[a][0] + P[3 * i + 1] * g[a][1] + P[3 * i + 2] * g[a][2]);
             if constexpr (Fibres) f += 2.0 * fr.d1 * s[a] * fr.b[i];
             p.force[3 * ep.node[a] + i] -= V * f;
           }
@@ -187,11 +234,36 @@ double pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end)
         U[k] = Ub[k][l];
         Vr[k] = Vb[k][l];
       }
-      if (p.rotations) {  // the polar rotation R = U·Vᵀ (for the warped preconditioner)
-        double* R = p.rotations + 9 * e;
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            R[3 * i + j] = U[3 * i] * Vr[3 * j] + U[3 * i + 1] * Vr[3 * j + 1] + U[3 * i + 2] * Vr[3 * j + 2];
+      double R[9];  // the polar rotation (warped preconditioner; the visco-elastic frame)
+      polar_from_svd(U, Vr, R);
+      if (p.rotations) std::copy(R, R + 9, p.rotations + 9 * e);
+      double eps[9];  // the branches' strain (visco-elastic ranges)
+      if (visco) {
+        double h6[6] = {0, 0, 0, 0, 0, 0}, s6[6];
+        if (history) {
+          const int64_t j = e - r.begin;
+          visco_history(vstep, p.visco_q + r.visco_q_begin + 6 * vstep.terms * j, p.visco_s0 + r.visco_s0_begin + 6 * j, h6);
+        }
+        corotated_strain(R, F, lambda, mu, eps, s6);
+        double sb6[6];
+        for (int k = 0; k < 6; ++k) sb6[k] = cb * s6[k] + h6[k];
+        const double Sb[9] = {sb6[0], sb6[3], sb6[4], sb6[3], sb6[1], sb6[5], sb6[4], sb6[5], sb6[2]};
+        const double H[9] = {h6[0], h6[3], h6[4], h6[3], h6[1], h6[5], h6[4], h6[5], h6[2]};
+        const double tr = eps[0] + eps[4] + eps[8];
+        double ee = 0, he = 0;
+        for (int k = 0; k < 9; ++k) {
+          ee += eps[k] * eps[k];
+          he += H[k] * eps[k];
+        }
+        energy += V * (cb * (mu * ee + 0.5 * lambda * tr * tr) + he);
+        if (p.force) {
+          double RS[9];  // R·σ_b
+          for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) RS[3 * i + k] = R[3 * i] * Sb[k] + R[3 * i + 1] * Sb[3 + k] + R[3 * i + 2] * Sb[6 + k];
+          for (int a = 0; a < 4; ++a)
+            for (int i = 0; i < 3; ++i)
+              p.force[3 * ep.node[a] + i] -= V * (RS[3 * i] * g[a][0] + RS[3 * i + 1] * g[a][1] + RS[3 * i + 2] * g[a][2]);
+        }
       }
       if (!want_k) continue;
       double a[3] = {Ab[0][l], Ab[4][l], Ab[8][l]}, E[9];
@@ -209,10 +281,10 @@ double pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end)
         double w[12];
         for (int b = 0; b < 4; ++b)
           for (int i = 0; i < 3; ++i) w[3 * b + i] = Q[3 * i] * g[b][0] + Q[3 * i + 1] * g[b][1] + Q[3 * i + 2] * g[b][2];
-        const double sc = V * lam;
-        for (int r = 0; r < 12; ++r) {
-          const double sr = sc * w[r];
-          for (int c = r; c < 12; ++c) K[r][c] += sr * w[c];
+        const double sc = g_inf * V * lam;
+        for (int r1 = 0; r1 < 12; ++r1) {
+          const double sr = sc * w[r1];
+          for (int c1 = r1; c1 < 12; ++c1) K[r1][c1] += sr * w[c1];
         }
       }
       // The fibre term's Hessian, PSD where the fibre is stretched (zero elsewhere):
@@ -224,14 +296,33 @@ double pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end)
               const double ss = V * s[b1] * s[b2];
               for (int i = 0; i < 3; ++i)
                 for (int k = 0; k < 3; ++k) {
-                  const int r = 3 * b1 + i, c = 3 * b2 + k;
-                  if (c < r) continue;
-                  K[r][c] += ss * ((i == k ? 2.0 * fr.d1 : 0.0) + 4.0 * fr.d2 * fr.b[i] * fr.b[k]);
+                  const int r1 = 3 * b1 + i, c1 = 3 * b2 + k;
+                  if (c1 < r1) continue;
+                  K[r1][c1] += ss * ((i == k ? 2.0 * fr.d1 : 0.0) + 4.0 * fr.d2 * fr.b[i] * fr.b[k]);
                 }
             }
       }
-      for (int r = 0; r < 12; ++r)
-        for (int c = 0; c < r; ++c) K[r][c] = K[c][r];
+      // The branches' corotational element stiffness c_b·R·K₀·Rᵀ, K₀_ab = V·(λ g_a g_bᵀ +
+      // μ g_b g_aᵀ + μ (g_a·g_b) I) (H is held over the step: no term of its own).
+      if (visco && cb > 0)
+        for (int b1 = 0; b1 < 4; ++b1)
+          for (int b2 = b1; b2 < 4; ++b2) {
+            const double gg = g[b1][0] * g[b2][0] + g[b1][1] * g[b2][1] + g[b1][2] * g[b2][2];
+            double K0[9], T[9];
+            for (int i = 0; i < 3; ++i)
+              for (int k = 0; k < 3; ++k)
+                K0[3 * i + k] = cb * V * (lambda * g[b1][i] * g[b2][k] + mu * g[b1][k] * g[b2][i] + (i == k ? mu * gg : 0.0));
+            for (int i = 0; i < 3; ++i)  // T = K₀·Rᵀ
+              for (int k = 0; k < 3; ++k) T[3 * i + k] = K0[3 * i] * R[3 * k] + K0[3 * i + 1] * R[3 * k + 1] + K0[3 * i + 2] * R[3 * k + 2];
+            for (int i = 0; i < 3; ++i)
+              for (int k = 0; k < 3; ++k) {
+                const int r1 = 3 * b1 + i, c1 = 3 * b2 + k;
+                if (c1 < r1) continue;
+                K[r1][c1] += R[3 * i] * T[k] + R[3 * i + 1] * T[3 + k] + R[3 * i + 2] * T[6 + k];
+              }
+          }
+      for (int r1 = 0; r1 < 12; ++r1)
+        for (int c1 = 0; c1 < r1; ++c1) K[r1][c1] = K[c1][r1];
       if (p.kvals) {
         const double sc = p.k_beta * ep.beta + p.k_const;
         const ElementSlots& slot = m.slots[e];

@@ -953,7 +953,7 @@ class VtkLegacyReader {
 
   void split_cell_list(const std::vector<int64_t>& list, size_t n, size_t at) {
     cells_.offsets.assign(1, 0);
-    cells_.offsets.reserve(n + 1);
+    cells_.offsets.reserve(std::min(n, list.size()) + 1);  // a cell takes at least one value
     cells_.connectivity.reserve(list.size());
     size_t pos = 0;
     for (size_t i = 0; i < n; ++i) {
@@ -1110,7 +1110,8 @@ class VtuReader {
                                     "offsets (NumberOfCells)");
     c.offsets.insert(c.offsets.begin(), 0);
     const int64_t nconn = c.offsets.back();
-    if (nconn < 0) ctx_.fail(offsets.begin, fmt::format("negative last offset {}", nconn));
+    if (nconn < 0 || nconn > std::numeric_limits<int32_t>::max())
+      ctx_.fail(offsets.begin, fmt::format("invalid last offset {}", nconn));
     c.connectivity = read_array<int64_t>(connectivity, static_cast<size_t>(nconn), "connectivity",
                                          "connectivity values (last offset)");
     c.types = read_array<int64_t>(types, static_cast<size_t>(ncells), "types",
@@ -1264,6 +1265,11 @@ class VtuReader {
     if (bytes.size() < header_size_)
       ctx_.fail(array.begin, "binary DataArray too short for its size header");
     const uint64_t nbytes = load_bits(bytes.data(), static_cast<int>(header_size_), big_endian_);
+    // A count the data cannot hold is refused before count × size is formed: a huge count (an
+    // offset read from the file) would wrap the product and pass the checks below.
+    if (count > (bytes.size() - header_size_) / static_cast<size_t>(type.size))
+      ctx_.fail(array.begin, fmt::format("truncated binary DataArray: {} values expected, {} bytes present", count,
+                                         bytes.size() - header_size_));
     const size_t expected = count * static_cast<size_t>(type.size);
     if (nbytes != expected)
       ctx_.fail(array.begin,

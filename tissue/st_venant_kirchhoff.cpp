@@ -55,9 +55,8 @@ void st_venant_kirchhoff_eigensystem(const double* F, double lambda, double mu, 
   hyperelastic::eigensystem<StVenantKirchhoff>(F, lambda, mu, values, modes);
 }
 
-double st_venant_kirchhoff_pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end, bool fibres) {
-  return fibres ? hyperelastic::pass<StVenantKirchhoff, true>(m, p, begin, end)
-                : hyperelastic::pass<StVenantKirchhoff, false>(m, p, begin, end);
+double st_venant_kirchhoff_pass(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
+  return r.fibres ? hyperelastic::pass<StVenantKirchhoff, true>(m, p, r) : hyperelastic::pass<StVenantKirchhoff, false>(m, p, r);
 }
 
 }  // namespace stroma

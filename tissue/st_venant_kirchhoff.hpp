@@ -21,9 +21,9 @@
 
 namespace stroma {
 
-/// The elastic pass over elements [begin, end) with St. Venant–Kirchhoff (plus
-/// FemModel::fibres' term when `fibres`); returns their energy.
-double st_venant_kirchhoff_pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end, bool fibres);
+/// The elastic pass over range r's elements with St. Venant–Kirchhoff (plus FemModel::fibres'
+/// term when r.fibres, its Prony series when r.visco ≥ 0); returns their energy.
+double st_venant_kirchhoff_pass(const FemModel& m, const ElasticPass& p, const ElementRange& r);
 
 /// Energy density Ψ(F) and first Piola stress P (row-major) for Lamé (λ, μ).
 double st_venant_kirchhoff_stress(const double* F, double lambda, double mu, double* P);

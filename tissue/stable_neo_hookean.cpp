@@ -96,9 +96,8 @@ void stable_neo_hookean_eigensystem(const double* F, double lambda, double mu, d
   hyperelastic::eigensystem<StableNeoHookean>(F, lambda, mu, values, modes);
 }
 
-double stable_neo_hookean_pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end, bool fibres) {
-  return fibres ? hyperelastic::pass<StableNeoHookean, true>(m, p, begin, end)
-                : hyperelastic::pass<StableNeoHookean, false>(m, p, begin, end);
+double stable_neo_hookean_pass(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
+  return r.fibres ? hyperelastic::pass<StableNeoHookean, true>(m, p, r) : hyperelastic::pass<StableNeoHookean, false>(m, p, r);
 }
 
 }  // namespace stroma

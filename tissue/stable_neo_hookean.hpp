@@ -30,11 +30,11 @@
 
 namespace stroma {
 
-/// The elastic pass (fem_forces.hpp) over elements [begin, end) with the stable Neo-Hookean
-/// material (hyperelastic_pass.hpp), plus FemModel::fibres' term when `fibres`; returns their
-/// energy. `rotations` (when requested, for the warped preconditioner) are the polar rotations
+/// The elastic pass (fem_forces.hpp) over range r's elements with the stable Neo-Hookean
+/// material (hyperelastic_pass.hpp), plus FemModel::fibres' term when r.fibres and its Prony
+/// series when r.visco ≥ 0; returns their energy. `rotations` (when requested, for the warped preconditioner) are the polar rotations
 /// of F.
-double stable_neo_hookean_pass(const FemModel& m, const ElasticPass& p, int32_t begin, int32_t end, bool fibres);
+double stable_neo_hookean_pass(const FemModel& m, const ElasticPass& p, const ElementRange& r);
 
 /// Energy density Ψ(F) and first Piola stress P (row-major) for Lamé (λ, μ) of the scenario.
 double stable_neo_hookean_stress(const double* F, double lambda, double mu, double* P);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "tissue/clock.hpp"
 #include "tissue/constraints.hpp"
@@ -557,6 +558,19 @@ double TimeStepper::elastic_energy(const TissueState& s) const {
   p.visco_q = s.visco_q.data();  // present stress (h = 0); the branches' own energy is
   p.visco_s0 = s.visco_s0.data();  // viscous_stored_energy's
   return elastic_pass(m_, p);
+}
+
+double TimeStepper::free_energy(const TissueState& s) const {
+  if (m_.visco_q_size == 0) return elastic_energy(s);
+  ElasticPass p;
+  p.x = s.x.data();
+  p.damage = in_.damage;
+  // A step of infinite length (viscoelastic.hpp): c = 1 − Σgᵢ, every decay and gᵢγᵢ 0, so no
+  // history: the long-term energy alone.
+  p.visco_q = s.visco_q.data();
+  p.visco_s0 = s.visco_s0.data();
+  p.visco_h = std::numeric_limits<double>::infinity();
+  return elastic_pass(m_, p) + viscous_stored_energy(m_, s.visco_q.data());
 }
 
 void TimeStepper::elastic_force(const TissueState& s, double* f) const {

@@ -167,6 +167,11 @@ class TimeStepper {
   double external_potential(const TissueState& s) const;
   /// Elastic energy at s.x with the last step's damage (a separate element pass; not for the hot loop).
   double elastic_energy(const TissueState& s) const;
+  /// Free energy at s.x: the elastic energy, with visco-elastic bodies counted as their
+  /// long-term part (1 − Σgᵢ)·Ψ₀ plus the energy stored in their branches
+  /// (viscous_stored_energy) — what kinetic + free + external energy must never exceed its
+  /// past value by. = elastic_energy without visco-elastic bodies. Not for the hot loop.
+  double free_energy(const TissueState& s) const;
   /// Elastic force at s.x into `f` (3n), for tests and diagnostics.
   void elastic_force(const TissueState& s, double* f) const;
   /// The implicit-Euler step's incremental potential Φ(Δv) (the merit newton()'s line search

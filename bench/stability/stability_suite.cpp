@@ -18,6 +18,7 @@
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "tissue/fem_forces.hpp"
 #include "haptics/contact.hpp"
 #include "tissue/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
@@ -95,7 +96,7 @@ double contact_energy(const Model& m, const State& s, TickWorkspace& w) {
 double total_energy(const Model& m, TickWorkspace& w, const State& s, double* ke, double* ee, double* pe,
                     double* ce) {
   *ke = w.stepper().kinetic_energy(s.tissue);
-  *ee = w.stepper().elastic_energy(s.tissue);
+  *ee = w.stepper().free_energy(s.tissue);  // visco-elastic bodies: long-term part + branches
   *pe = w.stepper().external_potential(s.tissue);
   *ce = contact_energy(m, s, w);
   return *ke + *ee + *pe + *ce;
@@ -114,7 +115,12 @@ StabilityResult run_case(const CaseSetup& c) {
     return res;
   }
   State s = State::initial(*m);
-  if (c.init) c.init(*m, s);
+  if (c.init) {
+    c.init(*m, s);
+    // The body was put there instantaneously: visco-elastic branches take the step at h = 0
+    // (their overstress gᵢ·σ₀), so the start's free energy counts them.
+    viscous_update(m->fem, s.tissue.x.data(), nullptr, 0.0, s.tissue.visco_q.data(), s.tissue.visco_s0.data());
+  }
   TickWorkspace w(*m);
   double ke, ee, pe, ce;
   const double e0 = total_energy(*m, w, s, &ke, &ee, &pe, &ce);
@@ -308,6 +314,42 @@ void add_fibre_cases(const StabilityOptions& o, const std::string& good, std::ve
         }
 }
 
+/// Visco-elastic tissue (tissue/viscoelastic.hpp): the soft beam with a two-branch Prony series
+/// (g 0.3, τ 10 ms: faster than a step at 33 ms; g 0.4, τ 1 s: slower than the run), on
+/// corotational and stable Neo-Hookean elements, good mesh and inverted free end. The energy
+/// watched is the free energy (long-term part + the branches' stored energy): a wrong history
+/// or tangent shows as growth.
+void add_visco_cases(const StabilityOptions& o, const std::string& good, std::vector<CaseSetup>& cases) {
+  const std::vector<double> dts = o.quick ? std::vector<double>{1e-3, 33e-3} : std::vector<double>{1e-3, 10e-3, 33e-3};
+  const std::vector<double> Es = o.quick ? std::vector<double>{1e3} : std::vector<double>{1e3, 1e4};
+  for (const ElementModel model : {ElementModel::Corotational, ElementModel::StableNeoHookean})
+    for (double dt : dts)
+      for (double E : Es)
+        for (double nu : {0.45, 0.499})
+          for (int mesh : {0, 2}) {
+            if (o.quick && (nu == 0.45 || (mesh == 2 && model == ElementModel::Corotational))) continue;
+            const bool snh = model == ElementModel::StableNeoHookean;
+            CaseSetup c;
+            c.group = "grid";
+            c.name = fmt::format("dt {:g} ms, E {}Pa, nu {}, {}, visco{}", dt * 1e3, fmt_si(E), nu,
+                                 mesh == 0 ? "good" : "inverted", snh ? ", stable neo-Hookean" : "");
+            c.spec = cantilever(o.source_dir, dt, E, nu, good);
+            MaterialSpec& mat = c.spec.bodies[0].material;
+            mat.model = model;
+            ViscoSpec v;
+            v.model = "prony";
+            v.series.terms = 2;
+            v.series.g[0] = 0.3;
+            v.series.tau[0] = 0.01;
+            v.series.g[1] = 0.4;
+            v.series.tau[1] = 1.0;
+            mat.viscoelastic = v;
+            c.duration = o.quick ? 0.2 : 0.5;
+            if (mesh == 2) c.init = invert_free_end;
+            cases.push_back(std::move(c));
+          }
+}
+
 /// Locking-free near-incompressible elements (tissue/nodal_smoothing.hpp, default stabilisation):
 /// the beam at ν 0.49 and 0.499 on the good, sliver and inverted-end meshes. Node smoothing
 /// leaves less stiffness on the elements, so a spurious soft mode or a wrong tangent would show
@@ -438,6 +480,7 @@ std::vector<StabilityResult> run_stability_suite(const StabilityOptions& o) {
   std::vector<CaseSetup> cases;
   add_grid_cases(o, good, slivers, cases);
   add_fibre_cases(o, good, cases);
+  add_visco_cases(o, good, cases);
   add_locking_free_cases(o, good, slivers, cases);
   add_extreme_cases(o, good, cases);
   if (o.newton_iterations > 0)
