@@ -647,6 +647,103 @@ std::vector<AccuracyPoint> run_cantilever_dynamic_problem(const AccuracyOptions&
 }
 
 // ---------------------------------------------------------------------------------------------
+// Visco-elastic bar: the complex modulus under sinusoidal strain against the lecture's closed form.
+
+constexpr double kViscoE0 = 1e4, kViscoG = 0.5, kViscoTau = 0.1;  // SLS: E0 10 kPa, g 0.5, tau 0.1 s
+
+struct ViscoConfig {
+  std::string sweep, label;
+  double omega_tau = 1;
+  int per_period = 32;
+  std::string model = "corotational";
+};
+
+/// E0·[1 − g + g·iωτ/(1 + iωτ)]: the standard linear solid's complex modulus (storage, loss).
+std::pair<double, double> sls_complex_modulus(double wt) {
+  return {kViscoE0 * (1 - kViscoG + kViscoG * wt * wt / (1 + wt * wt)), kViscoE0 * kViscoG * wt / (1 + wt * wt)};
+}
+
+/// A 10 × 10 × 40 mm bar along z (2 × 2 × 8 cells), ν = 0, quasi-static (ρ = 1e-6 kg/m³: the
+/// closed form has no inertia), its ends driven to ε(t) = ε₀ sin ωt. The stress is the top
+/// face's elastic force over the area; E′ and E″ its projections on sin and cos over two
+/// periods after 8τ of transient. Error: |E*_measured − E*| / |E*|.
+AccuracyPoint run_visco(const std::string& out_dir, const ViscoConfig& c, int runs) {
+  constexpr double a = 0.01, L = 0.04, eps0 = 1e-3;
+  const std::string mesh = write_quarter_block((fs::path(out_dir) / "visco_bar.msh").string(), a, L, 0.005, 1.0);
+  const double omega = c.omega_tau / kViscoTau, T = 2 * std::acos(-1.0) / omega, h = T / c.per_period;
+  const std::string yaml = fmt::format(
+      "name: visco_bar\ntime_step: {:.17g}\ngravity: [0, 0, 0]\nsolver: {{integrator: implicit_euler, linear_solver: cholmod}}\n"
+      "bodies:\n  - name: bar\n    mesh: {}\n    material:\n      model: {}\n      young_modulus: {}\n"
+      "      poisson_ratio: 0\n      density: 1.0e-6\n      viscoelastic: {{model: standard_linear_solid, g: {}, tau: {}}}\n"
+      "    fixed:\n      - {{box: {{min: [-1, -1, -1.0e-6], max: [1, 1, 1.0e-6]}}, axes: [z]}}\n"
+      "      - {{box: {{min: [-1.0e-6, -1.0e-6, -1.0e-6], max: [1.0e-6, 1.0e-6, 1.0e-6]}}}}\n"
+      "      - {{box: {{min: [0.009999, -1.0e-6, -1.0e-6], max: [0.010001, 1.0e-6, 1.0e-6]}}, axes: [y]}}\n"
+      "      - {{box: {{min: [-1, -1, 0.039999], max: [1, 1, 0.040001]}}, axes: [z]}}\n",
+      h, mesh, c.model, kViscoE0, kViscoG, kViscoTau);
+  const std::string yaml_path = (fs::path(out_dir) / "visco_bar.yaml").string();
+  std::ofstream(yaml_path) << yaml;
+  const auto m = compile_model(load_scenario(yaml_path));
+  AccuracyPoint p;
+  p.problem = "viscoelastic";
+  p.sweep = c.sweep;
+  p.label = c.label;
+  p.nodes = m->fem.num_nodes;
+  const auto [ref_storage, ref_loss] = sls_complex_modulus(c.omega_tau);
+  p.reference = std::hypot(ref_storage, ref_loss);
+  const int settle = c.per_period * static_cast<int>(std::ceil(8 * kViscoTau / T)), measure = 2 * c.per_period;
+  std::vector<double> secs, f(m->fem.rest.size());
+  double storage = 0, loss = 0;
+  p.ok = true;
+  for (int run = 0; run < runs && p.ok; ++run) {
+    State s = State::initial(*m);
+    TickWorkspace w(*m);
+    double ss = 0, sc = 0, wall = 0;
+    for (int k = 1; k <= settle + measure; ++k) {
+      const double t = k * h, eps = eps0 * std::sin(omega * t);
+      for (int32_t i = 0; i < m->fem.num_nodes; ++i) s.tissue.x[3 * i + 2] = m->fem.rest[3 * i + 2] * (1 + eps);
+      const auto t0 = std::chrono::steady_clock::now();
+      const TickReport& r = tick(*m, s, w);
+      wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (r.status == TickStatus::NonFinite) {
+        p.ok = false;
+        p.failure = fmt::format("rolled back at tick {}", k);
+        break;
+      }
+      if (k <= settle) continue;
+      w.stepper().elastic_force(s.tissue, f.data());
+      double fz = 0;
+      for (int32_t i = 0; i < m->fem.num_nodes; ++i)
+        if (std::abs(m->fem.rest[3 * i + 2] - L) < 1e-9) fz += f[3 * i + 2];
+      const double sigma = -fz / (a * a);
+      ss += sigma * std::sin(omega * t) * h;
+      sc += sigma * std::cos(omega * t) * h;
+    }
+    secs.push_back(wall);
+    storage = 2 * ss / (measure * h * eps0);
+    loss = 2 * sc / (measure * h * eps0);
+  }
+  p.value = std::hypot(storage, loss);
+  p.error = p.ok ? std::hypot(storage - ref_storage, loss - ref_loss) / p.reference : 0;
+  const double sec = median(secs);
+  p.s_per_sim_s = sec / ((settle + measure) * h);
+  p.ms_per_tick = 1e3 * sec / (settle + measure);
+  return p;
+}
+
+/// Steps per period at ωτ = 1 (the time step's error), the frequency over three decades, and
+/// the element model (stable Neo-Hookean: the hyperelastic spring with corotational branches).
+std::vector<AccuracyPoint> run_visco_problem(const AccuracyOptions& o, int runs) {
+  std::vector<AccuracyPoint> vi;
+  for (int n : o.quick ? std::vector<int>{8, 32} : std::vector<int>{4, 8, 16, 32, 64, 128})
+    record(vi, run_visco(o.out_dir, {"steps per period (corotational, omega tau 1)", fmt::format("{} steps a period", n), 1.0, n}, runs), o);
+  for (double wt : o.quick ? std::vector<double>{0.1, 10} : std::vector<double>{0.1, 10, 100})
+    record(vi, run_visco(o.out_dir, {"omega tau (corotational, 32 steps a period)", fmt::format("omega tau {:g}", wt), wt, 32}, runs), o);
+  for (int n : o.quick ? std::vector<int>{32} : std::vector<int>{8, 32})
+    record(vi, run_visco(o.out_dir, {"stable neo-Hookean (omega tau 1)", fmt::format("{} steps a period", n), 1.0, n, "stable_neo_hookean"}, runs), o);
+  return vi;
+}
+
+// ---------------------------------------------------------------------------------------------
 // Reporting: peers' points, Pareto front, CSV, plot, Markdown tables (nothing here runs a model).
 
 const char* const kToAnswer = "wall time to the answer (s): static solve; peers: the run to rest";
@@ -672,6 +769,10 @@ const ProblemReport& problem_report(const std::string& name) {
       {"block_compression", "Bonded block, nu 0.49, pressed 1 % (refs/c): top force vs 0.3049 N", kToAnswer, "s to answer",
        {"mesh x element (CHOLMOD)", "mesh x element (CG 1e-8)", "CG tolerance (warped Cholesky PCG, h 3.333 mm)",
         "Bullet FEM (peer)"}},
+      {"viscoelastic", "Visco-elastic bar (SLS, E0 10 kPa, g 0.5, tau 0.1 s): E* vs E0[1 - g + g iwt/(1 + iwt)]",
+       "wall seconds per simulated second", "s per sim. s",
+       {"steps per period (corotational, omega tau 1)", "omega tau (corotational, 32 steps a period)",
+        "stable neo-Hookean (omega tau 1)"}},
       {"indentation", "Sphere indentation (refs/e): force at 1 mm vs 0.019604 N", kToAnswer, "s to answer",
        {"mesh grading (linear, penalty 1e9)", "penalty stiffness (first cell 0.2 mm)", "element model (first cell 0.2 mm)",
         "Bullet FEM (peer)"}},
@@ -807,6 +908,12 @@ void print_problem_table(const std::string& name, const std::vector<AccuracyPoin
                  p.ok ? fmt::format("{:.5f}", p.value) : "—", p.ok ? fmt::format("{:.2f} %", 100 * p.error) : "failed: " + p.failure,
                  p.time_error, p.ok && p.time_error > 0 ? fmt::format("{:+.3f} %", 100 * (p.value / p.time_error - 1)) : "",
                  p.s_per_sim_s, p.pareto ? "●" : "");
+  } else if (name == "viscoelastic") {
+    fmt::print("| sweep | configuration | nodes | abs(E*) (Pa) | abs(E* - closed form) / abs(E*) | ms/tick | s per sim. s | Pareto |\n|---|---|---|---|---|---|---|---|\n");
+    for (const auto& p : pts)
+      fmt::print("| {} | {} | {} | {} | {} | {:.3f} | {:.4f} | {} |\n", p.sweep, p.label, p.nodes,
+                 p.ok ? fmt::format("{:.1f}", p.value) : "—", p.ok ? fmt::format("{:.3f} %", 100 * p.error) : "failed: " + p.failure,
+                 p.ms_per_tick, p.s_per_sim_s, p.pareto ? "●" : "");
   } else {  // indentation
     fmt::print("| sweep | configuration | nodes | force (N) | error | s to answer | Pareto |\n|---|---|---|---|---|---|---|\n");
     for (const auto& p : pts)
@@ -891,6 +998,12 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     keep(bl);
     if (!o.only.empty()) return all;
   }
+  if (wanted("viscoelastic")) {
+    std::vector<AccuracyPoint> vi = run_visco_problem(o, runs);
+    finish_problem(o.out_dir, "viscoelastic", vi, {});
+    keep(vi);
+    if (!o.only.empty()) return all;
+  }
   std::vector<AccuracyPoint> st = run_cantilever_static_problem(o, runs);
   std::vector<AccuracyPoint> dy = run_cantilever_dynamic_problem(o, runs);
   finish_problem(o.out_dir, "cantilever_static", st, peers.cantilever_static);
@@ -902,7 +1015,7 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
 
 std::vector<AccuracyPoint> replot_accuracy_csvs(const std::string& csv_dir, const std::string& png_dir) {
   std::vector<AccuracyPoint> all;
-  for (const char* name : {"cantilever_static", "cantilever_dynamic", "block_compression", "indentation"}) {
+  for (const char* name : {"cantilever_static", "cantilever_dynamic", "block_compression", "indentation", "viscoelastic"}) {
     for (const std::string& stem : {std::string(name), "accuracy_" + std::string(name)}) {
       const fs::path csv = fs::path(csv_dir) / (stem + ".csv");
       if (!fs::exists(csv)) continue;

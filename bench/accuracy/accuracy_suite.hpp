@@ -8,6 +8,9 @@
 ///    0.3049 N (volumetric locking of linear tets), with CalculiX C3D4 on the same mesh;
 ///  - indentation (refs/e): rigid sphere 1 mm into a soft bonded block, force against 0.019604 N;
 ///    sweeps mesh grading at the contact, penalty stiffness, element model;
+///  - viscoelastic (the lectures' closed form): a standard-linear-solid bar under sinusoidal
+///    strain, its complex modulus E* against E0[1 − g + g·iωτ/(1 + iωτ)]; sweeps steps per
+///    period, ωτ over three decades, element model;
 ///  - cantilever_dynamic (refs/d): first bending frequency measured from the tip's motion after
 ///    gravity is switched on, against 16.100 Hz; sweeps mesh × time step, CG tolerance, CG
 ///    iteration cap, warm start, element model, and symplectic Euler at its largest stable step.
