@@ -24,6 +24,8 @@
 
 #include "tissue/fem_forces.hpp"
 #include "tissue/fibre.hpp"
+#include "tissue/mat3.hpp"
+#include "tissue/material.hpp"
 #include "tissue/rotation.hpp"
 #include "tissue/viscoelastic.hpp"
 
@@ -129,26 +131,6 @@ void eigensystem(const double* F, double lambda, double mu, double* values, doub
 /// sweeps' latency there: tissue/fem_forces.cpp).
 inline constexpr int kBatch = 16;
 
-/// The Biot strain ε = sym(Rᵀ·F) − I (row-major) of an element with polar rotation R, and the
-/// linear stress σ = λ·tr(ε)·I + 2μ·ε on it (6 values xx yy zz xy xz yz; null: not wanted): the
-/// corotational element's measures, which the visco-elastic branches use (see pass()).
-inline void corotated_strain(const double* R, const double* F, double lambda, double mu, double* eps, double* s6) {
-  double S[9];  // RᵀF
-  for (int i = 0; i < 3; ++i)
-    for (int k = 0; k < 3; ++k) S[3 * i + k] = R[i] * F[k] + R[3 + i] * F[3 + k] + R[6 + i] * F[6 + k];
-  for (int i = 0; i < 3; ++i)
-    for (int k = 0; k < 3; ++k) eps[3 * i + k] = 0.5 * (S[3 * i + k] + S[3 * k + i]) - (i == k ? 1.0 : 0.0);
-  if (s6) {
-    const double lt = lambda * (eps[0] + eps[4] + eps[8]), mu2 = 2 * mu;
-    s6[0] = mu2 * eps[0] + lt;
-    s6[1] = mu2 * eps[4] + lt;
-    s6[2] = mu2 * eps[8] + lt;
-    s6[3] = mu2 * eps[1];
-    s6[4] = mu2 * eps[2];
-    s6[5] = mu2 * eps[5];
-  }
-}
-
 /// The polar rotation R = U·Vᵀ (row-major) from the rotation-variant SVD's U and V.
 inline void polar_from_svd(const double* U, const double* V, double* R) {
   for (int i = 0; i < 3; ++i)
@@ -235,20 +217,18 @@ double pass(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
         Vr[k] = Vb[k][l];
       }
       double R[9];  // the polar rotation (warped preconditioner; the visco-elastic frame)
-      polar_from_svd(U, Vr, R);
+      if (p.rotations || visco) polar_from_svd(U, Vr, R);
       if (p.rotations) std::copy(R, R + 9, p.rotations + 9 * e);
-      double eps[9];  // the branches' strain (visco-elastic ranges)
-      if (visco) {
-        double h6[6] = {0, 0, 0, 0, 0, 0}, s6[6];
+      if (visco) {  // the branches: the corotational element's stress c_b·R·σ(ε) plus R·H
+        double h6[6] = {0, 0, 0, 0, 0, 0};
         if (history) {
           const int64_t j = e - r.begin;
           visco_history(vstep, p.visco_q + r.visco_q_begin + 6 * vstep.terms * j, p.visco_s0 + r.visco_s0_begin + 6 * j, h6);
         }
-        corotated_strain(R, F, lambda, mu, eps, s6);
-        double sb6[6];
-        for (int k = 0; k < 6; ++k) sb6[k] = cb * s6[k] + h6[k];
-        const double Sb[9] = {sb6[0], sb6[3], sb6[4], sb6[3], sb6[1], sb6[5], sb6[4], sb6[5], sb6[2]};
         const double H[9] = {h6[0], h6[3], h6[4], h6[3], h6[1], h6[5], h6[4], h6[5], h6[2]};
+        double Pb[9], eps[9], RH[9];
+        rotated_stress(R, F, lambda, mu, 1.0, Pb, eps);
+        m3::mul(R, H, RH);
         const double tr = eps[0] + eps[4] + eps[8];
         double ee = 0, he = 0;
         for (int k = 0; k < 9; ++k) {
@@ -256,14 +236,13 @@ double pass(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
           he += H[k] * eps[k];
         }
         energy += V * (cb * (mu * ee + 0.5 * lambda * tr * tr) + he);
-        if (p.force) {
-          double RS[9];  // R·σ_b
-          for (int i = 0; i < 3; ++i)
-            for (int k = 0; k < 3; ++k) RS[3 * i + k] = R[3 * i] * Sb[k] + R[3 * i + 1] * Sb[3 + k] + R[3 * i + 2] * Sb[6 + k];
+        if (p.force)
           for (int a = 0; a < 4; ++a)
-            for (int i = 0; i < 3; ++i)
-              p.force[3 * ep.node[a] + i] -= V * (RS[3 * i] * g[a][0] + RS[3 * i + 1] * g[a][1] + RS[3 * i + 2] * g[a][2]);
-        }
+            for (int i = 0; i < 3; ++i) {
+              double f = 0;
+              for (int k = 0; k < 3; ++k) f += (cb * Pb[3 * i + k] + RH[3 * i + k]) * g[a][k];
+              p.force[3 * ep.node[a] + i] -= V * f;
+            }
       }
       if (!want_k) continue;
       double a[3] = {Ab[0][l], Ab[4][l], Ab[8][l]}, E[9];
