@@ -373,10 +373,6 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
           throw InputError(ve->where.file, ve->where.line, vf,
                            "a Prony series needs solver.integrator implicit_euler (its internal variables step with "
                            "the ticks: a static solve has no time, symplectic Euler is not supported)");
-        for (size_t ti = 0; ti < spec.tools.size(); ++ti)
-          if (spec.tools[ti].spec.cuts)
-            throw InputError(ve->where.file, ve->where.line, vf,
-                             fmt::format("cutting a visco-elastic body is not supported yet (tools[{}] cuts)", ti));
         if (spec.solver.fem_every != 1)
           throw InputError(ve->where.file, ve->where.line, vf, "a Prony series needs solver.fem_every 1 for now");
         in.visco = ve->series;

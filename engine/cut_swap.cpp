@@ -140,6 +140,7 @@ bool apply_cut(CutBuild& b, std::shared_ptr<const Model>& m, std::unique_ptr<Tic
       ns.face_active[f] = a_ok && !b_ok ? 1 : (!a_ok && b_ok ? 2 : 0);
     }
   }
+  transfer_visco_state(m->fem, s.tissue, nm.fem, b.from_element, ns.tissue);
   std::copy(s.tools.begin(), s.tools.end(), ns.tools.begin());
   std::copy(s.edge_cut.begin(), s.edge_cut.end(), ns.edge_cut.begin());
   ns.time = s.time;

@@ -340,15 +340,28 @@ TEST(CutEngine, CuttingNeedsTicksEveryTickAtLoad) {
 // sagging, swinging cantilever cut through, against the energy in play (how far the total moved
 // from its start): no swap adds energy (measured: none did; bound 1e-9 of it), and no tick
 // without the blade touching the lips does (implicit Euler dissipates).
-TEST(CutEngine, EnergyDoesNotGrowDuringCutting) {
+// Elastic, and visco-elastic (a standard linear solid: its free energy counts the branches'
+// stored energy, which each element copy carries over from its parent).
+class CutEnergy : public ::testing::TestWithParam<bool> {};
+
+TEST_P(CutEnergy, EnergyDoesNotGrowDuringCutting) {
   ScenarioSpec spec = beam_with_scalpel();
   spec.tools[0].spec.radius = 2e-5;  // a thin blade: its sides barely touch the lips
+  if (GetParam()) {
+    ViscoSpec v;
+    v.model = "standard_linear_solid";
+    v.series.terms = 1;
+    v.series.g[0] = 0.5;
+    v.series.tau[0] = 0.01;
+    spec.bodies[0].material.viscoelastic = v;
+  }
   std::shared_ptr<const Model> m = compile_model(spec);
+  ASSERT_EQ(m->fem.visco.size(), GetParam() ? 1u : 0u);
   auto w = std::make_unique<TickWorkspace>(*m);
   State s = State::initial(*m);
   auto energy = [&] {
     const TimeStepper& st = w->stepper();
-    return st.kinetic_energy(s.tissue) + st.elastic_energy(s.tissue) + st.external_potential(s.tissue);
+    return st.kinetic_energy(s.tissue) + st.free_energy(s.tissue) + st.external_potential(s.tissue);
   };
   for (int k = 0; k < 30; ++k) tick(*m, s, *w);  // sag and swing first: energy in play
   const double e_start = energy();
@@ -378,6 +391,9 @@ TEST(CutEngine, EnergyDoesNotGrowDuringCutting) {
   EXPECT_LE(swap_rise, 1e-9 * scale) << "a swap added " << swap_rise << " J of " << scale << " J in play";
   EXPECT_LE(tick_rise, 1e-9 * scale) << "a tick added " << tick_rise << " J";
 }
+
+INSTANTIATE_TEST_SUITE_P(CutEngine, CutEnergy, ::testing::Bool(),
+                         [](const auto& i) { return i.param ? "Viscoelastic" : "Elastic"; });
 
 // Cutting with damage, grasping and body contact in one scene: the soft bar of drop_on_block.yaml
 // (with a damage model) lands on its fixed block; a grasper holds its right end; a scalpel cuts

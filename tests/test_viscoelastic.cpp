@@ -26,6 +26,8 @@
 #include <sstream>
 #include <string>
 
+#include "engine/cut_compile.hpp"
+#include "engine/cut_swap.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
@@ -33,6 +35,7 @@
 #include "test_fem.hpp"
 #include "test_meshes.hpp"
 #include "test_scenarios.hpp"
+#include "tissue/cut_blade.hpp"
 #include "tissue/fem_forces.hpp"
 #include "tissue/input_error.hpp"
 
@@ -391,6 +394,70 @@ TEST(Viscoelastic, HyperelasticHistoryIsBlindToRigidRotation) {
   ASSERT_GT(qmax, 0);
   for (size_t k = 0; k < q0.size(); ++k) EXPECT_NEAR(s.tissue.visco_q[k], decay * q0[k], 1e-9 * qmax) << k;
   for (size_t k = 0; k < s0.size(); ++k) EXPECT_NEAR(s.tissue.visco_s0[k], s0[k], 1e-9 * qmax) << k;
+}
+
+TEST(Viscoelastic, ACutBarRecoversAsTheClosedFormOnBothSides) {
+  // The standard linear solid bar (ν = 0, sides held in y and z) held at a step strain ε₀ for
+  // t₁ = τ, then cut through at x = 35 mm, between its end nodes: both pieces are now free at the
+  // cut, carry no stress, and recover. With σ = 0, E∞ε = −Q and Q̇ = −Q/τ + gE₀ε̇ give
+  //   ε(0⁺) = ε₀ − σ(t₁)/E₀ = g·ε₀·(1 − e^(−t₁/τ)),   ε(t) = ε(0⁺)·e^(−(1 − g)·t/τ),
+  // on the long piece (x = 0 … 35 mm, its end x = 0 sliding) and on the short one (35 … 40 mm,
+  // its end x = L held) alike — but only if every element copy continued its parent's branch
+  // stress and last strain: without them both pieces would spring back to ε = 0 at once.
+  const double eps0 = 1e-3, g = 0.6, tau = 0.1, t1 = 0.1, dt = 1e-3;
+  for (const std::string element : {"corotational", "stable_neo_hookean"}) {
+    Model uncut = *bar("      viscoelastic: {model: standard_linear_solid, g: 0.6, tau: 0.1}\n", dt, true, 1e-6, "",
+                       element, 0.0, true);
+    enable_cutting(uncut);
+    std::shared_ptr<const Model> m = std::make_shared<const Model>(std::move(uncut));
+    auto w = std::make_unique<TickWorkspace>(*m);
+    State s = State::initial(*m);
+    strain_to(*m, s, eps0, true);
+    for (int k = 0; k < std::lround(t1 / dt); ++k) tick(*m, s, *w);
+    const double sigma_t1 = end_stress(*m, *w, s);
+    EXPECT_NEAR(sigma_t1, kE0 * eps0 * (1 - g + g * std::exp(-t1 / tau)), 0.01 * kE0 * eps0) << element;
+    const double e_before = w->stepper().free_energy(s.tissue);
+    // The blade: the plane x = 35 mm (deformed), across the whole section.
+    const double xc = 0.035;
+    const SweptBlade blade{{xc, -0.01, -0.01}, {xc, -0.01, 0.02}, {xc, 0.02, -0.01}, {xc, 0.02, 0.02}};
+    ASSERT_GT(cut_edges(s.tissue.x.data(), m->cutting->base.adj, blade, s.edge_cut), 0);
+    CutBuild b = build_cut(*m, s.edge_cut);
+    ASSERT_TRUE(apply_cut(b, m, w, s)) << element;
+    const CutTopology& topo = *m->topology;
+    ASSERT_GT(m->fem.visco_q_size, 0);
+    ASSERT_EQ(s.tissue.visco_q.size(), static_cast<size_t>(m->fem.visco_q_size));
+    // A cut moves nothing and creates no energy (the copies' volumes add up to their parents').
+    EXPECT_LE(w->stepper().free_energy(s.tissue), e_before * (1 + 1e-9)) << element;
+    // The long piece's material nodes at x = 30 mm, and the short piece's virtual copies of them.
+    std::vector<int32_t> long_end, short_end;
+    for (int32_t d = 0; d < m->fem.num_nodes; ++d) {
+      const int32_t node = topo.dof_node[d];
+      if (std::abs(m->fem.rest[3 * d] - 0.03) > 1e-9) continue;
+      (topo.node_dof[node] == d ? long_end : short_end).push_back(d);
+    }
+    ASSERT_EQ(long_end.size(), 4u);
+    ASSERT_EQ(short_end.size(), 4u) << "every edge across the plane was cut";
+    auto strain = [&](const std::vector<int32_t>& dofs, bool long_piece) {
+      double e = 0;
+      for (int32_t d : dofs)
+        e += long_piece ? s.tissue.x[3 * d] / 0.03 - 1 : (kL * (1 + eps0) - s.tissue.x[3 * d]) / (kL - 0.03) - 1;
+      return e / static_cast<double>(dofs.size());
+    };
+    const double eps_release = g * eps0 * (1 - std::exp(-t1 / tau));
+    double worst = 0;
+    for (int k = 1; k <= 300; ++k) {
+      tick(*m, s, *w);
+      if (k % 20) continue;
+      const double expected = eps_release * std::exp(-(1 - g) * k * dt / tau);
+      for (const bool long_piece : {true, false}) {
+        const double got = strain(long_piece ? long_end : short_end, long_piece);
+        worst = std::max(worst, std::abs(got - expected) / expected);
+        EXPECT_NEAR(got, expected, 0.01 * expected)
+            << element << (long_piece ? ", long piece" : ", short piece") << " at t = " << k * dt;
+      }
+    }
+    RecordProperty(element + " worst relative error after the cut", std::to_string(worst));
+  }
 }
 
 TEST(Viscoelastic, BadSeriesAreLoadErrorsNamingTheField) {

@@ -1,5 +1,6 @@
 #include "tissue/cut_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <stdexcept>
@@ -77,8 +78,23 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
     if (!u.element_density.empty()) m.element_density.push_back(u.element_density[c.tet]);
     if (!u.fibres.empty()) m.fibres.push_back(u.fibres[c.tet]);  // a copy keeps its parent's fibres
   }
-  for (const ElementRange& r : u.ranges)
-    m.ranges.push_back({topo.tet_copy_begin[r.begin], topo.tet_copy_begin[r.end], r.kernel, r.fixed, r.fibres});
+  // Each range's copies in the same order as its tetrahedra; a visco-elastic range's internal
+  // variables are laid out over its copies as build_fem_model lays them over its elements.
+  m.visco = u.visco;
+  for (const ElementRange& r : u.ranges) {
+    if (r.smoothed) throw std::invalid_argument("cut model: a locking-free body cannot be cut yet");
+    ElementRange c = r;
+    c.begin = topo.tet_copy_begin[r.begin];
+    c.end = topo.tet_copy_begin[r.end];
+    if (r.visco >= 0) {
+      const int64_t ne = c.end - c.begin, terms = u.visco[r.visco].terms;
+      c.visco_q_begin = m.visco_q_size;
+      c.visco_s0_begin = m.visco_s0_size;
+      m.visco_q_size += 6 * terms * ne;
+      m.visco_s0_size += 6 * ne;
+    }
+    m.ranges.push_back(c);
+  }
   for (size_t b = 0; b < u.bodies.size(); ++b) {
     const BodyRange& ub = u.bodies[b];
     BodyRange br;
@@ -178,6 +194,24 @@ void transfer_state(const TissueState& from, const std::vector<int32_t>& from_do
       to.dv[i] = from.dv[j];
       to.dv_prev[i] = from.dv_prev[j];
     }
+}
+
+// (Ranges correspond by index: both models come from the same uncut ranges.)
+void transfer_visco_state(const FemModel& old_m, const TissueState& old_s, const FemModel& m,
+                          const std::vector<int32_t>& from_element, TissueState& s) {
+  for (size_t ri = 0; ri < m.ranges.size(); ++ri) {
+    const ElementRange& r = m.ranges[ri];
+    if (r.visco < 0) continue;
+    const ElementRange& o = old_m.ranges[ri];
+    const int64_t nq = 6 * static_cast<int64_t>(m.visco[r.visco].terms);
+    for (int32_t e = r.begin; e < r.end; ++e) {
+      const int64_t j = from_element[e] - o.begin;  // the parent copy, within its range
+      std::copy_n(old_s.visco_q.begin() + o.visco_q_begin + nq * j, nq,
+                  s.visco_q.begin() + r.visco_q_begin + nq * (e - r.begin));
+      std::copy_n(old_s.visco_s0.begin() + o.visco_s0_begin + 6 * j, 6,
+                  s.visco_s0.begin() + r.visco_s0_begin + 6 * (e - r.begin));
+    }
+  }
 }
 
 }  // namespace stroma

@@ -53,4 +53,13 @@ std::vector<int32_t> continued_copies(const CutTopology& from, const CutTopology
 /// keep its capacity).
 void transfer_state(const TissueState& from, const std::vector<int32_t>& from_dof, TissueState& to);
 
+/// The visco-elastic internal variables on the new copies (`to` sized for model m): each copy
+/// continues its parent copy's (`from_element`, continued_copies()) branch stresses Q and the
+/// strain σ₀ⁿ they were last stepped from. A copy is a part of its parent's material at the same
+/// deformation, so its stress is the parent's; the stored energy V·½Q:C⁻¹:Q shrinks with the
+/// volume, and the parts never hold more volume than the whole: a cut creates no energy.
+/// `old_m` and `m` are cuts of the same uncut model (their ranges correspond by index).
+void transfer_visco_state(const FemModel& old_m, const TissueState& from, const FemModel& m,
+                          const std::vector<int32_t>& from_element, TissueState& to);
+
 }  // namespace stroma
