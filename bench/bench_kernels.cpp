@@ -15,6 +15,7 @@
 #include "engine/tick.hpp"
 #include "tissue/cholmod_solver.hpp"
 #include "tissue/fem_forces.hpp"
+#include "tissue/nodal_smoothing.hpp"
 #include "tissue/rotation.hpp"
 
 using namespace stroma;
@@ -174,6 +175,39 @@ void BM_Spmv(benchmark::State& st) {
   st.counters["blocks"] = m->fem.pattern.nnzb();
 }
 BENCHMARK(BM_Spmv)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);
+
+/// The locking-free node domains' matrix-free product (NodalSystem::apply, one per CG
+/// iteration) on the 16 cm liver in SI at ν 0.49, against the element matrix's SpMV on the same
+/// one-ring pattern (docs/PERFORMANCE.md, "Locking-free").
+void BM_NodalProduct(benchmark::State& st) {
+  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/physical/liver_fine_16cm.yaml");
+  s.bodies[0].material.poisson_ratio = 0.49;
+  s.bodies[0].material.locking_free = LockingFreeSpec{};
+  auto m = compile_model(s);
+  TickWorkspace w(*m);
+  State state = warmed_state(*m, w);
+  NodalSystem ns(m->fem);
+  std::vector<double> K(9 * static_cast<size_t>(m->fem.pattern.nnzb()), 0.0);
+  ns.begin();
+  ElasticPass p;
+  p.x = state.tissue.x.data();
+  p.kvals = K.data();
+  p.k_const = 1.0;
+  p.nodal_system = &ns;
+  elastic_pass(m->fem, p);
+  ns.finish();
+  std::vector<double> y(m->fem.dofs());
+  for (auto _ : st) {
+    if (st.range(0) == 0) ns.apply(state.tissue.v.data(), y.data());
+    else bsr_spmv(m->fem.pattern, K.data(), state.tissue.v.data(), y.data());
+    benchmark::DoNotOptimize(y.data());
+    benchmark::ClobberMemory();
+  }
+  st.SetLabel(st.range(0) == 0 ? "node domains, matrix-free" : "elements, BSR SpMV");
+  st.counters["domains"] = m->fem.smoothing.domains();
+  st.counters["patch_entries"] = static_cast<double>(m->fem.smoothing.patch_node.size());
+}
+BENCHMARK(BM_NodalProduct)->DenseRange(0, 1)->Unit(benchmark::kMicrosecond);
 
 /// One CG solve of a warmed-up tick's system (cold start: the worst case of a tick).
 void BM_CgSolve(benchmark::State& st) {

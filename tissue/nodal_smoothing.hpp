@@ -107,8 +107,16 @@ class NodalSystem {
 
  private:
   static void apply_fn(void* self, const double* x, double* y);
+  /// Domains per block of the product's batched stress (rot_ is stored [block][entry][lane]).
+  static constexpr int kLanes = 8;
+  /// Four doubles in one register (AVX), for the product's branch-free path.
+  typedef double v4 __attribute__((vector_size(32)));
   const FemModel& m_;
   std::vector<double> rot_, lambda_, mu_, diag_;
+  std::vector<int32_t> off_;     ///< per patch entry: 3 × its node
+  std::vector<double> g4_;       ///< per patch entry: its gradient in 4 lanes (the 4th 0)
+  std::vector<double> mask4_;    ///< per patch entry: 1 per free DOF, 0 per constrained (4 lanes)
+  std::vector<uint8_t> masked_;  ///< per domain: its patch holds a constrained DOF
   std::unique_ptr<ExtraOperator> op_;
 };
 
