@@ -56,7 +56,7 @@ void add_bench(CLI::App& app, std::vector<Command>& out) {
   acc->add_option("--runs", aco->o.runs, "Timing repetitions per configuration (median)")->capture_default_str()->check(CLI::Range(1, 50));
   acc->add_option("--out", aco->o.out_dir, "Output directory (CSV, PNG plots, gnuplot scripts)")->capture_default_str();
   acc->add_option("--only", aco->o.only, "Run one problem only (cantilever: static and dynamic; with --peers: only its peer)")
-      ->check(CLI::IsMember({"cantilever", "indentation", "block_compression", "viscoelastic"}));
+      ->check(CLI::IsMember({"cantilever", "indentation", "block_compression", "viscoelastic", "fibres"}));
   acc->add_flag("--peers", aco->peers, "Also run the Bullet peers (build/bench/stroma_bench_bullet) on the same problems and meshes and put them on the same tables and plots (adds ~25 min; ~12 min with --quick)");
   acc->add_option("--source-dir", aco->o.source_dir, "Repository with scenarios/ (default: where stroma was built from)")
       ->check(CLI::ExistingDirectory);

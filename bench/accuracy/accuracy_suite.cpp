@@ -21,6 +21,7 @@
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
+#include "engine/static_run.hpp"
 #include "engine/tick.hpp"
 
 namespace stroma {
@@ -744,6 +745,122 @@ std::vector<AccuracyPoint> run_visco_problem(const AccuracyOptions& o, int runs)
 }
 
 // ---------------------------------------------------------------------------------------------
+// Fibre-reinforced bar: uniaxial stress–stretch along and across the fibres against the closed form.
+
+constexpr double kFibreE = 1e4, kFibreNu = 0.45, kFibreK1 = 5e4, kFibreK2 = 8;  // tendon-like (docs/TISSUE.md)
+
+/// The closed-form uniaxial nominal stress P_zz of the stable Neo-Hookean matrix (E 10 kPa,
+/// ν 0.45) with HGO fibres (k1 50 kPa, k2 8) along the load (`along`) or across it, at stretch s:
+/// the lateral stretch t makes the lateral stresses vanish, μ + λ′·s·(s·t² − α) = 0, with
+/// λ′ = λ + μ, α = 1 + μ/λ′ (Smith et al.'s reparametrisation); a fibre along adds 2ψ′(s²)·s.
+double fibre_uniaxial_stress(double s, bool along) {
+  const double lambda = kFibreE * kFibreNu / ((1 + kFibreNu) * (1 - 2 * kFibreNu)), mu = kFibreE / (2 * (1 + kFibreNu));
+  const double lp = lambda + mu, alpha = 1 + mu / lp;
+  const double t2 = (alpha - mu / (lp * s)) / s;
+  double p = mu * s + lp * (s * t2 - alpha) * t2;
+  if (along && s > 1) {
+    const double x = s * s - 1;
+    p += 2 * kFibreK1 * x * std::exp(kFibreK2 * x * x) * s;
+  }
+  return p;
+}
+
+struct FibreConfig {
+  std::string sweep, label;
+  double stretch = 1.2;  ///< the target: the load is the closed form's stress there
+  bool along = true;
+  double h = 0.01;       ///< cell size of the 20 × 20 × 100 mm bar (m)
+};
+
+/// The bar [0, 20 mm]² × [0, 100 mm] (cells of h, six tetrahedra each), fibres along z (along)
+/// or x (across), its end z = 0 sliding on its plane, pulled at z = L by a consistent nominal
+/// traction P(target stretch): a homogeneous state. Static Newton with CHOLMOD from rest in load
+/// steps. value: the end face's mean stretch; reference: the target; error: the closed form's
+/// stress at the stretch reached against the applied P (|P(s)/P − 1|).
+AccuracyPoint run_fibre(const std::string& out_dir, const FibreConfig& c, int runs) {
+  constexpr double a = 0.02, L = 0.1;
+  const std::string mesh =
+      write_quarter_block((fs::path(out_dir) / fmt::format("fibre_bar_{}.msh", std::lround(c.h * 1e4))).string(), a, L, c.h, 1.0);
+  const std::string yaml = fmt::format(
+      "name: fibre_bar\ntime_step: 0.001\ngravity: [0, 0, 0]\n"
+      "solver: {{integrator: static, linear_solver: cholmod, static_tolerance: 1.0e-10}}\n"
+      "bodies:\n  - name: bar\n    mesh: {}\n    material:\n      model: stable_neo_hookean\n"
+      "      young_modulus: {}\n      poisson_ratio: {}\n      density: 1000\n"
+      "      fibres: {{direction: {}, k1: {}, k2: {}}}\n"
+      "    fixed:\n      - {{box: {{min: [-1, -1, -1.0e-6], max: [1, 1, 1.0e-6]}}, axes: [z]}}\n"
+      "      - {{box: {{min: [-1.0e-6, -1.0e-6, -1.0e-6], max: [1.0e-6, 1.0e-6, 1.0e-6]}}}}\n"
+      "      - {{box: {{min: [0.019999, -1.0e-6, -1.0e-6], max: [0.020001, 1.0e-6, 1.0e-6]}}, axes: [y]}}\n"
+      "run: {{steps: 1}}\n",
+      mesh, kFibreE, kFibreNu, c.along ? "[0, 0, 1]" : "[1, 0, 0]", kFibreK1, kFibreK2);
+  const std::string yaml_path = (fs::path(out_dir) / "fibre_bar.yaml").string();
+  std::ofstream(yaml_path) << yaml;
+  Model m = *compile_model(load_scenario(yaml_path));
+  const double P = fibre_uniaxial_stress(c.stretch, c.along);
+  std::fill(m.fem.f_ext.begin(), m.fem.f_ext.end(), 0.0);
+  for (const Tri& t : m.fem.bodies[0].boundary) {  // P × a third of each end triangle's area
+    bool end = true;
+    for (int32_t n : t) end &= std::abs(m.fem.rest[3 * n + 2] - L) < 1e-9;
+    if (!end) continue;
+    const double* A = &m.fem.rest[3 * t[0]];
+    const double* B = &m.fem.rest[3 * t[1]];
+    const double* C = &m.fem.rest[3 * t[2]];
+    const double u[3] = {B[0] - A[0], B[1] - A[1], B[2] - A[2]}, v[3] = {C[0] - A[0], C[1] - A[1], C[2] - A[2]};
+    const double area = 0.5 * std::sqrt(std::pow(u[1] * v[2] - u[2] * v[1], 2) + std::pow(u[2] * v[0] - u[0] * v[2], 2) +
+                                        std::pow(u[0] * v[1] - u[1] * v[0], 2));
+    for (int32_t n : t) m.fem.f_ext[3 * n + 2] += P * area / 3.0;
+  }
+  AccuracyPoint p;
+  p.problem = "fibres";
+  p.sweep = c.sweep;
+  p.label = c.label;
+  p.nodes = m.fem.num_nodes;
+  p.reference = c.stretch;
+  std::vector<double> secs;
+  p.ok = true;
+  for (int run = 0; run < runs && p.ok; ++run) {
+    State s = State::initial(m);
+    TickWorkspace w(m);
+    StaticParameters from, to;
+    from.load = 0;
+    to.load = 1;
+    const auto t0 = std::chrono::steady_clock::now();
+    const StaticOutcome out = solve_equilibrium(m, s, w, from, to);
+    secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    if (!out.converged) {
+      p.ok = false;
+      p.failure = "Newton did not converge";
+      break;
+    }
+    double stretch = 0;
+    int n = 0;
+    for (int32_t i = 0; i < m.fem.num_nodes; ++i)
+      if (std::abs(m.fem.rest[3 * i + 2] - L) < 1e-9) {
+        stretch += s.tissue.x[3 * i + 2] / L;
+        ++n;
+      }
+    p.value = stretch / n;
+  }
+  p.error = p.ok ? std::abs(fibre_uniaxial_stress(p.value, c.along) / P - 1) : 0;
+  p.s_per_sim_s = median(secs);
+  return p;
+}
+
+/// Stretch along and across the fibres (1.03 … 1.3: the exponential's toe to its stiff part),
+/// and the mesh at 1.2 along.
+std::vector<AccuracyPoint> run_fibre_problem(const AccuracyOptions& o, int runs) {
+  std::vector<AccuracyPoint> fi;
+  const std::vector<double> stretches = o.quick ? std::vector<double>{1.1, 1.3} : std::vector<double>{1.03, 1.1, 1.2, 1.3};
+  for (const bool along : {true, false})
+    for (double st : stretches)
+      record(fi, run_fibre(o.out_dir, {along ? "along the fibres (h 10 mm)" : "across the fibres (h 10 mm)",
+                                       fmt::format("stretch {:g} {}", st, along ? "along" : "across"), st, along, 0.01},
+                           runs), o);
+  for (double h : o.quick ? std::vector<double>{0.005} : std::vector<double>{0.005, 0.0025})
+    record(fi, run_fibre(o.out_dir, {"mesh (stretch 1.2 along)", fmt::format("h {:g} mm", h * 1e3), 1.2, true, h}, runs), o);
+  return fi;
+}
+
+// ---------------------------------------------------------------------------------------------
 // Reporting: peers' points, Pareto front, CSV, plot, Markdown tables (nothing here runs a model).
 
 const char* const kToAnswer = "wall time to the answer (s): static solve; peers: the run to rest";
@@ -773,6 +890,8 @@ const ProblemReport& problem_report(const std::string& name) {
        "wall seconds per simulated second", "s per sim. s",
        {"steps per period (corotational, omega tau 1)", "omega tau (corotational, 32 steps a period)",
         "stable neo-Hookean (omega tau 1)"}},
+      {"fibres", "Fibre-reinforced bar (stable neo-Hookean + HGO fibres): uniaxial stress vs the closed form", kToAnswer,
+       "s to answer", {"along the fibres (h 10 mm)", "across the fibres (h 10 mm)", "mesh (stretch 1.2 along)"}},
       {"indentation", "Sphere indentation (refs/e): force at 1 mm vs 0.019604 N", kToAnswer, "s to answer",
        {"mesh grading (linear, penalty 1e9)", "penalty stiffness (first cell 0.2 mm)", "element model (first cell 0.2 mm)",
         "Bullet FEM (peer)"}},
@@ -914,6 +1033,12 @@ void print_problem_table(const std::string& name, const std::vector<AccuracyPoin
       fmt::print("| {} | {} | {} | {} | {} | {:.3f} | {:.4f} | {} |\n", p.sweep, p.label, p.nodes,
                  p.ok ? fmt::format("{:.1f}", p.value) : "—", p.ok ? fmt::format("{:.3f} %", 100 * p.error) : "failed: " + p.failure,
                  p.ms_per_tick, p.s_per_sim_s, p.pareto ? "●" : "");
+  } else if (name == "fibres") {
+    fmt::print("| sweep | configuration | nodes | stretch reached | target | abs(P(stretch) / P - 1) | s to answer | Pareto |\n|---|---|---|---|---|---|---|---|\n");
+    for (const auto& p : pts)
+      fmt::print("| {} | {} | {} | {} | {:g} | {} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
+                 p.ok ? fmt::format("{:.6f}", p.value) : "—", p.reference,
+                 p.ok ? fmt::format("{:.2e}", p.error) : "failed: " + p.failure, p.s_per_sim_s, p.pareto ? "●" : "");
   } else {  // indentation
     fmt::print("| sweep | configuration | nodes | force (N) | error | s to answer | Pareto |\n|---|---|---|---|---|---|---|\n");
     for (const auto& p : pts)
@@ -1004,6 +1129,12 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     keep(vi);
     if (!o.only.empty()) return all;
   }
+  if (wanted("fibres")) {
+    std::vector<AccuracyPoint> fi = run_fibre_problem(o, runs);
+    finish_problem(o.out_dir, "fibres", fi, {});
+    keep(fi);
+    if (!o.only.empty()) return all;
+  }
   std::vector<AccuracyPoint> st = run_cantilever_static_problem(o, runs);
   std::vector<AccuracyPoint> dy = run_cantilever_dynamic_problem(o, runs);
   finish_problem(o.out_dir, "cantilever_static", st, peers.cantilever_static);
@@ -1015,7 +1146,7 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
 
 std::vector<AccuracyPoint> replot_accuracy_csvs(const std::string& csv_dir, const std::string& png_dir) {
   std::vector<AccuracyPoint> all;
-  for (const char* name : {"cantilever_static", "cantilever_dynamic", "block_compression", "indentation", "viscoelastic"}) {
+  for (const char* name : {"cantilever_static", "cantilever_dynamic", "block_compression", "indentation", "viscoelastic", "fibres"}) {
     for (const std::string& stem : {std::string(name), "accuracy_" + std::string(name)}) {
       const fs::path csv = fs::path(csv_dir) / (stem + ".csv");
       if (!fs::exists(csv)) continue;

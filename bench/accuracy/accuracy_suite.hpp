@@ -11,6 +11,9 @@
 ///  - viscoelastic (the lectures' closed form): a standard-linear-solid bar under sinusoidal
 ///    strain, its complex modulus E* against E0[1 − g + g·iωτ/(1 + iωτ)]; sweeps steps per
 ///    period, ωτ over three decades, element model;
+///  - fibres (closed form): a stable Neo-Hookean bar with HGO fibres pulled along and across
+///    them, the uniaxial stress at the stretch reached against the applied load; sweeps the
+///    stretch (1.03 … 1.3) and the mesh;
 ///  - cantilever_dynamic (refs/d): first bending frequency measured from the tip's motion after
 ///    gravity is switched on, against 16.100 Hz; sweeps mesh × time step, CG tolerance, CG
 ///    iteration cap, warm start, element model, and symplectic Euler at its largest stable step.
@@ -58,8 +61,8 @@ struct AccuracyOptions {
   /// The Bullet peer program (build/bench/stroma_bench_bullet), run in the same benchmark and
   /// put on the same tables and plots; empty: no peers.
   std::string peer_program;
-  /// Run only this problem ("cantilever" (static and dynamic), "indentation" or
-  /// "block_compression"; empty: all).
+  /// Run only this problem ("cantilever" (static and dynamic), "indentation",
+  /// "block_compression", "viscoelastic" or "fibres"; empty: all).
   std::string only;
 };
 
