@@ -379,11 +379,13 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
       }
     }
     if (const auto& lf = mat.locking_free) {
-      const std::string lff = field + ".material.locking_free";
       for (size_t ti = 0; ti < spec.tools.size(); ++ti)
         if (spec.tools[ti].spec.cuts)
-          throw InputError(lf->where.file, lf->where.line, lff,
-                           fmt::format("cutting a locking-free body is not supported yet (tools[{}] cuts)", ti));
+          throw InputError(lf->where.file, lf->where.line, field + ".material.locking_free",
+                           fmt::format("cutting a locking-free body is not supported yet (tools[{}] cuts): a cut splits "
+                                       "node domains, and a split domain's energy exceeds the whole's, so the cut would "
+                                       "create energy (docs/TISSUE.md)",
+                                       ti));
       in.locking_free_share = lf->stabilisation;
     }
     in.mesh = &pm;

@@ -47,8 +47,11 @@ struct Cuttable {
   CutBase base;
   std::vector<double> edge_cut;
 
-  Cuttable(TetMesh m, Vec3 gravity = {0, 0, 0}, bool clamp_x0 = false) : mesh(prepare_mesh(std::move(m))) {
+  /// `locking_free` ≥ 0: a locking-free body with that stabilisation share.
+  Cuttable(TetMesh m, Vec3 gravity = {0, 0, 0}, bool clamp_x0 = false, double locking_free = -1)
+      : mesh(prepare_mesh(std::move(m))) {
     FemBodyInput b = body_input(mesh, ElementModel::Corotational, RotationMethod::Polar, kE, kNu, kRho);
+    b.locking_free_share = locking_free;
     if (clamp_x0)
       for (size_t i = 0; i < mesh.mesh.nodes.size(); ++i)
         if (mesh.mesh.nodes[i][0] < 1e-12) b.fixed.push_back({static_cast<int32_t>(i), uint8_t{7}});
@@ -324,10 +327,11 @@ TEST(CutTopology, APartialCutOpensACrackButKeepsOnePiece) {
 }
 
 /// A block clamped at x = 0, cut through at x = x_cut; the free piece's fall is checked.
-void check_free_fall_after_cut(double x_cut) {
+/// `locking_free` ≥ 0: a locking-free block (its node domains rebuilt on the cut mesh).
+void check_free_fall_after_cut(double x_cut, double locking_free = -1) {
   SCOPED_TRACE("cut at x = " + std::to_string(x_cut));
   const double g = 9.81, h = 1e-3;
-  Cuttable c(block(), {0, 0, -g}, true);
+  Cuttable c(block(), {0, 0, -g}, true, locking_free);
   const CutTopology t0 = c.topology();
   c.cut(plane_x(x_cut, -0.01, 0.03, -0.01, 0.03));
   const CutTopology t = c.topology();
@@ -337,6 +341,13 @@ void check_free_fall_after_cut(double x_cut) {
   ASSERT_EQ(count, 2);
   const int free_piece = piece[t.node_dof[4]];  // node 4: x = 40 mm, the free end
   ASSERT_NE(free_piece, piece[t.node_dof[0]]);  // node 0: x = 0, clamped
+  if (locking_free >= 0) {
+    // One node domain per DOF of the cut mesh, none reaching across the cut.
+    ASSERT_EQ(m.smoothing.domains(), m.num_nodes);
+    for (int32_t d = 0; d < m.smoothing.domains(); ++d)
+      for (int32_t j = m.smoothing.ptr[d]; j < m.smoothing.ptr[d + 1]; ++j)
+        ASSERT_EQ(piece[m.smoothing.patch_node[j]], piece[m.smoothing.centre[d]]) << "domain " << d;
+  }
   StepperSettings settings;
   settings.tolerance = 1e-10;
   TimeStepper st(m, settings);
@@ -367,6 +378,13 @@ void check_free_fall_after_cut(double x_cut) {
 }
 
 TEST(CutModel, AClampedBlockCutThroughDropsItsFreePieceAsARigidBody) { check_free_fall_after_cut(0.023); }
+
+// The same with a locking-free block: the cut model's node domains are the cut mesh's, so the
+// free piece carries none of the clamped one's stiffness and falls freely.
+TEST(CutModel, ALockingFreeBlockCutThroughDropsItsFreePieceAsARigidBody) {
+  check_free_fall_after_cut(0.023, 0.1);
+  check_free_fall_after_cut(0.005, 0.1);
+}
 
 // Cut through the first layer of elements, whose tetrahedra hold clamped nodes: the virtual
 // copies of those nodes on the free side are not clamped (a clamp holds material), so the piece

@@ -340,14 +340,18 @@ TEST(CutEngine, CuttingNeedsTicksEveryTickAtLoad) {
 // sagging, swinging cantilever cut through, against the energy in play (how far the total moved
 // from its start): no swap adds energy (measured: none did; bound 1e-9 of it), and no tick
 // without the blade touching the lips does (implicit Euler dissipates).
-// Elastic, and visco-elastic (a standard linear solid: its free energy counts the branches'
-// stored energy, which each element copy carries over from its parent).
-class CutEnergy : public ::testing::TestWithParam<bool> {};
+// Elastic and visco-elastic (a standard linear solid: its free energy counts the branches' stored
+// energy, which each element copy carries over from its parent). (Not locking-free: a split node
+// domain averages over fewer elements, so by convexity its energy at the same positions is
+// higher — 12 % of the energy in play at this beam's last swap, measured 2026-12-04 — and such
+// a body is refused at load.)
+enum class CutMaterial { Elastic, Viscoelastic };
+class CutEnergy : public ::testing::TestWithParam<CutMaterial> {};
 
 TEST_P(CutEnergy, EnergyDoesNotGrowDuringCutting) {
   ScenarioSpec spec = beam_with_scalpel();
   spec.tools[0].spec.radius = 2e-5;  // a thin blade: its sides barely touch the lips
-  if (GetParam()) {
+  if (GetParam() == CutMaterial::Viscoelastic) {
     ViscoSpec v;
     v.model = "standard_linear_solid";
     v.series.terms = 1;
@@ -356,7 +360,7 @@ TEST_P(CutEnergy, EnergyDoesNotGrowDuringCutting) {
     spec.bodies[0].material.viscoelastic = v;
   }
   std::shared_ptr<const Model> m = compile_model(spec);
-  ASSERT_EQ(m->fem.visco.size(), GetParam() ? 1u : 0u);
+  ASSERT_EQ(m->fem.visco.size(), GetParam() == CutMaterial::Viscoelastic ? 1u : 0u);
   auto w = std::make_unique<TickWorkspace>(*m);
   State s = State::initial(*m);
   auto energy = [&] {
@@ -392,8 +396,9 @@ TEST_P(CutEnergy, EnergyDoesNotGrowDuringCutting) {
   EXPECT_LE(tick_rise, 1e-9 * scale) << "a tick added " << tick_rise << " J";
 }
 
-INSTANTIATE_TEST_SUITE_P(CutEngine, CutEnergy, ::testing::Bool(),
-                         [](const auto& i) { return i.param ? "Viscoelastic" : "Elastic"; });
+INSTANTIATE_TEST_SUITE_P(CutEngine, CutEnergy,
+                         ::testing::Values(CutMaterial::Elastic, CutMaterial::Viscoelastic),
+                         [](const auto& i) { return i.param == CutMaterial::Elastic ? "Elastic" : "Viscoelastic"; });
 
 // Cutting with damage, grasping and body contact in one scene: the soft bar of drop_on_block.yaml
 // (with a damage model) lands on its fixed block; a grasper holds its right end; a scalpel cuts

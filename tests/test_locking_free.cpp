@@ -366,4 +366,23 @@ bodies:
   EXPECT_NE(e.find("Prony"), std::string::npos) << e;
   e = error_of(base + "locking_free: node_smoothing}");
   EXPECT_EQ(e, "no error");
+  // A scalpel that cuts it: refused (a cut would split node domains and create energy).
+  ScenarioSpec spec = load_scenario(write_temp("lf_cut.yaml", R"(name: bad
+bodies:
+  - name: block
+    mesh: )" + std::string(STROMA_SOURCE_DIR) + R"(/scenarios/meshes/cube_tet4_h8p333mm.msh
+    material: )" + base + "locking_free: node_smoothing}\n"));
+  ToolEntry t;
+  t.spec.name = "scalpel";
+  t.spec.shape = ToolShape::Blade;
+  t.spec.cuts = true;
+  spec.tools.push_back(t);
+  try {
+    compile_model(spec);
+    ADD_FAILURE() << "cutting a locking-free body compiled";
+  } catch (const InputError& err) {
+    const std::string what = err.what();
+    EXPECT_NE(what.find("bodies[0].material.locking_free"), std::string::npos) << what;
+    EXPECT_NE(what.find("create energy"), std::string::npos) << what;
+  }
 }

@@ -56,6 +56,11 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
       for (int32_t d = topo.range_dof_begin[b]; d < topo.range_dof_begin[b + 1]; ++d) dof_in_fixed_body[d] = 1;
   m.num_nodes = nd;
   m.gravity = u.gravity;
+  // Locking-free bodies: finish_fem_model builds the node domains of the cut mesh — one per DOF,
+  // its patch the copies holding it (the copies of one piece never share a DOF with another's,
+  // so no domain reaches across a cut) — applied as the uncut model's were. (The engine refuses
+  // to cut such a body: a split domain stores more energy at the same positions than the whole.)
+  m.smoothing.matrix_free = u.smoothing.matrix_free;
   m.rest.resize(3 * static_cast<size_t>(nd));
   m.mass.assign(nd, 0.0);
   m.alpha.resize(nd);
@@ -82,7 +87,6 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
   // variables are laid out over its copies as build_fem_model lays them over its elements.
   m.visco = u.visco;
   for (const ElementRange& r : u.ranges) {
-    if (r.smoothed) throw std::invalid_argument("cut model: a locking-free body cannot be cut yet");
     ElementRange c = r;
     c.begin = topo.tet_copy_begin[r.begin];
     c.end = topo.tet_copy_begin[r.end];
