@@ -122,6 +122,39 @@ void BM_ElementPass(benchmark::State& st) {
 }
 BENCHMARK(BM_ElementPass)->ArgsProduct({{0, 1, 3}, {0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMicrosecond);
 
+/// The visco-elastic element pass (forces + assembly with the branches' history stress) on the
+/// 16 cm liver with its tumour and a two-branch Prony series, against the same pass without the
+/// history (arg 0: corotational without it, 1: visco-elastic corotational, 2: visco-elastic
+/// stable Neo-Hookean, 3: stable Neo-Hookean without it).
+void BM_ViscoElementPass(benchmark::State& st) {
+  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/physical/liver_16cm_tumour_visco.yaml");
+  if (st.range(0) >= 2)
+    for (auto& b : spec.bodies) b.material.model = ElementModel::StableNeoHookean;
+  auto m = compile_model(spec);
+  TickWorkspace w(*m);
+  State s = warmed_state(*m, w);
+  std::vector<double> f(m->fem.dofs()), K(9 * m->fem.pattern.nnzb());
+  ElasticPass p;
+  p.x = s.tissue.x.data();
+  p.force = f.data();
+  p.kvals = K.data();
+  p.k_const = m->time_step * m->time_step;
+  if (st.range(0) == 1 || st.range(0) == 2) {
+    p.visco_q = s.tissue.visco_q.data();
+    p.visco_s0 = s.tissue.visco_s0.data();
+    p.visco_h = m->time_step;
+  }
+  for (auto _ : st) {
+    benchmark::DoNotOptimize(elastic_pass(m->fem, p));
+    benchmark::ClobberMemory();
+  }
+  const char* labels[] = {"corotational", "visco corotational", "visco stable neo-Hookean", "stable neo-Hookean"};
+  st.SetLabel(labels[st.range(0)]);
+  st.counters["ns_per_element"] = benchmark::Counter(static_cast<double>(m->fem.elements.size()),
+                                                     benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ViscoElementPass)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);
+
 /// The implicit tick's element pass (forces + assembly) per element model on the same organ.
 /// arg0: scenario; arg1: 0 corotational, 1 stable Neo-Hookean, 2 St. Venant-Kirchhoff,
 /// 3 stable Neo-Hookean with fibres (k1 50 kPa, k2 8, along x).

@@ -235,31 +235,40 @@ void scatter_blocks(const FemModel& m, const ElasticPass& p, const double (&R)[9
 void add_visco_history(const ElementRange& r, const ElasticPass& p, const ViscoStep& st, int32_t e0, int count,
                        const double (&R)[9][kBatch], const double (&F)[9][kBatch], const BatchInput& in,
                        double (*fo)[kBatch], double* en) {
+  // H per lane (Voigt order xx, yy, zz, xy, xz, yz; lanes past `count` zero), then the rest
+  // across the lanes together (vectorised: one element at a time it cost twice as much).
+  double Hb[6][kBatch] = {};
   for (int l = 0; l < count; ++l) {
     const int64_t j = e0 + l - r.begin;
     double h6[6];
     visco_history(st, p.visco_q + r.visco_q_begin + 6 * st.terms * j, p.visco_s0 + r.visco_s0_begin + 6 * j, h6);
-    const double H[9] = {h6[0], h6[3], h6[4], h6[3], h6[1], h6[5], h6[4], h6[5], h6[2]};
+    for (int k = 0; k < 6; ++k) Hb[k][l] = h6[k];
+  }
+  double he[kBatch], P[9][kBatch];
+#pragma omp simd
+  for (int l = 0; l < kBatch; ++l) {
+    const double H[9] = {Hb[0][l], Hb[3][l], Hb[4][l], Hb[3][l], Hb[1][l], Hb[5][l], Hb[4][l], Hb[5][l], Hb[2][l]};
     double S[9];  // RᵀF
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 3; ++k) S[3 * i + k] = R[i][l] * F[k][l] + R[3 + i][l] * F[3 + k][l] + R[6 + i][l] * F[6 + k][l];
-    const double eps[9] = {S[0] - 1, 0.5 * (S[1] + S[3]), 0.5 * (S[2] + S[6]), 0.5 * (S[1] + S[3]), S[4] - 1,
-                           0.5 * (S[5] + S[7]), 0.5 * (S[2] + S[6]), 0.5 * (S[5] + S[7]), S[8] - 1};
-    double he = 0;
-    for (int k = 0; k < 9; ++k) he += H[k] * eps[k];
-    en[l] += in.vol[l] * he;
-    if (!fo) continue;
-    double P[9];  // R·H
-    for (int i = 0; i < 3; ++i)
-      for (int k = 0; k < 3; ++k) P[3 * i + k] = R[3 * i][l] * H[k] + R[3 * i + 1][l] * H[3 + k] + R[3 * i + 2][l] * H[6 + k];
+    // H:ε with ε = sym(RᵀF) − I (H symmetric: H:sym(S) = H:S).
+    double e = 0;
+    for (int k = 0; k < 9; ++k) e += H[k] * S[k];
+    he[l] = in.vol[l] * (e - H[0] - H[4] - H[8]);
+    for (int i = 0; i < 3; ++i)  // −V·R·H
+      for (int k = 0; k < 3; ++k)
+        P[3 * i + k][l] = -in.vol[l] * (R[3 * i][l] * H[k] + R[3 * i + 1][l] * H[3 + k] + R[3 * i + 2][l] * H[6 + k]);
+  }
+  for (int l = 0; l < count; ++l) en[l] += he[l];
+  if (!fo) return;
+#pragma omp simd
+  for (int l = 0; l < kBatch; ++l)
     for (int a = 0; a < 3; ++a)
       for (int i = 0; i < 3; ++i) {
-        const double v = -in.vol[l] * (P[3 * i] * in.g[3 * a][l] + P[3 * i + 1] * in.g[3 * a + 1][l] +
-                                       P[3 * i + 2] * in.g[3 * a + 2][l]);
+        const double v = P[3 * i][l] * in.g[3 * a][l] + P[3 * i + 1][l] * in.g[3 * a + 1][l] + P[3 * i + 2][l] * in.g[3 * a + 2][l];
         fo[3 * (a + 1) + i][l] += v;
         fo[i][l] -= v;
       }
-  }
 }
 
 template <ElementKernel K, bool kHasKv, bool kHasK>
