@@ -28,6 +28,8 @@ PACKAGES=(
   libbullet-dev libbullet-extras-dev gmsh gnuplot-nox
   # surface checks when (re)building shipped meshes (scripts/meshes/)
   tetgen
+  # the Python module (import stroma) and its tests
+  python3-dev pybind11-dev python3-numpy python3-pytest
 )
 
 missing=()

@@ -1,0 +1,195 @@
+/// \file stroma_module.cpp
+/// `import stroma`: the headless engine from Python (issue 18 §1, first slice; docs/PYTHON.md).
+///
+/// A Simulation owns what `stroma run` owns — the compiled scenario, a State and a
+/// TickWorkspace — and steps exactly as the headless runner does: the scenario's tool scripts
+/// (or poses set from Python), one tick, and after a tick whose blade cut edges the cut model
+/// built and swapped in. So a step in Python is a step of `stroma run`, bit for bit.
+///
+/// Invariants: `positions` / `velocities` are read-only NumPy views of the engine's state (no
+/// copy), valid until the next topology change (a cut) or reset(); the GIL is released while
+/// the engine steps; load errors raise ValueError with the engine's "file:line: field: what"
+/// message.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "engine/compiled_scenario.hpp"
+#include "engine/cut_swap.hpp"
+#include "engine/model.hpp"
+#include "engine/scenario_spec.hpp"
+#include "engine/state.hpp"
+#include "engine/tick.hpp"
+#include "engine/vtu_writer.hpp"
+#include "tissue/input_error.hpp"
+
+namespace py = pybind11;
+using namespace stroma;
+
+namespace {
+
+/// A snapshot: a copy of the state (and of the model it belongs to, which a cut may replace).
+struct Snapshot {
+  std::shared_ptr<const Model> model;
+  State state;
+};
+
+class Simulation {
+ public:
+  explicit Simulation(const std::string& path) {
+    try {
+      sc_ = compile_scenario(load_scenario(path));
+    } catch (const InputError& e) {
+      throw py::value_error(e.what());
+    }
+    reset();
+  }
+
+  void reset() {
+    model_ = sc_.model;
+    w_ = std::make_unique<TickWorkspace>(*model_);
+    s_ = State::initial(*model_);
+    poses_.assign(model_->tools.size(), std::nullopt);
+  }
+
+  /// n ticks; returns the number done (fewer only when a tick could not advance).
+  int step(int n) {
+    if (n < 0) throw py::value_error("step: n must be >= 0");
+    py::gil_scoped_release release;
+    for (int k = 0; k < n; ++k) {
+      inputs_.clear();
+      for (size_t t = 0; t < model_->tools.size(); ++t) {
+        ToolPose pose;
+        if (poses_[t]) pose = *poses_[t];
+        else if (!sc_.tool_scripts[t].keys.empty()) pose = sc_.tool_scripts[t].sample(s_.time);
+        else continue;
+        inputs_.push_back(ToolInput{static_cast<int32_t>(t), static_cast<uint64_t>(s_.step + 1), 0, pose});
+      }
+      const TickReport& r = tick(*model_, s_, *w_, inputs_.data(), static_cast<int>(inputs_.size()));
+      // (The report lives in the workspace, which a cut retires: keep the last one.)
+      if (k == n - 1 || r.status == TickStatus::NonFinite || r.cut_edges > 0) last_ = r;
+      if (r.status == TickStatus::NonFinite) return k;
+      if (r.cut_edges > 0) {
+        CutBuild b = build_cut(*model_, s_.edge_cut);
+        apply_cut(b, model_, w_, s_);
+      }
+    }
+    return n;
+  }
+
+  void set_pose(int tool, const std::array<double, 3>& position, const std::array<double, 4>& quaternion, double jaw) {
+    check_tool(tool);
+    ToolPose p;
+    p.position = {position[0], position[1], position[2]};
+    p.orientation = quaternion;
+    p.jaw = jaw;
+    poses_[tool] = p;
+  }
+
+  py::dict feedback(int tool) const {
+    check_tool(tool);
+    py::dict d;
+    if (!last_ || static_cast<size_t>(tool) >= last_->tools.size()) {
+      d["force"] = std::array<double, 3>{0, 0, 0};
+      d["torque"] = std::array<double, 3>{0, 0, 0};
+      d["stiffness"] = std::array<double, 9>{};
+      d["contacts"] = 0;
+      return d;
+    }
+    const ToolOutput& o = last_->tools[tool];
+    d["force"] = std::array<double, 3>{o.force[0], o.force[1], o.force[2]};
+    d["torque"] = std::array<double, 3>{o.torque[0], o.torque[1], o.torque[2]};
+    d["stiffness"] = o.stiffness;
+    d["contacts"] = o.contacts;
+    return d;
+  }
+
+  py::dict metrics() const {
+    py::dict d;
+    if (!last_) return d;
+    d["status"] = static_cast<int>(last_->status);
+    d["cg_iterations"] = last_->solve.iterations;
+    d["cg_residual"] = last_->solve.relative_residual;
+    d["substeps"] = last_->substeps;
+    d["total_ms"] = static_cast<double>(last_->total_ns) * 1e-6;
+    return d;
+  }
+
+  Snapshot snapshot() const { return {model_, s_}; }
+
+  void restore(const Snapshot& snap) {
+    if (snap.model != model_) {  // a snapshot from before (or after) a cut: its own model
+      model_ = snap.model;
+      w_ = std::make_unique<TickWorkspace>(*model_);
+    }
+    s_ = snap.state;
+  }
+
+  /// A read-only (n, 3) view of v, kept alive by `owner`.
+  static py::array view(std::vector<double>& v, py::handle owner) {
+    const py::ssize_t n = static_cast<py::ssize_t>(v.size() / 3);
+    py::array a(py::dtype::of<double>(), {n, py::ssize_t{3}}, {py::ssize_t{24}, py::ssize_t{8}}, v.data(), owner);
+    a.attr("setflags")(py::arg("write") = false);
+    return a;
+  }
+
+  void write_vtu_file(const std::string& path) const { write_vtu(path, *model_, s_); }
+
+  double time() const { return s_.time; }
+  int64_t steps() const { return s_.step; }
+  double time_step() const { return model_->time_step; }
+  int num_nodes() const { return model_->fem.num_nodes; }
+  int num_tools() const { return static_cast<int>(model_->tools.size()); }
+  State& state() { return s_; }
+
+ private:
+  void check_tool(int tool) const {
+    if (tool < 0 || static_cast<size_t>(tool) >= model_->tools.size())
+      throw py::index_error("tool " + std::to_string(tool) + " out of range: the scenario has " +
+                            std::to_string(model_->tools.size()) + " tools");
+  }
+
+  CompiledScenario sc_;
+  std::shared_ptr<const Model> model_;
+  std::unique_ptr<TickWorkspace> w_;
+  State s_;
+  std::vector<std::optional<ToolPose>> poses_;
+  std::vector<ToolInput> inputs_;
+  std::optional<TickReport> last_;
+};
+
+}  // namespace
+
+PYBIND11_MODULE(_stroma, mod) {
+  mod.doc() = "Stroma: soft-tissue FEM for surgical simulation (the headless engine)";
+  py::class_<Snapshot>(mod, "Snapshot", "A copy of a simulation's state (Simulation.snapshot())");
+  py::class_<Simulation>(mod, "Simulation", "A scenario stepped as `stroma run` steps it")
+      .def(py::init<const std::string&>(), py::arg("scenario"), "Loads and compiles a scenario YAML file")
+      .def("step", &Simulation::step, py::arg("n") = 1, "Advances n ticks (the GIL is released); returns ticks done")
+      .def("reset", &Simulation::reset, "Back to the initial state (and the uncut model)")
+      .def("snapshot", &Simulation::snapshot, "A copy of the current state")
+      .def("restore", &Simulation::restore, py::arg("snapshot"), "Continues from a snapshot")
+      .def("set_pose", &Simulation::set_pose, py::arg("tool"), py::arg("position"),
+           py::arg("quaternion") = std::array<double, 4>{1, 0, 0, 0}, py::arg("jaw") = 0.0,
+           "Commands tool `tool` to this pose (m; unit quaternion w, x, y, z; jaw rad) from the next tick on")
+      .def("feedback", &Simulation::feedback, py::arg("tool"), "Force, torque, stiffness and contacts of the last tick")
+      .def_property_readonly("metrics", &Simulation::metrics, "Status, CG iterations and residual of the last tick")
+      .def("write_vtu", &Simulation::write_vtu_file, py::arg("path"), "Writes the current state as VTU")
+      .def_property_readonly("time", &Simulation::time, "Simulated time (s)")
+      .def_property_readonly("steps", &Simulation::steps, "Ticks done")
+      .def_property_readonly("time_step", &Simulation::time_step, "Tick length (s)")
+      .def_property_readonly("num_nodes", &Simulation::num_nodes)
+      .def_property_readonly("num_tools", &Simulation::num_tools)
+      .def_property_readonly(
+          "positions", [](py::object self) { return Simulation::view(self.cast<Simulation&>().state().tissue.x, self); },
+          "Node positions (m), an (n, 3) read-only view of the engine's memory")
+      .def_property_readonly(
+          "velocities", [](py::object self) { return Simulation::view(self.cast<Simulation&>().state().tissue.v, self); },
+          "Node velocities (m/s), an (n, 3) read-only view of the engine's memory");
+}

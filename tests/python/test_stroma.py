@@ -1,0 +1,116 @@
+"""`import stroma` (python/stroma_module.cpp): the Python module against the engine itself.
+
+Asserted: a step in Python is a step of `stroma run`, bit for bit (positions after N ticks
+equal final_state.csv, whose %.17g round-trips doubles); positions/velocities are read-only
+views of the engine's memory that follow the state; snapshot/restore replays bit for bit;
+a bad scenario raises ValueError with the engine's file:line message; a scripted probe pressing
+the liver feels it push back, and set_pose lifts it off; bad tool indices raise IndexError.
+Run by ctest (test `python.pytest`) with PYTHONPATH=build/python and STROMA_BUILD_DIR set.
+"""
+import csv
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import stroma
+
+SOURCE = pathlib.Path(__file__).resolve().parents[2]
+BUILD = pathlib.Path(os.environ.get("STROMA_BUILD_DIR", SOURCE / "build"))
+SCENARIOS = SOURCE / "scenarios"
+
+
+def final_state(out_dir):
+    with open(out_dir / "final_state.csv") as f:
+        rows = list(csv.DictReader(f))
+    return np.array([[float(r["x"]), float(r["y"]), float(r["z"])] for r in rows])
+
+
+@pytest.mark.parametrize("scenario", ["cantilever_dynamic.yaml", "liver.yaml"])
+def test_a_python_step_is_a_step_of_stroma_run_bit_for_bit(scenario, tmp_path):
+    steps = 40
+    subprocess.run([str(BUILD / "stroma"), "run", str(SCENARIOS / scenario), "--steps", str(steps),
+                    "--out", str(tmp_path), "--quiet", "--no-metrics"], check=True)
+    sim = stroma.Simulation(str(SCENARIOS / scenario))
+    assert sim.step(steps) == steps
+    assert sim.steps == steps
+    assert sim.time == pytest.approx(steps * sim.time_step, rel=1e-12)
+    expected = final_state(tmp_path)
+    assert expected.shape == sim.positions.shape
+    moved = np.abs(expected - stroma.Simulation(str(SCENARIOS / scenario)).positions).max()
+    assert moved > 0, "the run moved the body (else the comparison shows nothing)"
+    assert np.array_equal(sim.positions, expected)
+
+
+def test_positions_and_velocities_are_read_only_views_of_the_engine():
+    sim = stroma.Simulation(str(SCENARIOS / "cantilever_dynamic.yaml"))
+    x, v = sim.positions, sim.velocities
+    assert x.shape == (sim.num_nodes, 3) and v.shape == (sim.num_nodes, 3)
+    assert not x.flags.writeable and not v.flags.writeable
+    assert not x.flags.owndata
+    before = x.copy()
+    sim.step(10)
+    assert not np.array_equal(x, before), "the old view shows the new state: no copy was made"
+    assert np.shares_memory(x, sim.positions)
+    assert np.array_equal(x, sim.positions)
+    assert np.abs(v).max() > 0
+    with pytest.raises(ValueError):
+        x[0, 0] = 1.0
+
+
+def test_snapshot_and_restore_replay_bit_for_bit():
+    sim = stroma.Simulation(str(SCENARIOS / "cantilever_dynamic.yaml"))
+    sim.step(15)
+    snap = sim.snapshot()
+    t0 = sim.time
+    sim.step(25)
+    first = sim.positions.copy()
+    sim.restore(snap)
+    assert sim.time == t0
+    assert not np.array_equal(sim.positions, first)
+    sim.step(25)
+    assert np.array_equal(sim.positions, first)
+    sim.reset()
+    assert sim.time == 0 and sim.steps == 0
+
+
+def test_a_bad_scenario_raises_with_file_line_and_field(tmp_path):
+    mesh = SCENARIOS / "meshes" / "cube_tet4_h8p333mm.msh"
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: bad\nbodies:\n  - name: block\n    mesh: %s\n"
+                   "    material: {model: corotational, young_modulus: -5, poisson_ratio: 0.3, density: 1000}\n" % mesh)
+    with pytest.raises(ValueError) as e:
+        stroma.Simulation(str(bad))
+    assert "bad.yaml:5" in str(e.value)
+    assert "young" in str(e.value).lower()
+    with pytest.raises(ValueError):
+        stroma.Simulation(str(tmp_path / "missing.yaml"))
+
+
+def test_a_scripted_probe_presses_as_in_stroma_run_and_set_pose_takes_it_away(tmp_path):
+    scenario = SCENARIOS / "regression" / "liver_probe_press.yaml"
+    steps = 1500  # the script has pressed the probe 1.2 units down from y = 7 by t = 1.5 s
+    subprocess.run([str(BUILD / "stroma"), "run", str(scenario), "--steps", str(steps), "--out", str(tmp_path),
+                    "--quiet", "--no-metrics"], check=True)
+    sim = stroma.Simulation(str(scenario))
+    assert sim.num_tools == 1
+    sim.step(steps)
+    assert np.array_equal(sim.positions, final_state(tmp_path)), "tool contact included, bit for bit"
+    fb = sim.feedback(0)
+    assert fb["contacts"] > 0
+    assert fb["force"][1] > 0, "the tissue pushes the probe up, out of the liver"
+    assert sim.metrics["cg_iterations"] >= 1
+    # Commanded from Python instead of the script: lifted at 20 units/s (max_speed 50), it
+    # leaves the surface and the contact ends.
+    y = 7.0 - 1.7 * 1.0 - 0.7 * 0.5  # the script's pose at t = 1.5 s
+    for k in range(1, 101):
+        sim.set_pose(0, [-1.5, y + 0.02 * k, 0.5])
+        sim.step()
+    assert sim.feedback(0)["contacts"] == 0
+    assert sim.feedback(0)["force"] == [0.0, 0.0, 0.0]
+    with pytest.raises(IndexError):
+        sim.set_pose(1, [0, 0, 0])
+    with pytest.raises(IndexError):
+        sim.feedback(-1)
