@@ -114,3 +114,23 @@ def test_a_scripted_probe_presses_as_in_stroma_run_and_set_pose_takes_it_away(tm
         sim.set_pose(1, [0, 0, 0])
     with pytest.raises(IndexError):
         sim.feedback(-1)
+
+
+def test_a_scalpel_run_cuts_as_stroma_run_and_restores_across_the_cut(tmp_path):
+    scenario = SCENARIOS / "regression" / "liver_incision.yaml"
+    steps = 2500
+    subprocess.run([str(BUILD / "stroma"), "run", str(scenario), "--steps", str(steps), "--out", str(tmp_path),
+                    "--quiet", "--no-metrics"], check=True)
+    sim = stroma.Simulation(str(scenario))
+    n0 = sim.num_nodes
+    sim.step(100)
+    before_cut = sim.snapshot()
+    assert sim.num_nodes == n0, "not cut yet at 0.1 s"
+    sim.step(steps - 100)
+    assert sim.num_nodes > n0, "the scalpel cut: new DOFs"
+    assert np.array_equal(sim.positions, final_state(tmp_path)), "cut swaps included, bit for bit"
+    cut = sim.positions.copy()
+    sim.restore(before_cut)
+    assert sim.num_nodes == n0 and sim.steps == 100
+    sim.step(steps - 100)
+    assert np.array_equal(sim.positions, cut), "restored before the cut, it cuts again the same way"
