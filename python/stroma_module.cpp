@@ -15,6 +15,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -45,6 +47,17 @@ class Simulation {
   explicit Simulation(const std::string& path) {
     try {
       sc_ = compile_scenario(load_scenario(path));
+    } catch (const InputError& e) {
+      throw py::value_error(e.what());
+    }
+    reset();
+  }
+
+  /// From YAML (or JSON) text; `name` stands for the file in messages, relative paths resolve
+  /// against base_dir.
+  Simulation(const std::string& text, const std::string& name, const std::string& base_dir) {
+    try {
+      sc_ = compile_scenario(parse_scenario(text, name, base_dir));
     } catch (const InputError& e) {
       throw py::value_error(e.what());
     }
@@ -118,6 +131,11 @@ class Simulation {
     d["cg_residual"] = last_->solve.relative_residual;
     d["substeps"] = last_->substeps;
     d["total_ms"] = static_cast<double>(last_->total_ns) * 1e-6;
+    py::dict stages;  // the stages that ran, ms
+    for (int k = 0; k < kStageCount; ++k)
+      if (last_->stage_ran[k])
+        stages[py::str(std::string(stage_name(static_cast<Stage>(k))))] = static_cast<double>(last_->stage_ns[k]) * 1e-6;
+    d["stage_ms"] = stages;
     return d;
   }
 
@@ -140,6 +158,30 @@ class Simulation {
   }
 
   void write_vtu_file(const std::string& path) const { write_vtu(path, *model_, s_); }
+
+  /// Moves the nodes to `x` ((n, 3), finite); velocities stay. For setting up a state.
+  void set_positions(const py::array_t<double, py::array::c_style | py::array::forcecast>& x) {
+    const py::ssize_t n = model_->fem.num_nodes;
+    if (x.ndim() != 2 || x.shape(0) != n || x.shape(1) != 3)
+      throw py::value_error("positions: expected an array of shape (" + std::to_string(n) + ", 3)");
+    const double* p = x.data();
+    for (py::ssize_t i = 0; i < 3 * n; ++i)
+      if (!std::isfinite(p[i])) throw py::value_error("positions: entry " + std::to_string(i / 3) + " is not finite");
+    std::copy(p, p + 3 * n, s_.tissue.x.begin());
+  }
+
+  /// Per element damage d ∈ [0, 1] (float32, read-only view; empty without a damage model).
+  static py::array damage_view(py::object self) {
+    State& s = self.cast<Simulation&>().s_;
+    py::array a(py::dtype::of<float>(), {static_cast<py::ssize_t>(s.damage.size())}, {py::ssize_t{4}},
+                s.damage.data(), self);
+    a.attr("setflags")(py::arg("write") = false);
+    return a;
+  }
+  /// Elements that reached warned, damaged and ruptured (cumulative).
+  std::array<int64_t, 3> damage_counts() const {
+    return {s_.damage_count[1], s_.damage_count[2], s_.damage_count[3]};
+  }
 
   double time() const { return s_.time; }
   int64_t steps() const { return s_.step; }
@@ -171,6 +213,8 @@ PYBIND11_MODULE(_stroma, mod) {
   py::class_<Snapshot>(mod, "Snapshot", "A copy of a simulation's state (Simulation.snapshot())");
   py::class_<Simulation>(mod, "Simulation", "A scenario stepped as `stroma run` steps it")
       .def(py::init<const std::string&>(), py::arg("scenario"), "Loads and compiles a scenario YAML file")
+      .def(py::init<const std::string&, const std::string&, const std::string&>(), py::arg("text"), py::arg("name"),
+           py::arg("base_dir"), "From scenario YAML (or JSON) text; `name` stands for the file in error messages")
       .def("step", &Simulation::step, py::arg("n") = 1, "Advances n ticks (the GIL is released); returns ticks done")
       .def("reset", &Simulation::reset, "Back to the initial state (and the uncut model)")
       .def("snapshot", &Simulation::snapshot, "A copy of the current state")
@@ -189,6 +233,12 @@ PYBIND11_MODULE(_stroma, mod) {
       .def_property_readonly(
           "positions", [](py::object self) { return Simulation::view(self.cast<Simulation&>().state().tissue.x, self); },
           "Node positions (m), an (n, 3) read-only view of the engine's memory")
+      .def("set_positions", &Simulation::set_positions, py::arg("x"),
+           "Moves the nodes to x, an (n, 3) array of finite numbers (velocities stay)")
+      .def_property_readonly("damage", &Simulation::damage_view,
+                             "Per-element damage in [0, 1], a read-only float32 view (empty: no damage model)")
+      .def_property_readonly("damage_counts", &Simulation::damage_counts,
+                             "Elements that reached warned, damaged, ruptured")
       .def_property_readonly(
           "velocities", [](py::object self) { return Simulation::view(self.cast<Simulation&>().state().tissue.v, self); },
           "Node velocities (m/s), an (n, 3) read-only view of the engine's memory");

@@ -134,3 +134,100 @@ def test_a_scalpel_run_cuts_as_stroma_run_and_restores_across_the_cut(tmp_path):
     assert sim.num_nodes == n0 and sim.steps == 100
     sim.step(steps - 100)
     assert np.array_equal(sim.positions, cut), "restored before the cut, it cuts again the same way"
+
+
+def test_a_scenario_from_a_dict_equals_the_same_file(tmp_path):
+    scenario = {
+        "name": "dict_bar", "time_step": 0.001, "gravity": [0, 0, -9.81],
+        "bodies": [{"name": "block", "mesh": "meshes/cube_tet4_h8p333mm.msh",
+                    "material": {"model": "corotational", "young_modulus": 1.0e4, "poisson_ratio": 0.45,
+                                 "density": 1000},
+                    "fixed": [{"box": {"min": [-1, -1, -1.0e-6], "max": [1, 1, 1.0e-6]}}]}],
+    }
+    from_dict = stroma.simulation_from_dict(scenario, base_dir=SCENARIOS)
+    path = tmp_path / "dict_bar.yaml"
+    path.write_text(json_as_yaml(scenario, SCENARIOS))
+    from_file = stroma.Simulation(str(path))
+    from_dict.step(20)
+    from_file.step(20)
+    assert np.abs(from_dict.positions - stroma.simulation_from_dict(scenario, SCENARIOS).positions).max() > 0
+    assert np.array_equal(from_dict.positions, from_file.positions)
+    scenario["bodies"][0]["material"]["young_modulus"] = -1
+    with pytest.raises(ValueError) as e:
+        stroma.simulation_from_dict(scenario, base_dir=SCENARIOS)
+    assert "<dict>:" in str(e.value) and "young" in str(e.value).lower()
+
+
+def json_as_yaml(scenario, base_dir):
+    """The scenario as a YAML file elsewhere: JSON is YAML; the mesh path made absolute."""
+    import copy
+    import json
+    s = copy.deepcopy(scenario)
+    for b in s["bodies"]:
+        b["mesh"] = str(pathlib.Path(base_dir) / b["mesh"])
+    return json.dumps(s)
+
+
+def test_set_positions_validates_and_moves_the_nodes():
+    sim = stroma.Simulation(str(SCENARIOS / "cantilever_dynamic.yaml"))
+    x = sim.positions.copy()
+    with pytest.raises(ValueError):
+        sim.set_positions(x[:-1])
+    bad = x.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError) as e:
+        sim.set_positions(bad)
+    assert "entry 3" in str(e.value)
+    assert np.array_equal(sim.positions, x), "a refused array changes nothing"
+    moved = x + np.array([0.0, 0.0, 1e-3])
+    sim.set_positions(moved)
+    assert np.array_equal(sim.positions, moved)
+
+
+def test_damage_view_metrics_and_stage_times():
+    sim = stroma.Simulation(str(SCENARIOS / "regression" / "liver_probe_damage.yaml"))
+    d = sim.damage
+    assert d.dtype == np.float32 and not d.flags.writeable and d.max() == 0
+    sim.step(2500)  # the scripted deep press damages the liver
+    assert d.max() > 0, "the view follows the damage"
+    assert sim.damage_counts[0] > 0
+    m = sim.metrics
+    assert "solve" in m["stage_ms"] and m["stage_ms"]["solve"] >= 0
+    assert stroma.Simulation(str(SCENARIOS / "cantilever_dynamic.yaml")).damage.size == 0
+
+
+def test_step_releases_the_gil():
+    import threading
+    sim = stroma.Simulation(str(SCENARIOS / "regression" / "liver_probe_press.yaml"))
+    t = threading.Thread(target=sim.step, args=(1500,))
+    count = 0
+    t.start()
+    while t.is_alive():
+        count += 1
+    t.join()
+    assert sim.steps == 1500
+    assert count > 1000, "Python ran while the engine stepped"
+
+
+def test_the_press_environment_reaches_its_target_force_and_ends_on_damage():
+    from stroma.env import ProbePressEnv
+    env = ProbePressEnv(target_force=1.0)
+    obs, info = env.reset()
+    assert obs.shape == (4,) and isinstance(info, dict)
+    for _ in range(env.max_steps):
+        action = [-1.0] if obs[1] <= 0 else [-0.05 * (1.0 - obs[1])]
+        obs, reward, terminated, truncated, info = env.step(action)
+        assert not terminated
+        if truncated:
+            break
+    assert truncated
+    assert abs(obs[1] - 1.0) < 0.2, "pressed to the target force"
+    assert obs[2] == 0, "without damage"
+    # Pushed straight in at full speed, it damages the liver and the episode ends.
+    obs, _ = env.reset()
+    terminated = False
+    for _ in range(env.max_steps):
+        obs, reward, terminated, truncated, info = env.step([-env.max_speed])
+        if terminated:
+            break
+    assert terminated and reward <= -10 and obs[2] > 0
