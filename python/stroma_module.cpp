@@ -27,6 +27,7 @@
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
+#include "engine/state_bytes.hpp"
 #include "engine/tick.hpp"
 #include "engine/vtu_writer.hpp"
 #include "tissue/input_error.hpp"
@@ -36,10 +37,14 @@ using namespace stroma;
 
 namespace {
 
-/// A snapshot: a copy of the state (and of the model it belongs to, which a cut may replace).
+/// A snapshot: a copy of the state, the fingerprint of its scenario's uncut model, and (in the
+/// process that took it) the model it belongs to, which a cut may replace. A pickled snapshot
+/// travels as encode_state's bytes and comes back without a model: restore() rebuilds it from
+/// the scenario and the state's edge cuts.
 struct Snapshot {
-  std::shared_ptr<const Model> model;
+  std::shared_ptr<const Model> model;  ///< null after unpickling
   State state;
+  uint64_t fingerprint = 0;
 };
 
 class Simulation {
@@ -65,6 +70,7 @@ class Simulation {
   }
 
   void reset() {
+    if (fingerprint_ == 0) fingerprint_ = model_fingerprint(*sc_.model);
     model_ = sc_.model;
     w_ = std::make_unique<TickWorkspace>(*model_);
     s_ = State::initial(*model_);
@@ -139,11 +145,17 @@ class Simulation {
     return d;
   }
 
-  Snapshot snapshot() const { return {model_, s_}; }
+  Snapshot snapshot() const { return {model_, s_, fingerprint_}; }
 
   void restore(const Snapshot& snap) {
-    if (snap.model != model_) {  // a snapshot from before (or after) a cut: its own model
-      model_ = snap.model;
+    if (snap.fingerprint != fingerprint_)
+      throw py::value_error("restore: the snapshot was taken from another scenario (its model differs from this one's)");
+    std::shared_ptr<const Model> m = snap.model;
+    if (!m) m = model_for(snap.state);
+    std::string why;
+    if (!state_fits_model(snap.state, *m, &why)) throw py::value_error("restore: the snapshot does not fit the model: " + why);
+    if (m != model_) {  // a snapshot from before (or after) a cut: its own model
+      model_ = std::move(m);
       w_ = std::make_unique<TickWorkspace>(*model_);
     }
     s_ = snap.state;
@@ -197,7 +209,20 @@ class Simulation {
                             std::to_string(model_->tools.size()) + " tools");
   }
 
+  /// The model an unpickled state belongs to: the scenario's uncut one, or the cut model its
+  /// edge cuts make (built from the uncut mesh and the cuts, as every cut model is).
+  std::shared_ptr<const Model> model_for(const State& s) const {
+    const bool cut = std::any_of(s.edge_cut.begin(), s.edge_cut.end(), [](double c) { return c != kEdgeUncut; });
+    if (!cut || !sc_.model->cutting) return sc_.model;
+    if (s.edge_cut.size() != sc_.model->cut_edge_dofs.size())
+      throw py::value_error("restore: the snapshot's edge cuts do not fit this scenario's mesh");
+    if (model_->cutting && model_->cut_edge_state == s.edge_cut) return model_;
+    CutBuild b = build_cut(*sc_.model, s.edge_cut);
+    return b.changed ? b.model : sc_.model;
+  }
+
   CompiledScenario sc_;
+  uint64_t fingerprint_ = 0;
   std::shared_ptr<const Model> model_;
   std::unique_ptr<TickWorkspace> w_;
   State s_;
@@ -210,7 +235,22 @@ class Simulation {
 
 PYBIND11_MODULE(_stroma, mod) {
   mod.doc() = "Stroma: soft-tissue FEM for surgical simulation (the headless engine)";
-  py::class_<Snapshot>(mod, "Snapshot", "A copy of a simulation's state (Simulation.snapshot())");
+  py::class_<Snapshot>(mod, "Snapshot",
+                       "A copy of a simulation's state (Simulation.snapshot()); picklable, to restore in another "
+                       "process into a Simulation of the same scenario")
+      .def_property_readonly("time", [](const Snapshot& s) { return s.state.time; }, "Simulated time (s)")
+      .def_property_readonly("steps", [](const Snapshot& s) { return s.state.step; }, "Ticks done")
+      .def(py::pickle(
+          [](const Snapshot& s) { return py::bytes(encode_state(s.state, s.fingerprint)); },
+          [](const py::bytes& b) {
+            Snapshot s;
+            try {
+              s.state = decode_state(std::string(b), &s.fingerprint);
+            } catch (const InputError& e) {
+              throw py::value_error(std::string("Snapshot: ") + e.what());
+            }
+            return s;
+          }));
   py::class_<Simulation>(mod, "Simulation", "A scenario stepped as `stroma run` steps it")
       .def(py::init<const std::string&>(), py::arg("scenario"), "Loads and compiles a scenario YAML file")
       .def(py::init<const std::string&, const std::string&, const std::string&>(), py::arg("text"), py::arg("name"),

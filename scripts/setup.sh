@@ -29,7 +29,7 @@ PACKAGES=(
   # surface checks when (re)building shipped meshes (scripts/meshes/)
   tetgen
   # the Python module (import stroma) and its tests
-  python3-dev pybind11-dev python3-numpy python3-pytest
+  python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-pip
 )
 
 missing=()

@@ -18,8 +18,10 @@ import os
 
 import numpy as np
 
-from ._paths import SOURCE_DIR
 from ._stroma import Simulation
+
+#: The scenarios shipped with the package (a copy of the source tree's scenarios/ files it uses).
+DATA_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
 
 
 class ProbePressEnv:
@@ -28,7 +30,7 @@ class ProbePressEnv:
     def __init__(self, scenario=None, target_force=1.0, ticks_per_action=10, max_steps=300, max_speed=5.0,
                  start=(-1.5, 6.0, 0.5)):
         if scenario is None:
-            scenario = os.path.join(SOURCE_DIR, "scenarios", "regression", "liver_probe_damage.yaml")
+            scenario = os.path.join(DATA_DIR, "regression", "liver_probe_damage.yaml")
         self.sim = Simulation(scenario)
         self.target = float(target_force)
         self.ticks = int(ticks_per_action)

@@ -10,7 +10,9 @@ Run by ctest (test `python.pytest`) with PYTHONPATH=build/python and STROMA_BUIL
 import csv
 import os
 import pathlib
+import pickle
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -231,3 +233,64 @@ def test_the_press_environment_reaches_its_target_force_and_ends_on_damage():
         if terminated:
             break
     assert terminated and reward <= -10 and obs[2] > 0
+
+
+def test_a_pickled_snapshot_restores_in_another_simulation_bit_for_bit():
+    # A cut liver mid-incision: the other Simulation has only the uncut model, and must rebuild
+    # the cut one from the snapshot's edge cuts; tools, warm start and time travel too.
+    scenario = str(SCENARIOS / "regression" / "liver_incision.yaml")
+    sim = stroma.Simulation(scenario)
+    n0 = sim.num_nodes
+    sim.step(1250)
+    n_mid = sim.num_nodes
+    assert n_mid > n0, "cut by 1.25 s"
+    snap = pickle.loads(pickle.dumps(sim.snapshot()))
+    assert snap.steps == 1250 and snap.time == sim.time
+    other = stroma.Simulation(scenario)
+    other.restore(snap)
+    assert other.num_nodes == n_mid and other.steps == 1250
+    assert np.array_equal(other.positions, sim.positions)
+    sim.step(500)
+    other.step(500)
+    assert sim.num_nodes > n_mid, "the incision went on after the snapshot"
+    assert other.num_nodes == sim.num_nodes
+    assert np.array_equal(other.positions, sim.positions), "both cut on and step alike"
+    # A probe in contact, with damage: force and damage carry over.
+    scenario = str(SCENARIOS / "regression" / "liver_probe_damage.yaml")
+    a, b = stroma.Simulation(scenario), stroma.Simulation(scenario)
+    a.step(1200)
+    b.restore(pickle.loads(pickle.dumps(a.snapshot())))
+    assert np.array_equal(b.damage, a.damage)
+    a.step(300)
+    b.step(300)
+    assert a.feedback(0)["force"] == b.feedback(0)["force"] and np.abs(a.feedback(0)["force"]).max() > 0
+    assert np.array_equal(a.positions, b.positions)
+
+
+def test_a_snapshot_of_another_scenario_or_corrupt_bytes_is_refused():
+    liver = stroma.Simulation(str(SCENARIOS / "liver.yaml"))
+    beam = stroma.Simulation(str(SCENARIOS / "cantilever_dynamic.yaml"))
+    beam.step(5)
+    before = beam.positions.copy()
+    with pytest.raises(ValueError, match="another scenario"):
+        beam.restore(pickle.loads(pickle.dumps(liver.snapshot())))
+    assert np.array_equal(beam.positions, before) and beam.steps == 5, "nothing changed"
+    data = pickle.dumps(beam.snapshot())
+    blob = bytearray(beam.snapshot().__getstate__())
+    with pytest.raises(ValueError, match="truncated"):
+        stroma.Snapshot.__new__(stroma.Snapshot).__setstate__(bytes(blob[:-3]))
+    blob[0:6] = b"NOTSTR"
+    with pytest.raises(ValueError, match="magic"):
+        stroma.Snapshot.__new__(stroma.Snapshot).__setstate__(bytes(blob))
+    beam.restore(pickle.loads(data))
+    assert beam.steps == 5
+
+
+def test_parallel_rollouts_equal_serial_ones():
+    example = SOURCE / "examples" / "python" / "parallel_rollouts.py"
+    r = subprocess.run([sys.executable, str(example), "--processes", "2", "--speeds", "0.1", "0.4", "--ticks", "600",
+                        "--check"], capture_output=True, text=True, env=dict(os.environ), timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "parallel = serial, bit for bit" in r.stdout
+    forces = [float(line.split("peak force")[1].split(",")[0]) for line in r.stdout.splitlines() if "peak force" in line]
+    assert len(forces) == 2 and 0 < forces[0] < forces[1], "a deeper press pushes back harder: " + r.stdout

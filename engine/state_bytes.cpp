@@ -1,0 +1,187 @@
+#include "engine/state_bytes.hpp"
+
+#include <cstring>
+#include <type_traits>
+
+#include "tissue/input_error.hpp"
+
+namespace stroma {
+
+namespace {
+
+constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
+constexpr uint32_t kVersion = 1;
+const char* const kWhat = "<state bytes>";
+
+static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
+static_assert(std::is_trivially_copyable_v<ElementParams>, "ElementParams is hashed as bytes");
+
+/// FNV-1a, 64 bits: a fingerprint, not a defence against a crafted collision.
+struct Fnv {
+  uint64_t h = 1469598103934665603ull;
+  void add(const void* p, size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  }
+  template <class T>
+  void value(const T& v) { add(&v, sizeof v); }
+  template <class T>
+  void array(const std::vector<T>& v) {
+    value(static_cast<uint64_t>(v.size()));
+    if (!v.empty()) add(v.data(), v.size() * sizeof(T));
+  }
+};
+
+class Writer {
+ public:
+  template <class T>
+  void value(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    out_.append(reinterpret_cast<const char*>(&v), sizeof v);
+  }
+  template <class T>
+  void array(const std::vector<T>& v) {
+    value(static_cast<uint64_t>(v.size()));
+    if (!v.empty()) out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  std::string take() { return std::move(out_); }
+
+ private:
+  std::string out_;
+};
+
+class Reader {
+ public:
+  explicit Reader(const std::string& b) : b_(b) {}
+  template <class T>
+  void value(T& v, const char* field) {
+    need(sizeof v, field);
+    std::memcpy(&v, b_.data() + at_, sizeof v);
+    at_ += sizeof v;
+  }
+  template <class T>
+  void array(std::vector<T>& v, const char* field) {
+    uint64_t n = 0;
+    value(n, field);
+    // Checked against the bytes left before anything is allocated.
+    if (n > (b_.size() - at_) / sizeof(T))
+      throw InputError(kWhat, 0, field, "count " + std::to_string(n) + " is more than the bytes left hold");
+    v.resize(static_cast<size_t>(n));
+    if (n > 0) std::memcpy(v.data(), b_.data() + at_, static_cast<size_t>(n) * sizeof(T));
+    at_ += static_cast<size_t>(n) * sizeof(T);
+  }
+  void finish() const {
+    if (at_ != b_.size())
+      throw InputError(kWhat, 0, "trailing bytes", std::to_string(b_.size() - at_) + " bytes after the state");
+  }
+
+ private:
+  void need(size_t n, const char* field) const {
+    if (b_.size() - at_ < n) throw InputError(kWhat, 0, field, "truncated: the bytes end inside it");
+  }
+  const std::string& b_;
+  size_t at_ = 0;
+};
+
+}  // namespace
+
+uint64_t model_fingerprint(const Model& m) {
+  Fnv f;
+  f.value(m.fem.num_nodes);
+  f.array(m.fem.rest);
+  f.array(m.fem.elements);
+  f.array(m.fem.mass);
+  f.value(m.time_step);
+  f.value(static_cast<uint64_t>(m.tools.size()));
+  f.value(static_cast<uint8_t>(m.cutting != nullptr));
+  f.value(static_cast<uint8_t>(m.has_damage));
+  return f.h;
+}
+
+std::string encode_state(const State& s, uint64_t fingerprint) {
+  Writer w;
+  for (char c : kMagic) w.value(c);
+  w.value(kVersion);
+  w.value(fingerprint);
+  w.value(static_cast<uint32_t>(sizeof(ToolState)));
+  w.array(s.tissue.x);
+  w.array(s.tissue.v);
+  w.array(s.tissue.dv);
+  w.array(s.tissue.dv_prev);
+  w.array(s.tissue.visco_q);
+  w.array(s.tissue.visco_s0);
+  w.array(s.tools);
+  w.array(s.damage);
+  w.array(s.damage_level);
+  w.array(s.node_mass);
+  w.value(s.damage_count);
+  w.value(s.first_damage_time);
+  w.array(s.face_active);
+  w.array(s.edge_cut);
+  w.value(s.time);
+  w.value(s.step);
+  return w.take();
+}
+
+State decode_state(const std::string& bytes, uint64_t* fingerprint) {
+  Reader r(bytes);
+  char magic[sizeof kMagic];
+  for (char& c : magic) r.value(c, "magic");
+  if (std::memcmp(magic, kMagic, sizeof kMagic) != 0)
+    throw InputError(kWhat, 0, "magic", "not a Stroma state (it does not start with STROMA-STATE)");
+  uint32_t version = 0;
+  r.value(version, "version");
+  if (version != kVersion)
+    throw InputError(kWhat, 0, "version",
+                     "format " + std::to_string(version) + "; this build reads " + std::to_string(kVersion));
+  uint64_t fp = 0;
+  r.value(fp, "fingerprint");
+  uint32_t tool_size = 0;
+  r.value(tool_size, "tool size");
+  if (tool_size != sizeof(ToolState))
+    throw InputError(kWhat, 0, "tool size",
+                     "tools of " + std::to_string(tool_size) + " bytes; this build's are " +
+                         std::to_string(sizeof(ToolState)) + " (written by another build)");
+  State s;
+  r.array(s.tissue.x, "x");
+  r.array(s.tissue.v, "v");
+  r.array(s.tissue.dv, "dv");
+  r.array(s.tissue.dv_prev, "dv_prev");
+  r.array(s.tissue.visco_q, "visco_q");
+  r.array(s.tissue.visco_s0, "visco_s0");
+  r.array(s.tools, "tools");
+  r.array(s.damage, "damage");
+  r.array(s.damage_level, "damage_level");
+  r.array(s.node_mass, "node_mass");
+  r.value(s.damage_count, "damage_count");
+  r.value(s.first_damage_time, "first_damage_time");
+  r.array(s.face_active, "face_active");
+  r.array(s.edge_cut, "edge_cut");
+  r.value(s.time, "time");
+  r.value(s.step, "step");
+  r.finish();
+  if (fingerprint) *fingerprint = fp;
+  return s;
+}
+
+bool state_fits_model(const State& s, const Model& m, std::string* why) {
+  const State ref = State::initial(m);
+  auto check = [&](size_t have, size_t want, const char* what) {
+    if (have == want) return true;
+    if (why) *why = std::string(what) + ": " + std::to_string(have) + " values, the model's state has " + std::to_string(want);
+    return false;
+  };
+  return check(s.tissue.x.size(), ref.tissue.x.size(), "positions") &&
+         check(s.tissue.v.size(), ref.tissue.v.size(), "velocities") &&
+         check(s.tissue.dv.size(), ref.tissue.dv.size(), "warm start") &&
+         check(s.tissue.dv_prev.size(), ref.tissue.dv_prev.size(), "warm start") &&
+         check(s.tissue.visco_q.size(), ref.tissue.visco_q.size(), "visco-elastic branches") &&
+         check(s.tissue.visco_s0.size(), ref.tissue.visco_s0.size(), "visco-elastic stresses") &&
+         check(s.tools.size(), ref.tools.size(), "tools") && check(s.damage.size(), ref.damage.size(), "damage") &&
+         check(s.damage_level.size(), ref.damage_level.size(), "damage levels") &&
+         check(s.node_mass.size(), ref.node_mass.size(), "node masses") &&
+         check(s.face_active.size(), ref.face_active.size(), "collision faces") &&
+         check(s.edge_cut.size(), ref.edge_cut.size(), "edge cuts");
+}
+
+}  // namespace stroma
