@@ -10,6 +10,7 @@
 #include "cli/commands.hpp"
 #include "engine/headless_runner.hpp"
 #include "engine/output_dir.hpp"
+#include "engine/sofa_scene.hpp"
 #include "engine/state_io.hpp"
 #include "tissue/input_error.hpp"
 
@@ -24,6 +25,18 @@ CompiledScenario load(const std::string& path) {
   spdlog::info("scenario '{}': {} bodies, {} nodes, {} tetrahedra, dt {} s", sc.spec.name, sc.spec.bodies.size(),
                sc.model->fem.num_nodes, sc.model->fem.elements.size(), sc.spec.time_step);
   return sc;
+}
+
+int explain_scenario(const std::string& path) {
+  if (!is_sofa_scene_path(path)) {
+    fmt::print("{} is a Stroma scenario already (--explain translates SOFA scenes, .scn)\n", path);
+    return 0;
+  }
+  const SofaTranslation t = translate_sofa_scene_file(path);
+  for (const auto& n : t.notes) fmt::print("# note: {}\n", n);
+  fmt::print("{}", t.yaml);
+  load(path);  // the translation also loads and compiles (else the same error as `run`)
+  return 0;
 }
 
 namespace {
@@ -61,11 +74,15 @@ void add_run(CLI::App& app, std::vector<Command>& out) {
     long steps = -1;
     double duration = -1;
     int vtu_every = 0;
-    bool quiet = false, no_metrics = false;
+    bool quiet = false, no_metrics = false, explain = false;
   };
   auto a = std::make_shared<Args>();
   auto* run = app.add_subcommand("run", "Run a scenario headless as fast as possible and write results");
-  run->add_option("scenario", a->scenario, "Scenario YAML file")->required()->check(CLI::ExistingFile);
+  run->add_option("scenario", a->scenario, "Scenario YAML file, or a SOFA scene (.scn; docs/SOFA.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  run->add_flag("--explain", a->explain,
+                "Print the Stroma scenario a SOFA scene translates to (and what the translation decided), then exit");
   auto* o_steps = run->add_option("--steps", a->steps, "Number of ticks (static: further equilibria after t = 0, "
                                                         "following the tool scripts; overrides run: in the scenario)")
                       ->check(CLI::PositiveNumber);
@@ -83,6 +100,7 @@ void add_run(CLI::App& app, std::vector<Command>& out) {
               "A failed run (a tick that cannot advance, a static solve that does not converge) writes\n"
               "summary.json with \"status\": \"failed\" and no final state. Exit status: 0 ok, 1 failed, 2 bad input.");
   out.push_back({run, [a] {
+                   if (a->explain) return explain_scenario(a->scenario);
                    const CompiledScenario sc = load(a->scenario);
                    RunOptions o;
                    if (a->steps > 0) o.steps = a->steps;
@@ -111,7 +129,7 @@ void add_check(CLI::App& app, std::vector<Command>& out) {
   };
   auto a = std::make_shared<Args>();
   auto* check = app.add_subcommand("check", "Run a scenario and compare its final state to a reference state");
-  check->add_option("scenario", a->scenario, "Scenario YAML file")->required()->check(CLI::ExistingFile);
+  check->add_option("scenario", a->scenario, "Scenario YAML file, or a SOFA scene (.scn)")->required()->check(CLI::ExistingFile);
   check->add_option("reference", a->reference, "Reference state CSV (node,x,y,z), as written by run (final_state.csv)")
       ->required();
   check->add_option("--out", a->out, "Also write the run's outputs here");

@@ -11,7 +11,7 @@ namespace stroma::cli {
 void add_serve(CLI::App& app, std::vector<Command>& out) {
   auto srv = std::make_shared<ServeOptions>();
   auto* serve = app.add_subcommand("serve", "Run a scenario in real time (one tick per time step of wall time) and serve it over DDS");
-  serve->add_option("scenario", srv->scenario, "Scenario YAML file (a dynamic one: static scenarios have no time to serve)")
+  serve->add_option("scenario", srv->scenario, "Scenario YAML file or SOFA scene .scn (a dynamic one: static scenarios have no time to serve)")
       ->required()
       ->check(CLI::ExistingFile);
   serve->add_option("--security", srv->security_dir, "Run a protected domain (DDS Security) with the identity 'server' of this 'stroma security init' directory: only permitted clients command tools, state and feedback are encrypted")->check(CLI::ExistingDirectory);

@@ -27,6 +27,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "engine/scenario_spec.hpp"
+#include "engine/sofa_scene.hpp"
 #include "engine/yaml_schema.hpp"
 #include "tissue/input_error.hpp"
 
@@ -759,6 +760,12 @@ ScenarioSpec parse_scenario(const std::string& yaml_text, const std::string& fil
 
 ScenarioSpec load_scenario(const std::string& path) {
   namespace fs = std::filesystem;
+  if (is_sofa_scene_path(path)) {
+    // A SOFA scene: translated (or refused, naming the scene's line) and then loaded as the
+    // scenario it translates to; `stroma run --explain` prints that scenario.
+    const SofaTranslation t = translate_sofa_scene_file(path);
+    return parse_scenario(t.yaml, path + " (as translated: stroma run --explain)", fs::path(path).parent_path().string());
+  }
   std::error_code ec;
   if (fs::is_directory(path, ec))
     throw InputError(path, 0, "", "cannot open scenario file: it is a directory");

@@ -53,7 +53,8 @@ int main(int argc, char** argv) {
   const Model& m = *sc.model;
   if (steps < 0) {
     const RunSpec& run = sc.spec.run;
-    steps = run.steps ? *run.steps : std::lround(run.duration.value_or(1.0) / m.time_step);
+    // As `stroma run`: the scenario's steps or duration, else 1,000 ticks.
+    steps = run.steps ? *run.steps : run.duration ? std::lround(*run.duration / m.time_step) : 1000;
   }
 
   State s = State::initial(m);  // copy it to take a snapshot; assign it back to roll back
