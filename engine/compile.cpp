@@ -364,6 +364,24 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
     in.density = mat.density;
     in.rayleigh_mass = mat.rayleigh_mass;
     in.rayleigh_stiffness = mat.rayleigh_stiffness;
+    in.uniform_mass = mat.uniform_mass;
+    if (mat.uniform_mass) {
+      // Rupture removes an element's ρV/4 from its nodes and a cut re-lumps its copies by volume:
+      // neither is defined for masses shared equally.
+      const bool region_damage = std::any_of(b.regions.begin(), b.regions.end(), [](const RegionSpec& r) {
+        return r.damage && r.damage->enabled;
+      });
+      if (mat.damage.enabled || region_damage)
+        throw InputError(mat.where.file, mat.where.line, field + ".material.mass_lumping",
+                         "uniform masses with a damage model are not supported (rupture removes each element's "
+                         "ρV/4 from its nodes); use mass_lumping: volume");
+      for (size_t ti = 0; ti < spec.tools.size(); ++ti)
+        if (spec.tools[ti].spec.cuts)
+          throw InputError(mat.where.file, mat.where.line, field + ".material.mass_lumping",
+                           fmt::format("uniform masses on a body that can be cut are not supported (tools[{}] cuts; a "
+                                       "cut re-lumps its element copies by volume); use mass_lumping: volume",
+                                       ti));
+    }
     if (const auto& ve = mat.viscoelastic) {
       const std::string vf = field + ".material.viscoelastic";
       if (ve->model == "kelvin_voigt") {

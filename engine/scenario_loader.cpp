@@ -75,6 +75,7 @@ const Choices<ColorFieldSpec> kColorFields = {{"none", ColorFieldSpec::None},
                                               {"damage", ColorFieldSpec::Damage}};
 const Choices<RotationMethod> kRotationMethods = {{"polar", RotationMethod::Polar},
                                                   {"qr", RotationMethod::QR}};
+const Choices<bool> kMassLumpings = {{"volume", false}, {"uniform", true}};
 
 // ---------------------------------------------------------------------------------------------
 // Section parsers
@@ -283,7 +284,7 @@ LockingFreeSpec parse_locking_free(const Field& f) {
 MaterialSpec parse_material(const Field& f) {
   const MapReader m = f.map({"model", "rotation", "young_modulus", "poisson_ratio", "density",
                              "rayleigh_mass", "rayleigh_stiffness", "damage", "fibres", "viscoelastic",
-                             "locking_free"});
+                             "locking_free", "mass_lumping"});
   MaterialSpec mat;
   mat.where = location_of(m);
   Range nu = open_interval(-1, 0.5);
@@ -304,6 +305,7 @@ MaterialSpec parse_material(const Field& f) {
   beta.note_hi = "s: tissue is 1e-3..1e-1 s";
   m.read("rayleigh_mass", mat.rayleigh_mass, alpha);
   m.read("rayleigh_stiffness", mat.rayleigh_stiffness, beta);
+  m.read("mass_lumping", mat.uniform_mass, kMassLumpings);
   if (auto f2 = m.opt("damage")) mat.damage = parse_damage(*f2);
   if (auto f2 = m.opt("fibres")) {
     mat.fibres = parse_fibres(*f2);

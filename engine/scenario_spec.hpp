@@ -148,6 +148,9 @@ struct MaterialSpec {
   std::optional<FibreSpec> fibres;  ///< fibre reinforcement (hyperelastic models only)
   std::optional<ViscoSpec> viscoelastic;  ///< visco-elasticity (corotational, polar, for now)
   std::optional<LockingFreeSpec> locking_free;  ///< near-incompressibility without locking
+  /// `mass_lumping`: false (`volume`, the default) ρV/4 per tetrahedron node; true (`uniform`)
+  /// the body's mass ΣρV shared equally by its nodes (SOFA's UniformMass).
+  bool uniform_mass = false;
   SourceLocation where;
 };
 

@@ -114,6 +114,7 @@ class Translator {
     std::string model, rotation;
     double young = 0, poisson = 0, density = 0, rayleigh_mass = 0, rayleigh_stiffness = 0;
     std::string mass_note;
+    bool uniform_mass = false;
     std::vector<std::vector<int>> fixed_nodes;
     std::vector<std::array<double, 6>> fixed_boxes;
     std::vector<int> fixed_lines;
@@ -399,13 +400,20 @@ class Translator {
     }
   }
 
-  /// Mesh volume in the scene's units (after the loader's scale), for totalMass.
-  double mesh_volume(const Body& b, const XMLElement* at) const {
+  /// Mesh volume in the scene's units (after the loader's scale), for totalMass; `used` gets the
+  /// number of nodes its tetrahedra use.
+  double mesh_volume(const Body& b, const XMLElement* at, const char* attr, int* used = nullptr) const {
     TetMesh mesh;
     try {
       mesh = load_tet_mesh(b.mesh);
     } catch (const InputError& e) {
-      fail(at, "totalMass", std::string("the body's mesh cannot be read: ") + e.what());
+      fail(at, attr, std::string("the body's mesh cannot be read: ") + e.what());
+    }
+    if (used) {
+      std::vector<char> in(mesh.nodes.size(), 0);
+      for (const Tet& t : mesh.tets)
+        for (int32_t n : t) in[static_cast<size_t>(n)] = 1;
+      *used = static_cast<int>(std::count(in.begin(), in.end(), 1));
     }
     double v = 0;
     for (const Tet& t : mesh.tets) {
@@ -416,17 +424,38 @@ class Translator {
       v += std::abs(u[0] * (w[1] * z[2] - w[2] * z[1]) - u[1] * (w[0] * z[2] - w[2] * z[0]) +
                     u[2] * (w[0] * z[1] - w[1] * z[0])) / 6.0;
     }
-    if (!(v > 0)) fail(at, "totalMass", "the body's mesh has no volume");
+    if (!(v > 0)) fail(at, attr, "the body's mesh has no volume");
     return v * b.scale * b.scale * b.scale;
   }
 
   void mass_of(const XMLElement* m, Body& b) {
     const std::string kind = m->Name();
-    if (kind == "UniformMass")
-      fail(m, "",
-           "UniformMass gives every node the same mass; Stroma lumps each tetrahedron's mass ρV/4 onto its nodes, so "
-           "the two differ on any graded mesh. Use DiagonalMass (massDensity, or totalMass) for the same total "
-           "mass lumped by volume");
+    if (kind == "UniformMass") {
+      // Every node the same mass: `mass_lumping: uniform` with the density that gives the total.
+      allow(m, {"template", "totalMass", "vertexMass"}, true);
+      if (m->Attribute("totalMass") && m->Attribute("vertexMass"))
+        fail(m, "vertexMass", "give totalMass or vertexMass, not both");
+      b.uniform_mass = true;
+      int used = 0;
+      const char* attr = m->Attribute("totalMass") ? "totalMass" : "vertexMass";
+      const double volume = mesh_volume(b, m, attr, &used);
+      double total = 0;
+      if (m->Attribute("totalMass")) {
+        total = number(m, "totalMass");
+        if (!(total > 0)) fail(m, "totalMass", "must be > 0");
+      } else {
+        const double vm = m->Attribute("vertexMass") ? number(m, "vertexMass") : 1.0;
+        if (!m->Attribute("vertexMass"))
+          notes_.push_back(fmt::format("line {}: UniformMass without totalMass or vertexMass: SOFA's default vertexMass 1",
+                                       m->GetLineNum()));
+        if (!(vm > 0)) fail(m, "vertexMass", "must be > 0");
+        total = vm * used;
+      }
+      b.density = total / volume;
+      b.mass_note = fmt::format("UniformMass line {}: {} over {} nodes, each the same (mass_lumping: uniform)",
+                                m->GetLineNum(), num(total), used);
+      return;
+    }
     allow(m, kind == "DiagonalMass" ? std::set<std::string>{"template", "massDensity", "totalMass"}
                                     : std::set<std::string>{"template", "massDensity", "totalMass", "lumping"},
           true);
@@ -439,7 +468,7 @@ class Translator {
     if (has_total) {
       const double total = number(m, "totalMass");
       if (!(total > 0)) fail(m, "totalMass", "must be > 0");
-      b.density = total / mesh_volume(b, m);
+      b.density = total / mesh_volume(b, m, "totalMass");
       b.mass_note = fmt::format("{} line {}: totalMass {} over the mesh's volume, lumped ρV/4 per tetrahedron node",
                                 kind, m->GetLineNum(), num(total));
     } else {
@@ -573,6 +602,7 @@ class Translator {
         y += fmt::format("      rotation: {}{}\n", b.rotation, b.rotation == "qr" ? "   # SOFA's \"large\": the edge frame" : "");
       y += fmt::format("      young_modulus: {}\n      poisson_ratio: {}\n", num(b.young), num(b.poisson));
       y += fmt::format("      density: {}   # {}\n", num(b.density), b.mass_note);
+      if (b.uniform_mass) y += "      mass_lumping: uniform\n";
       y += fmt::format("      rayleigh_mass: {}\n      rayleigh_stiffness: {}\n", num(b.rayleigh_mass),
                        num(b.rayleigh_stiffness));
       if (!b.fixed_nodes.empty() || !b.fixed_boxes.empty()) y += "    fixed:\n";

@@ -168,6 +168,46 @@ TEST(SofaScene, MassesLumpAsStated) {
   const ScenarioSpec mm =
       spec_of(replaced(base, diag, "<MeshMatrixMass name=\"mass\" massDensity=\"1\" lumping=\"true\"/>"));
   EXPECT_EQ(compile_scenario(mm).model->fem.mass, compile_scenario(spec_of(base)).model->fem.mass);
+  // UniformMass: every node the same mass — the total shared (totalMass), or vertexMass each.
+  for (const auto& [uniform, each] : {std::pair<std::string, double>{"totalMass=\"7.5\"", 7.5 / 181},
+                                      std::pair<std::string, double>{"vertexMass=\"0.02\"", 0.02}}) {
+    SCOPED_TRACE(uniform);
+    const ScenarioSpec u = spec_of(replaced(base, diag, "<UniformMass name=\"mass\" " + uniform + "/>"));
+    EXPECT_TRUE(u.bodies[0].material.uniform_mass);
+    const auto mass = compile_scenario(u).model->fem.mass;
+    ASSERT_EQ(mass.size(), 181u);
+    for (double v : mass) EXPECT_NEAR(v, each, 1e-14);
+  }
+}
+
+TEST(MassLumping, UniformSharesTheBodysMassEquallyAndIsRefusedWithDamageOrCutting) {
+  ScenarioSpec spec = load_scenario(kDir + "liver.yaml");
+  spec.probes.clear();
+  spec.tools.clear();
+  const auto by_volume = compile_scenario(spec).model->fem.mass;
+  spec.bodies[0].material.uniform_mass = true;
+  const auto uniform = compile_scenario(spec).model->fem.mass;
+  double a = 0, b = 0;
+  for (size_t i = 0; i < uniform.size(); ++i) a += by_volume[i], b += uniform[i];
+  EXPECT_NEAR(a, b, 1e-12 * a) << "the same body mass";
+  const auto [lo, hi] = std::minmax_element(by_volume.begin(), by_volume.end());
+  EXPECT_GT(*hi / *lo, 2.0) << "the liver's mesh is graded: lumping by volume is not uniform";
+  for (double v : uniform) EXPECT_NEAR(v, b / uniform.size(), 1e-15);
+  // In YAML, and refused where rupture or a cut would re-lump by volume.
+  const std::string text = read(kDir + "regression/liver_probe_damage.yaml");
+  const std::string with = replaced(text, "density: 1,", "density: 1, mass_lumping: uniform,");
+  try {
+    compile_scenario(parse_scenario(with, "damage.yaml", kDir + "regression"));
+    ADD_FAILURE() << "uniform masses with a damage model were accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "bodies[0].material.mass_lumping") << e.what();
+  }
+  try {
+    parse_scenario(replaced(text, "density: 1,", "density: 1, mass_lumping: equal,"), "bad.yaml", kDir + "regression");
+    ADD_FAILURE() << "an unknown lumping was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("uniform"), std::string::npos) << e.what();
+  }
 }
 
 TEST(SofaScene, SolversAndMethodsMapAsDocumented) {
@@ -209,8 +249,8 @@ TEST(SofaScene, WhatIsNotSupportedIsRefusedWithItsLineAndComponent) {
       {"method=\"large\"", "method=\"hexa\"", "TetrahedralCorotationalFEMForceField[FEM].method", "supported are"},
       {"computeGlobalMatrix=\"0\"", "assembling=\"1\"", "TetrahedralCorotationalFEMForceField[FEM].assembling",
        "attribute not supported"},
-      {"<DiagonalMass name=\"mass\" massDensity=\"1\"/>", "<UniformMass name=\"mass\" totalMass=\"1\"/>",
-       "UniformMass[mass]", "same mass"},
+      {"<DiagonalMass name=\"mass\" massDensity=\"1\"/>", "<UniformMass name=\"mass\" totalMass=\"1\" vertexMass=\"1\"/>",
+       "UniformMass[mass].vertexMass", "not both"},
       {"<DiagonalMass name=\"mass\" massDensity=\"1\"/>", "<MeshMatrixMass name=\"mass\" massDensity=\"1\"/>",
        "MeshMatrixMass[mass].lumping", "consistent mass"},
       {"<DiagonalMass name=\"mass\" massDensity=\"1\"/>", "<DiagonalMass name=\"mass\" massDensity=\"1\" totalMass=\"2\"/>",

@@ -82,6 +82,14 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
     m.visco_s0_size += 6 * ne;
   }
   m.ranges.push_back(range);
+  if (b.uniform_mass) {  // the body's mass, the same on every node a tetrahedron uses
+    double total = 0;
+    int32_t used = 0;
+    for (int32_t i = br.node_begin; i < br.node_end; ++i)
+      if (m.mass[i] > 0) total += m.mass[i], ++used;
+    for (int32_t i = br.node_begin; i < br.node_end; ++i)
+      if (m.mass[i] > 0) m.mass[i] = total / used;
+  }
   for (const Tri& f : b.mesh->boundary) br.boundary.push_back({f[0] + node_off, f[1] + node_off, f[2] + node_off});
   for (int32_t i = br.node_begin; i < br.node_end; ++i) {
     m.alpha[i] = b.rayleigh_mass;

@@ -36,10 +36,14 @@ struct FemBodyInput {
   /// Locking-free node smoothing (nodal_smoothing.hpp): the share of the deviatoric stiffness
   /// kept on the elements, in [0, 1]; negative: off (plain elements).
   double locking_free_share = -1;
+  /// Mass lumping: false, each tetrahedron gives ρV/4 to each of its nodes; true, the body's
+  /// mass Σ ρV is shared equally by the nodes its tetrahedra use (SOFA's UniformMass).
+  bool uniform_mass = false;
 };
 
 /// Builds the global model: bodies are concatenated (node and element offsets in order).
-/// Lumped mass: each tetrahedron gives ρV/4 to each of its nodes. Gravity enters f_ext as m·g.
+/// Lumped mass: each tetrahedron gives ρV/4 to each of its nodes (or, for a body with
+/// uniform_mass, the body's mass is shared equally by its used nodes). Gravity enters f_ext as m·g.
 /// `smoothing_matrix_free`: locking-free bodies' node domains are applied by NodalSystem
 /// instead of assembled (nodal_smoothing.hpp; for CG solves — CHOLMOD needs the matrix).
 FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity,
