@@ -41,6 +41,9 @@ void add_serve(CLI::App& app, std::vector<Command>& out) {
                     "so that commands arrive this long before the tick that takes them; 0: fixed schedule")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  serve->add_flag("--crtk", srv->crtk,
+                  "Also expose each tool as a CRTK device in ROS 2's DDS conventions: rt/<tool>/servo_cp, "
+                  "state_command in; measured_cp, measured_cf, operating_state out (docs/CRTK.md)");
   serve->footer(
       "Network: by default every DDS participant is on the loopback interface only, without multicast\n"
       "(secure by default). To serve on a LAN, copy server/cyclonedds-loopback.xml, replace \"lo\" by\n"

@@ -115,6 +115,7 @@ void PhysicsLoop::publish_feedback(const TickReport& r) {
     f.torque = out.feedback.torque;
     f.stiffness = out.feedback.stiffness;
     f.in_contact = out.contacts > 0;
+    f.pose = ts.pose;
   }
   feedback_out.publish();
   feedback_published.fetch_add(1, std::memory_order_release);

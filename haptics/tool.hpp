@@ -215,6 +215,7 @@ struct ToolFeedbackFrame {
   bool in_contact = false;
   std::array<double, 9> stiffness{};
   bool active = false;
+  ToolPose pose;  ///< the tool's pose in this tick (the last command applied)
 };
 
 }  // namespace stroma

@@ -23,6 +23,8 @@
 #include "engine/damage.hpp"
 #include "engine/session_log.hpp"
 #include "engine/state_io.hpp"
+#include "server/command_gate.hpp"
+#include "server/crtk_bridge.hpp"
 #include "server/dds_participant.hpp"
 #include "server/state_publisher.hpp"
 #include "haptics/tool_shape.hpp"
@@ -55,17 +57,6 @@ struct Endpoints {
   dds_entity_t feedback_writer = 0, damage_writer = 0, topology_writer = 0;
   dds_entity_t tool_state_writer = 0, scene_writer = 0;
   dds_entity_t waitset = 0;
-};
-
-/// Counters of the input thread, published in SimStatus.
-/// Every command received is accepted, clamped (then applied), rejected or superseded:
-/// accepted + clamped + rejected + superseded = received.
-struct InputCounters {
-  std::atomic<uint64_t> accepted{0}, clamped{0}, rejected{0}, controls{0}, controls_dropped{0};
-  /// Commands the reader's keep-last history replaced by a newer one of the same tool before
-  /// this thread took them: counted from the gaps in each writer's seq (DDS.md: a client's seq
-  /// increases by one per command), so never seen, neither accepted nor rejected.
-  std::atomic<uint64_t> superseded{0};
 };
 
 /// What became of the --record log (written by the recorder thread; read after it joined).
@@ -164,12 +155,6 @@ void publish_scene(const Endpoints& ep, const CompiledScenario& m, std::vector<P
     const stroma_TissueMesh msg = tissue_mesh_message(surfaces[b], static_cast<uint32_t>(b), session);
     dds_check(dds_write(ep.mesh_writer, &msg), "write stroma_TissueMesh");
   }
-}
-
-int64_t monotonic_ns() {
-  timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
 }
 
 double percentile(std::vector<float> v, int n, double q) {
@@ -288,12 +273,9 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
 /// (never reaching physics when invalid) → each tool's latest-command slot. Latest writer wins
 /// when two clients command the same tool.
 void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool>& stop,
-                  InputCounters& cnt) {
+                  InputCounters& cnt, CrtkBridge* crtk) {
   const Model& m = loop.model();
-  std::vector<ToolPose> last(m.tools.size());
-  std::vector<std::chrono::steady_clock::time_point> last_time(m.tools.size());
-  std::vector<int64_t> last_client_ns(m.tools.size(), 0);
-  std::vector<bool> have_last(m.tools.size(), false);
+  CommandGate gate(loop, cnt);
   void* samples[16] = {nullptr};
   dds_sample_info_t infos[16];
   WriterSeqs seqs;
@@ -344,41 +326,18 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
         for (int k = 0; k < 4; ++k) pose.orientation[k] = c->orientation[k];
         pose.jaw = c->jaw;
         pose.buttons = c->buttons;
-        // Speed check over the client's own clock (arrival times bunch up under network jitter);
-        // the arrival clock only when the client's timestamps do not advance.
-        const auto now = std::chrono::steady_clock::now();
-        double dt = 0.0;
-        if (have_last[tool]) {
-          const int64_t dc = c->client_time_ns - last_client_ns[tool];
-          dt = dc > 0 ? static_cast<double>(dc) * 1e-9
-                      : std::chrono::duration<double>(now - last_time[tool]).count();
-        }
-        const ToolCheck chk = validate_tool_command(m.tools[tool], last[tool], dt, pose);
-        if (chk.result == ToolCheck::Rejected) {
-          cnt.rejected.fetch_add(1);
+        const ToolCheck chk = gate.submit(tool, pose, c->seq, c->client_time_ns);
+        if (chk.result == ToolCheck::Rejected)
           spdlog::debug("tool '{}' command {} rejected: {}", c->tool, c->seq, chk.reason);
-          continue;
-        }
-        (chk.result == ToolCheck::Clamped ? cnt.clamped : cnt.accepted).fetch_add(1);
-        last[tool] = chk.pose;
-        last_time[tool] = now;
-        last_client_ns[tool] = c->client_time_ns;
-        have_last[tool] = true;
-        ToolInput& slot = loop.tool_in[tool]->write_slot();
-        slot.tool = tool;
-        slot.seq = c->seq;
-        slot.client_time_ns = c->client_time_ns;
-        slot.pose = chk.pose;
-        slot.arrival_ns = monotonic_ns();  // the loop's clock (CLOCK_MONOTONIC)
-        loop.tool_in[tool]->publish();
       }
       if (n > 0) dds_return_loan(reader, samples, n);
     }
+    if (crtk) crtk->take_inputs(gate);
   }
 }
 
 /// Feedback thread: one ToolFeedback per active tool per tick, off the physics thread.
-void feedback_thread(PhysicsLoop& loop, const Endpoints& ep) {
+void feedback_thread(PhysicsLoop& loop, const Endpoints& ep, CrtkBridge* crtk) {
   const Model& m = loop.model();
   uint64_t seen = 0;
   stroma_ToolFeedback msg{};
@@ -387,6 +346,7 @@ void feedback_thread(PhysicsLoop& loop, const Endpoints& ep) {
     seen = loop.feedback_published.load();
     if (!loop.feedback_out.update()) continue;
     const FeedbackBatch& b = loop.feedback_out.read_slot();
+    if (crtk) crtk->publish_feedback(b);
     for (int i = 0; i < b.count; ++i) {
       const ToolFeedbackFrame& f = b.frames[i];
       if (!f.active) continue;  // no client: nothing to send
@@ -708,13 +668,15 @@ int run_serve(const ServeOptions& o) {
     // The command and feedback paths are latency-critical too: real-time priority below the
     // physics thread (so a busy machine delays them less), best effort if denied.
     const RealtimeMode io_mode = rt_mode == RealtimeMode::Off ? RealtimeMode::Off : RealtimeMode::Auto;
+    std::unique_ptr<CrtkBridge> crtk;
+    if (o.crtk) crtk = std::make_unique<CrtkBridge>(pp.participant, *model, ep.waitset);
     std::thread inputs([&] {
       setup_realtime_thread(io_mode, -1, 60, 64 * 1024);
-      input_thread(loop, ep, stop, counters);
+      input_thread(loop, ep, stop, counters, crtk.get());
     });
     std::thread feedback([&] {
       setup_realtime_thread(io_mode, -1, 60, 64 * 1024);
-      feedback_thread(loop, ep);
+      feedback_thread(loop, ep, crtk.get());
     });
     std::thread recorder;
     if (record) recorder = std::thread([&] { recorder_thread(loop, record, record_status, o.record_file); });
@@ -745,7 +707,9 @@ int run_serve(const ServeOptions& o) {
                  static_cast<double>(st.budget_ns) * 1e-6, st.over_budget, st.degraded);
     if (!o.stats_file.empty()) {
       std::ofstream f(o.stats_file);
-      f << stats_json(o, *model, loop, rt, pp, counters, status_sent.load(), record_status).dump(2) << '\n';
+      nlohmann::ordered_json j = stats_json(o, *model, loop, rt, pp, counters, status_sent.load(), record_status);
+      if (crtk) j["crtk"] = crtk->stats_json();
+      f << j.dump(2) << '\n';
       if (!f) {
         spdlog::error("cannot write --stats file '{}'", o.stats_file);
         exit_code = 1;

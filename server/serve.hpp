@@ -27,6 +27,8 @@ struct ServeOptions {
   /// Phase-lock the tick schedule so tool commands arrive this long before the tick that takes
   /// them (µs; engine/phase_lock.hpp); 0: free-running schedule. Must be < the period.
   double phase_lead_us = 200;
+  /// --crtk: also expose each tool as a CRTK device on ROS 2's DDS conventions (docs/CRTK.md).
+  bool crtk = false;
 };
 
 /// Runs the server; returns the process exit code (0 clean, 1 runtime fault, 2 bad input).

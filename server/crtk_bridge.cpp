@@ -1,0 +1,231 @@
+#include "server/crtk_bridge.hpp"
+
+#include <time.h>
+
+#include <cmath>
+#include <cstring>
+
+#include <spdlog/spdlog.h>
+
+#include "ros_crtk.h"
+#include "server/dds_participant.hpp"
+
+namespace stroma {
+
+namespace {
+
+using PoseStamped = geometry_msgs_msg_dds__PoseStamped_;
+using WrenchStamped = geometry_msgs_msg_dds__WrenchStamped_;
+using OperatingState = crtk_msgs_msg_dds__OperatingState_;
+using StringStamped = crtk_msgs_msg_dds__StringStamped_;
+
+char kWorldFrame[] = "world";
+
+/// ROS time: the system clock (what a ROS 2 node's stamps are).
+builtin_interfaces_msg_dds__Time_ ros_now() {
+  timespec ts;
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return {static_cast<int32_t>(ts.tv_sec), static_cast<uint32_t>(ts.tv_nsec)};
+}
+
+int64_t stamp_ns(const builtin_interfaces_msg_dds__Time_& t) {
+  return static_cast<int64_t>(t.sec) * 1000000000LL + static_cast<int64_t>(t.nanosec);
+}
+
+dds_qos_t* qos(bool reliable, bool transient_local, int depth) {
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT, DDS_MSECS(100));
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
+  if (transient_local) dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  return q;
+}
+
+}  // namespace
+
+const char* crtk_state_name(CrtkState s) {
+  switch (s) {
+    case CrtkState::Disabled: return "DISABLED";
+    case CrtkState::Enabled: return "ENABLED";
+    case CrtkState::Paused: return "PAUSED";
+    case CrtkState::Fault: return "FAULT";
+  }
+  return "DISABLED";
+}
+
+struct CrtkBridge::Tool {
+  std::string name;
+  dds_entity_t servo_reader = 0, command_reader = 0;
+  dds_entity_t cp_writer = 0, cf_writer = 0, state_writer = 0;
+  std::atomic<CrtkState> state{CrtkState::Disabled};
+  uint64_t seq = 0;  ///< servo_cp samples taken (the gate's seq for this source)
+};
+
+CrtkBridge::CrtkBridge(dds_entity_t pp, const Model& model, dds_entity_t waitset) : model_(model) {
+  dds_qos_t* q_servo = qos(false, false, 1);       // pre-emptive: only the newest pose matters
+  dds_qos_t* q_command = qos(true, false, 16);     // state commands are few and must not be lost
+  dds_qos_t* q_measured = qos(true, false, 1);     // reliable keep-last 1: matches ROS 2's default
+                                                   // (reliable) and sensor-data (best effort) readers
+  dds_qos_t* q_state = qos(true, true, 1);         // the current state, for late joiners too
+  for (const ToolSpec& spec : model.tools) {
+    auto t = std::make_unique<Tool>();
+    t->name = spec.name;
+    const std::string ns = "rt/" + spec.name + "/";
+    auto topic = [&](const dds_topic_descriptor_t* d, const char* leaf) {
+      const std::string name = ns + leaf;
+      return dds_check(dds_create_topic(pp, d, name.c_str(), nullptr, nullptr), "CRTK topic");
+    };
+    const dds_entity_t servo = topic(&geometry_msgs_msg_dds__PoseStamped__desc, "servo_cp");
+    const dds_entity_t command = topic(&crtk_msgs_msg_dds__StringStamped__desc, "state_command");
+    const dds_entity_t cp = topic(&geometry_msgs_msg_dds__PoseStamped__desc, "measured_cp");
+    const dds_entity_t cf = topic(&geometry_msgs_msg_dds__WrenchStamped__desc, "measured_cf");
+    const dds_entity_t st = topic(&crtk_msgs_msg_dds__OperatingState__desc, "operating_state");
+    t->servo_reader = dds_check(dds_create_reader(pp, servo, q_servo, nullptr), "CRTK reader servo_cp");
+    t->command_reader = dds_check(dds_create_reader(pp, command, q_command, nullptr), "CRTK reader state_command");
+    t->cp_writer = dds_check(dds_create_writer(pp, cp, q_measured, nullptr), "CRTK writer measured_cp");
+    t->cf_writer = dds_check(dds_create_writer(pp, cf, q_measured, nullptr), "CRTK writer measured_cf");
+    t->state_writer = dds_check(dds_create_writer(pp, st, q_state, nullptr), "CRTK writer operating_state");
+    for (const dds_entity_t r : {t->servo_reader, t->command_reader}) {
+      const dds_entity_t rc = dds_check(dds_create_readcondition(r, DDS_ANY_STATE), "CRTK read condition");
+      dds_check(dds_waitset_attach(waitset, rc, r), "CRTK waitset attach");
+    }
+    publish_state(*t);
+    tools_.push_back(std::move(t));
+  }
+  dds_delete_qos(q_servo);
+  dds_delete_qos(q_command);
+  dds_delete_qos(q_measured);
+  dds_delete_qos(q_state);
+  spdlog::info("CRTK: {} tool(s) as ROS 2 devices: rt/<tool>/{{servo_cp, state_command}} in, "
+               "rt/<tool>/{{measured_cp, measured_cf, operating_state}} out (docs/CRTK.md)",
+               tools_.size());
+}
+
+CrtkBridge::~CrtkBridge() = default;
+
+CrtkState CrtkBridge::state(int tool) const { return tools_[tool]->state.load(); }  // the participant's deletion takes its entities along
+
+void CrtkBridge::publish_state(Tool& t) {
+  OperatingState msg{};
+  msg.header.stamp = ros_now();
+  msg.header.frame_id = kWorldFrame;
+  msg.state = const_cast<char*>(crtk_state_name(t.state.load()));
+  msg.is_homed = true;
+  msg.is_busy = false;
+  dds_write(t.state_writer, &msg);
+}
+
+void CrtkBridge::set_state(Tool& t, CrtkState s) {
+  if (t.state.load() == s) return;
+  spdlog::info("CRTK: tool '{}' {} -> {}", t.name, crtk_state_name(t.state.load()), crtk_state_name(s));
+  t.state.store(s);
+  publish_state(t);
+}
+
+void CrtkBridge::take_commands(Tool& t) {
+  void* samples[16] = {nullptr};
+  dds_sample_info_t infos[16];
+  const dds_return_t n = dds_take(t.command_reader, samples, infos, 16, 16);
+  for (dds_return_t i = 0; i < n; ++i) {
+    if (!infos[i].valid_data) continue;
+    const auto* c = static_cast<const StringStamped*>(samples[i]);
+    const std::string cmd = c->string ? c->string : "";
+    const CrtkState s = t.state.load();
+    bool ok = stamp_ns(c->header.stamp) != 0;
+    if (ok) {
+      if (cmd == "enable") set_state(t, CrtkState::Enabled);
+      else if (cmd == "disable") set_state(t, CrtkState::Disabled);
+      else if (cmd == "pause" && (s == CrtkState::Enabled || s == CrtkState::Paused)) set_state(t, CrtkState::Paused);
+      else if (cmd == "resume" && (s == CrtkState::Paused || s == CrtkState::Enabled)) set_state(t, CrtkState::Enabled);
+      else ok = false;
+    }
+    if (ok) {
+      cnt_.commands_accepted.fetch_add(1);
+    } else {
+      cnt_.commands_refused.fetch_add(1);
+      spdlog::debug("CRTK: tool '{}' state command '{}' refused in state {}", t.name, cmd, crtk_state_name(s));
+    }
+  }
+  if (n > 0) dds_return_loan(t.command_reader, samples, n);
+}
+
+void CrtkBridge::take_servo(Tool& t, int index, CommandGate& gate) {
+  void* samples[16] = {nullptr};
+  dds_sample_info_t infos[16];
+  const dds_return_t n = dds_take(t.servo_reader, samples, infos, 16, 16);
+  for (dds_return_t i = 0; i < n; ++i) {
+    if (!infos[i].valid_data) continue;
+    const auto* c = static_cast<const PoseStamped*>(samples[i]);
+    const int64_t stamp = stamp_ns(c->header.stamp);
+    const auto& p = c->pose.position;
+    const auto& q = c->pose.orientation;
+    if (stamp == 0) {
+      cnt_.servo_invalid.fetch_add(1);
+      continue;
+    }
+    bool finite = true;
+    for (double v : {p.x, p.y, p.z, q.x, q.y, q.z, q.w}) finite = finite && std::isfinite(v);
+    if (!finite) {
+      cnt_.servo_non_finite.fetch_add(1);
+      continue;
+    }
+    if (t.state.load() != CrtkState::Enabled) {
+      cnt_.servo_not_enabled.fetch_add(1);
+      continue;
+    }
+    ToolPose pose;
+    pose.position = {p.x, p.y, p.z};
+    pose.orientation = {q.w, q.x, q.y, q.z};  // ROS (x, y, z, w) -> Stroma (w, x, y, z)
+    const ToolCheck chk = gate.submit(index, pose, ++t.seq, stamp);
+    if (chk.result == ToolCheck::Rejected) {
+      cnt_.servo_limits.fetch_add(1);
+      spdlog::warn("CRTK: tool '{}' servo_cp rejected ({}): FAULT until enabled again", t.name, chk.reason);
+      set_state(t, CrtkState::Fault);
+    } else {
+      cnt_.servo_accepted.fetch_add(1);
+    }
+  }
+  if (n > 0) dds_return_loan(t.servo_reader, samples, n);
+}
+
+void CrtkBridge::take_inputs(CommandGate& gate) {
+  for (size_t k = 0; k < tools_.size(); ++k) {
+    take_commands(*tools_[k]);
+    take_servo(*tools_[k], static_cast<int>(k), gate);
+  }
+}
+
+void CrtkBridge::publish_feedback(const FeedbackBatch& b) {
+  PoseStamped cp{};
+  WrenchStamped cf{};
+  const auto now = ros_now();
+  for (int i = 0; i < b.count; ++i) {
+    const ToolFeedbackFrame& f = b.frames[i];
+    if (f.tool < 0 || static_cast<size_t>(f.tool) >= tools_.size()) continue;
+    Tool& t = *tools_[f.tool];
+    cp.header.stamp = now;
+    cp.header.frame_id = kWorldFrame;
+    cp.pose.position = {f.pose.position[0], f.pose.position[1], f.pose.position[2]};
+    cp.pose.orientation = {f.pose.orientation[1], f.pose.orientation[2], f.pose.orientation[3], f.pose.orientation[0]};
+    dds_write(t.cp_writer, &cp);
+    cf.header = cp.header;
+    cf.wrench.force = {f.force[0], f.force[1], f.force[2]};
+    cf.wrench.torque = {f.torque[0], f.torque[1], f.torque[2]};
+    dds_write(t.cf_writer, &cf);
+  }
+}
+
+nlohmann::ordered_json CrtkBridge::stats_json() const {
+  nlohmann::ordered_json j;
+  j["servo_cp"] = {{"accepted", cnt_.servo_accepted.load()},
+                   {"refused_invalid_stamp", cnt_.servo_invalid.load()},
+                   {"refused_non_finite", cnt_.servo_non_finite.load()},
+                   {"refused_not_enabled", cnt_.servo_not_enabled.load()},
+                   {"refused_limits", cnt_.servo_limits.load()}};
+  j["state_command"] = {{"accepted", cnt_.commands_accepted.load()}, {"refused", cnt_.commands_refused.load()}};
+  nlohmann::ordered_json states;
+  for (const auto& t : tools_) states[t->name] = crtk_state_name(t->state.load());
+  j["operating_state"] = states;
+  return j;
+}
+
+}  // namespace stroma
