@@ -79,7 +79,7 @@ class Translator {
     if (!root) throw InputError(file_, 0, "", "no root element: a SOFA scene is a <Node>");
     if (std::string(root->Name()) != "Node")
       fail(root, "", fmt::format("the root element is <{}>; a SOFA scene's root is a <Node>", root->Name()));
-    allow(root, {"gravity", "dt"});
+    allow(root, {"gravity", "dt", "bbox"});  // bbox: the viewer's bounding box
     gravity_ = {0, -9.81, 0};
     if (root->Attribute("gravity")) {
       const auto g = numbers(root, "gravity");
@@ -200,7 +200,7 @@ class Translator {
   }
 
   void walk(const XMLElement* node, Solvers solvers) {
-    allow(node, node->Parent() == node->GetDocument() ? std::set<std::string>{"gravity", "dt"} : std::set<std::string>{});
+    allow(node, node->Parent() == node->GetDocument() ? std::set<std::string>{"gravity", "dt", "bbox"} : std::set<std::string>{});
     std::map<std::string, const XMLElement*> named;
     const XMLElement *mo = nullptr, *fem = nullptr, *mass = nullptr, *topology = nullptr;
     const XMLElement *own_ode = nullptr, *own_linear = nullptr;
@@ -545,10 +545,12 @@ class Translator {
     allow(mapping, {"template", "input", "output"});
     if (!mapping->Attribute("input") || !mapping->Attribute("output"))
       fail(mapping, mapping->Attribute("input") ? "output" : "input", "missing: input=\"@../dofs\" output=\"@visual\"");
+    // The parent node ("@.." / "@../": SOFA takes its mechanical state) or its MechanicalObject.
     std::string in = mapping->Attribute("input");
     const std::string mo_name = mo->Attribute("name") ? mo->Attribute("name") : "";
-    if (in.rfind("@../", 0) != 0 || in.substr(4) != mo_name)
-      fail(mapping, "input", fmt::format("'{}': must be the body's MechanicalObject (@../{})", in, mo_name));
+    const bool parent = in == "@.." || in == "@../" || (in.rfind("@../", 0) == 0 && in.substr(4) == mo_name);
+    if (!parent)
+      fail(mapping, "input", fmt::format("'{}': must be the body's MechanicalObject (@../{}) or its node (@..)", in, mo_name));
     const std::string out = link_target(mapping, "output");
     if (!named.count(out) || named.at(out) != ogl)
       fail(mapping, "output", fmt::format("'{}' is not this node's OglModel", out));

@@ -68,10 +68,6 @@ InputError error_of(const std::string& xml) {
   return InputError("", 0, "", "");
 }
 
-int line_of(const std::string& text, const std::string& needle) {
-  const size_t at = text.find(needle);
-  return at == std::string::npos ? -1 : 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
-}
 /// The line of the first element named exactly `name` in `xml`.
 int element_line(const std::string& xml, const std::string& name) {
   for (size_t at = xml.find("<" + name); at != std::string::npos; at = xml.find("<" + name, at + 1)) {
@@ -156,8 +152,9 @@ TEST(SofaScene, MassesLumpAsStated) {
   // The body's mass: ρ × Σ element volumes (the lumped node masses sum to it, fixed nodes' shares
   // included).
   auto total_mass = [](const ScenarioSpec& s) {
+    const CompiledScenario sc = compile_scenario(s);
     double v = 0;
-    for (const ElementParams& e : compile_scenario(s).model->fem.elements) v += e.volume;
+    for (const ElementParams& e : sc.model->fem.elements) v += e.volume;
     return s.bodies[0].material.density * v;
   };
   // totalMass: the density that gives it, lumped by volume as massDensity is.
@@ -226,6 +223,8 @@ TEST(SofaScene, SolversAndMethodsMapAsDocumented) {
   const std::string tet = "<TetrahedralCorotationalFEMForceField template=\"Vec3d\" name=\"FEM\" method=\"large\"";
   const ScenarioSpec svd = spec_of(replaced(base, tet, "<TetrahedronFEMForceField name=\"FEM\" method=\"svd\""));
   EXPECT_EQ(svd.bodies[0].material.rotation, RotationMethod::Polar);
+  // The mapping's input as the parent node, as many SOFA examples write it.
+  EXPECT_TRUE(spec_of(replaced(base, "input=\"@../dofs\"", "input=\"@..\"")).bodies[0].visual);
   // A scaled, translated mesh: the loader's scale and translation become the body's.
   const ScenarioSpec moved = spec_of(replaced(base, "filename=\"../meshes/liver.msh\"",
                                               "filename=\"../meshes/liver.msh\" scale=\"0.025\" translation=\"0 1 0\""));

@@ -24,6 +24,7 @@
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
 
+#include "fastdds_loopback.hpp"
 #include "stromaPubSubTypes.h"
 
 using namespace eprosima::fastdds::dds;
@@ -37,28 +38,7 @@ int main(int argc, char** argv) {
   const int domain = std::atoi(argv[1]);
   const double seconds = argc > 2 ? std::atof(argv[2]) : 3.0;
 
-  DomainParticipantQos pq;
-  pq.name("stroma_fastdds_interop");
-  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
-  udp->interfaceWhiteList.push_back("127.0.0.1");
-  pq.transport().use_builtin_transports = false;
-  pq.transport().user_transports.push_back(udp);
-  Locator_t peer;
-  eprosima::fastrtps::rtps::IPLocator::setIPv4(peer, 127, 0, 0, 1);
-  pq.wire_protocol().builtin.initialPeersList.push_back(peer);
-  // Unicast-only metatraffic on loopback (no multicast discovery).
-  Locator_t meta;
-  eprosima::fastrtps::rtps::IPLocator::setIPv4(meta, 127, 0, 0, 1);
-  pq.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(meta);
-  Locator_t user;
-  eprosima::fastrtps::rtps::IPLocator::setIPv4(user, 127, 0, 0, 1);
-  pq.wire_protocol().default_unicast_locator_list.push_back(user);
-
-  DomainParticipant* pp = DomainParticipantFactory::get_instance()->create_participant(domain, pq);
-  if (!pp) {
-    std::fprintf(stderr, "cannot create the Fast DDS participant\n");
-    return 1;
-  }
+  DomainParticipant* pp = stroma_interop::loopback_participant(domain, "stroma_fastdds_interop");
   TypeSupport cmd_type(new stroma::ToolCommandPubSubType());
   TypeSupport fb_type(new stroma::ToolFeedbackPubSubType());
   cmd_type.register_type(pp);
