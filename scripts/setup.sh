@@ -11,8 +11,8 @@ PACKAGES=(
   libeigen3-dev libsuitesparse-dev libopenblas0-pthread
   # scenario files, CLI, logging
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
-  # SOFA scenes (.scn XML)
-  libtinyxml2-dev
+  # SOFA scenes (.scn XML); compressed VTU meshes (zlib)
+  libtinyxml2-dev zlib1g-dev
   # DDS (Eclipse Cyclone DDS C API + idlc; its DDS Security plugins come with libddsc), and
   # openssl for `stroma security init`
   cyclonedds-dev cyclonedds-tools openssl

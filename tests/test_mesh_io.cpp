@@ -199,6 +199,62 @@ TEST(MeshIoFixtures, VtuBinaryUInt64HeaderBigEndian) {
   EXPECT_EQ(m.tets, kTwoTets);
 }
 
+// Written by VTK itself (scripts/meshes/write_vtu_variants.py, VTK 9.1 from Debian's
+// python3-vtk9): every layout its XML writer produces, VTK's default (appended raw zlib) first.
+const char* const kVtkLayouts[] = {"tet2_vtk_appended_raw_zlib.vtu",   "tet2_vtk_appended_raw_u32.vtu",
+                                   "tet2_vtk_appended_base64_zlib.vtu", "tet2_vtk_inline_zlib.vtu",
+                                   "tet2_vtk_appended_zlib_blocks.vtu", "tet2_vtk_appended_raw_zlib_big_endian.vtu"};
+
+TEST(MeshIoFixtures, VtkWrittenVtuInEveryLayout) {
+  for (const char* name : kVtkLayouts) {
+    SCOPED_TRACE(name);
+    const TetMesh m = load_tet_mesh(fixture(name));
+    EXPECT_EQ(m.nodes, kBinaryPoints);
+    EXPECT_EQ(m.tets, kTwoTets);
+    EXPECT_EQ(m.tet_tags, (std::vector<int32_t>{1, 3})) << "the cell array `region` of the two tetrahedra";
+  }
+}
+
+/// The message of the InputError that reading `text` as a VTU throws ("" if it loads).
+std::string vtu_error(const std::string& text) {
+  std::istringstream in(text);
+  try {
+    read_vtu(in, "x.vtu");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(MeshIoErrors, VtuCorruptCompressedDataTruncatedAppendedDataAndBadOffsets) {
+  std::ifstream f(fixture("tet2_vtk_appended_raw_zlib.vtu"), std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const std::string good = ss.str();
+  ASSERT_EQ(vtu_error(good), "");
+  const size_t data = good.find('_', good.find("<AppendedData")) + 1;
+  // The Points array's block: its offset attribute (VTK pads it with spaces).
+  const size_t tag = good.find("Name=\"Points\"");
+  const size_t off_attr = good.find("offset=\"", tag) + 8;
+  const size_t points = data + std::stoul(good.substr(off_attr, good.find('"', off_attr) - off_attr));
+  // Its header (UInt64: #blocks, block size, last size, one compressed size) is 32 bytes; byte
+  // 40 lies in its zlib stream.
+  std::string corrupt = good;
+  corrupt[points + 40] = static_cast<char>(corrupt[points + 40] ^ 0x5a);
+  EXPECT_NE(vtu_error(corrupt).find("does not inflate"), std::string::npos) << vtu_error(corrupt);
+  for (size_t keep : {size_t{0}, size_t{10}, size_t{36}, size_t{60}}) {
+    const std::string e = vtu_error(good.substr(0, points + keep));
+    EXPECT_TRUE(e.find("too short") != std::string::npos || e.find("runs past") != std::string::npos ||
+                e.find("truncated") != std::string::npos || e.find("beyond") != std::string::npos)
+        << keep << ": " << e;
+  }
+  std::string far = good;
+  far.replace(off_attr, good.find('"', off_attr) - off_attr, "99999999");
+  EXPECT_NE(vtu_error(far).find("beyond the appended data"), std::string::npos) << vtu_error(far);
+  std::string no_data = good.substr(0, good.find("<AppendedData")) + "</VTKFile>\n";
+  EXPECT_NE(vtu_error(no_data).find("no <AppendedData>"), std::string::npos) << vtu_error(no_data);
+}
+
 TEST(MeshIoFixtures, StreamReadersKeepSourceAndExtensionIsCaseInsensitive) {
   std::ifstream in(fixture("tet2_v41.msh"));
   std::stringstream text;
@@ -406,14 +462,19 @@ TEST(MeshIoErrors, VtuNotVtk) {
                      {"not a VTK XML file"});
 }
 
-TEST(MeshIoErrors, VtuCompressedBinary) {
-  std::istringstream in(
+TEST(MeshIoErrors, VtuCompressedHeaderTruncatedAndUnknownCompressor) {
+  const std::string text =
       "<VTKFile type=\"UnstructuredGrid\" compressor=\"vtkZLibDataCompressor\">\n"
       "<UnstructuredGrid><Piece NumberOfPoints=\"1\" NumberOfCells=\"0\">\n<Points>\n"
       "<DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"binary\">AAAA</DataArray>\n"
-      "</Points></Piece></UnstructuredGrid></VTKFile>\n");
-  expect_input_error([&] { read_vtu(in, "z.vtu"); }, "z.vtu", 4, "Points",
-                     {"compressed binary data", "vtkZLibDataCompressor"});
+      "</Points></Piece></UnstructuredGrid></VTKFile>\n";
+  std::istringstream in(text);
+  expect_input_error([&] { read_vtu(in, "z.vtu"); }, "z.vtu", 4, "Points", {"compressed DataArray too short"});
+  std::string lz4 = text;
+  lz4.replace(lz4.find("vtkZLibDataCompressor"), 21, "vtkLZ4DataCompressor");
+  std::istringstream in2(lz4);
+  expect_input_error([&] { read_vtu(in2, "lz4.vtu"); }, "lz4.vtu", 1, "VTKFile",
+                     {"compressor 'vtkLZ4DataCompressor' is not supported"});
 }
 
 }  // namespace

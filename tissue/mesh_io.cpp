@@ -21,6 +21,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include <zlib.h>
+
 #include "tissue/input_error.hpp"
 #include "tissue/text_scan.hpp"
 
@@ -1079,6 +1081,32 @@ class VtuReader {
                                          clip(header_type)));
     header_size_ = header_type == "UInt64" ? 8 : 4;
     compressor_ = xml_attribute(root->tag, "compressor").value_or("");
+    if (!compressor_.empty() && compressor_ != "vtkZLibDataCompressor")
+      ctx_.fail(root->begin, fmt::format("compressor '{}' is not supported (vtkZLibDataCompressor, VTK's default, is)",
+                                         clip(compressor_)));
+    // Appended data (VTK's default): after the XML, `<AppendedData encoding="raw|base64">_`
+    // and the arrays' blocks at their `offset`s. The XML before it is all that is scanned for
+    // tags (raw bytes may hold anything).
+    if (const auto appended = find_tag("AppendedData", root->content_begin, doc_.size())) {
+      ctx_.field = "AppendedData";
+      const auto encoding = xml_attribute(appended->tag, "encoding").value_or("");
+      if (encoding != "raw" && encoding != "base64")
+        ctx_.fail(appended->begin, fmt::format("AppendedData encoding '{}' is not supported (raw or base64)", clip(encoding)));
+      appended_raw_ = encoding == "raw";
+      size_t u = appended->content_begin;
+      while (u < doc_.size() && is_space(doc_[u])) ++u;
+      if (u >= doc_.size() || doc_[u] != '_') ctx_.fail(appended->begin, "appended data must start with '_'");
+      appended_begin_ = u + 1;
+      appended_end_ = doc_.size();
+      if (!appended_raw_) {
+        const size_t close = doc_.find('<', appended_begin_);
+        if (close != kNoPos) appended_end_ = close;
+      } else {
+        ctx_.binary_from = appended_begin_;
+      }
+      has_appended_ = true;
+      doc_ = doc_.substr(0, appended->begin);
+    }
 
     ctx_.field = "Piece";
     const auto piece = find_tag("Piece", root->content_begin, doc_.size());
@@ -1230,7 +1258,8 @@ class VtuReader {
   std::vector<T> read_array(const XmlTag& array, size_t count, std::string_view field,
                             std::string_view what) {
     ctx_.field = std::string(field);
-    const size_t content_end = find_closing("DataArray", array);
+    // The values end at the first '<': VTK writes child elements (InformationKey) after them.
+    const size_t content_end = std::min(find_closing("DataArray", array), doc_.find('<', array.content_begin));
     const auto type_name = xml_attribute(array.tag, "type").value_or("");
     const auto type = xml_vtk_type(type_name);
     if (!type) ctx_.fail(array.begin, fmt::format("unknown DataArray type '{}'", clip(type_name)));
@@ -1244,42 +1273,108 @@ class VtuReader {
         ctx_.fail(sc.pos(), fmt::format("more values than the {} expected {}", count, what));
       return values;
     }
-    if (format == "binary") return decode_binary<T>(array, content_end, count, *type);
-    if (format == "appended" || array.self_closing)
-      ctx_.fail(array.begin,
-                "format=\"appended\" DataArrays are not supported; save with ascii or binary "
-                "(inline) data");
+    if (format == "binary") {
+      const std::vector<unsigned char> bytes = decode_base64(array.content_begin, content_end);
+      return decode_block<T>(array, bytes.data(), bytes.size(), count, *type);
+    }
+    if (format == "appended") {
+      if (!has_appended_) ctx_.fail(array.begin, "format=\"appended\" but the file has no <AppendedData>");
+      const auto offset_text = xml_attribute(array.tag, "offset");
+      uint64_t offset = 0;
+      if (!offset_text || !parse_number(trim(*offset_text), offset))
+        ctx_.fail(array.begin, "an appended DataArray needs offset=\"N\" (bytes into the appended data)");
+      if (offset > appended_end_ - appended_begin_)
+        ctx_.fail(array.begin, fmt::format("offset {} lies beyond the appended data ({} bytes)", offset,
+                                           appended_end_ - appended_begin_));
+      const size_t at = appended_begin_ + static_cast<size_t>(offset);
+      if (appended_raw_)
+        return decode_block<T>(array, reinterpret_cast<const unsigned char*>(ctx_.text.data()) + at,
+                               appended_end_ - at, count, *type);
+      // base64: each array's block is its own base64 text from its offset on; decoding to the end
+      // of the section yields it first (the blocks after it are not read).
+      const std::vector<unsigned char> bytes = decode_base64(at, appended_end_);
+      return decode_block<T>(array, bytes.data(), bytes.size(), count, *type);
+    }
     ctx_.fail(array.begin, fmt::format("unknown DataArray format '{}'", clip(format)));
   }
 
-  /// Inline binary: base64 of [byte count header][raw values], in the file's byte order.
+  /// One array's binary block (`bytes`, `avail` of them readable), in the file's byte order:
+  /// uncompressed [byte count][values], or with zlib [#blocks][block size][last block's size]
+  /// [compressed size of each block][the compressed blocks] (VTK's layout), header fields
+  /// header_type wide. Every size is checked against what is there before it is used, and
+  /// inflated output against what the header announced, so a corrupt or hostile file is an
+  /// InputError, never a huge allocation.
   template <class T>
-  std::vector<T> decode_binary(const XmlTag& array, size_t content_end, size_t count,
-                               ScalarType type) {
-    if (!compressor_.empty())
-      ctx_.fail(array.begin,
-                fmt::format("compressed binary data (compressor=\"{}\") is not supported; save "
-                            "uncompressed or as ascii",
-                            clip(compressor_)));
-    const std::vector<unsigned char> bytes = decode_base64(array.content_begin, content_end);
-    if (bytes.size() < header_size_)
-      ctx_.fail(array.begin, "binary DataArray too short for its size header");
-    const uint64_t nbytes = load_bits(bytes.data(), static_cast<int>(header_size_), big_endian_);
-    // A count the data cannot hold is refused before count × size is formed: a huge count (an
-    // offset read from the file) would wrap the product and pass the checks below.
-    if (count > (bytes.size() - header_size_) / static_cast<size_t>(type.size))
-      ctx_.fail(array.begin, fmt::format("truncated binary DataArray: {} values expected, {} bytes present", count,
-                                         bytes.size() - header_size_));
+  std::vector<T> decode_block(const XmlTag& array, const unsigned char* bytes, size_t avail, size_t count,
+                              ScalarType type) {
+    const size_t hs = header_size_;
+    // A count the data cannot hold is refused before count × size is formed.
+    if (count > std::numeric_limits<size_t>::max() / 16)
+      ctx_.fail(array.begin, fmt::format("{} values is more than any file holds", count));
     const size_t expected = count * static_cast<size_t>(type.size);
-    if (nbytes != expected)
+    if (compressor_.empty()) {
+      if (avail < hs) ctx_.fail(array.begin, "binary DataArray too short for its size header");
+      const uint64_t nbytes = load_bits(bytes, static_cast<int>(hs), big_endian_);
+      if (nbytes != expected)
+        ctx_.fail(array.begin,
+                  fmt::format("binary DataArray holds {} bytes; expected {} for {} values", nbytes, expected, count));
+      if (avail - hs < expected)
+        ctx_.fail(array.begin,
+                  fmt::format("truncated binary DataArray: {} bytes announced, {} present", expected, avail - hs));
+      return decode_values<T>(bytes + hs, count, type, big_endian_);
+    }
+    if (avail < 3 * hs) ctx_.fail(array.begin, "compressed DataArray too short for its header");
+    const uint64_t nblocks = load_bits(bytes, static_cast<int>(hs), big_endian_);
+    const uint64_t block = load_bits(bytes + hs, static_cast<int>(hs), big_endian_);
+    const uint64_t last = load_bits(bytes + 2 * hs, static_cast<int>(hs), big_endian_);
+    if (nblocks > (avail - 3 * hs) / hs)
+      ctx_.fail(array.begin, fmt::format("compressed DataArray announces {} blocks; its header is truncated", nblocks));
+    // The uncompressed size the header announces, without overflow.
+    const uint64_t last_size = last == 0 ? block : last;
+    uint64_t total = 0;
+    if (nblocks > 0 && (last_size > block || __builtin_mul_overflow(nblocks - 1, block, &total) ||
+                        __builtin_add_overflow(total, last_size, &total)))
+      ctx_.fail(array.begin, fmt::format("compressed DataArray: {} blocks of {} bytes, the last {}: inconsistent",
+                                         nblocks, block, last));
+    if (total != expected)
       ctx_.fail(array.begin,
-                fmt::format("binary DataArray holds {} bytes; expected {} for {} values", nbytes,
-                            expected, count));
-    if (bytes.size() - header_size_ < expected)
-      ctx_.fail(array.begin,
-                fmt::format("truncated binary DataArray: {} bytes announced, {} present", expected,
-                            bytes.size() - header_size_));
-    return decode_values<T>(bytes.data() + header_size_, count, type, big_endian_);
+                fmt::format("compressed DataArray holds {} bytes; expected {} for {} values", total, expected, count));
+    const unsigned char* sizes = bytes + 3 * hs;
+    size_t at = 3 * hs + static_cast<size_t>(nblocks) * hs;
+    std::vector<unsigned char> out;
+    out.reserve(std::min<size_t>(expected, size_t{1} << 24));  // grows with what really inflates
+    unsigned char chunk[16384];
+    for (uint64_t b = 0; b < nblocks; ++b) {
+      const uint64_t csize = load_bits(sizes + b * hs, static_cast<int>(hs), big_endian_);
+      if (csize > avail - at)
+        ctx_.fail(array.begin, fmt::format("compressed block {} of {} bytes runs past the data", b, csize));
+      if (csize > std::numeric_limits<uInt>::max())
+        ctx_.fail(array.begin, fmt::format("compressed block {} of {} bytes is larger than zlib takes at once", b, csize));
+      const uint64_t want = b + 1 == nblocks ? last_size : block;
+      z_stream z{};
+      if (inflateInit(&z) != Z_OK) ctx_.fail(array.begin, "zlib could not start");
+      z.next_in = const_cast<unsigned char*>(bytes + at);
+      z.avail_in = static_cast<uInt>(csize);
+      uint64_t got = 0;
+      int rc = Z_OK;
+      while (rc == Z_OK) {
+        z.next_out = chunk;
+        z.avail_out = sizeof chunk;
+        rc = inflate(&z, Z_NO_FLUSH);
+        const size_t n = sizeof chunk - z.avail_out;
+        got += n;
+        if (got > want) break;
+        out.insert(out.end(), chunk, chunk + n);
+        if (rc == Z_BUF_ERROR && z.avail_in == 0) break;
+        if (rc == Z_OK && n == 0 && z.avail_in == 0) break;
+      }
+      inflateEnd(&z);
+      if (rc != Z_STREAM_END || got != want)
+        ctx_.fail(array.begin, fmt::format("compressed block {} does not inflate to its {} bytes ({})", b, want,
+                                           rc == Z_STREAM_END ? "wrong size" : "corrupt zlib data"));
+      at += static_cast<size_t>(csize);
+    }
+    return decode_values<T>(out.data(), count, type, big_endian_);
   }
 
   /// Decodes base64 group by group, so that '=' padding in the middle is accepted: some writers
@@ -1295,7 +1390,7 @@ class VtuReader {
         out.push_back(static_cast<unsigned char>(group >> (16 - 8 * k)));
     };
     for (size_t i = begin; i < end; ++i) {
-      const char c = doc_[i];
+      const char c = ctx_.text[i];  // the whole file: appended base64 lies after the XML
       if (is_space(c)) continue;
       int v = base64_value(c);
       if (c == '=' && chars >= 2) {
@@ -1333,6 +1428,8 @@ class VtuReader {
   bool big_endian_ = false;
   size_t header_size_ = 4;
   std::string_view compressor_;
+  bool has_appended_ = false, appended_raw_ = false;
+  size_t appended_begin_ = 0, appended_end_ = 0;  ///< the appended data, in the file's text
 };
 
 /// Runs one reader over the whole input; they all work on a single in-memory buffer.

@@ -1,8 +1,9 @@
 #pragma once
 /// \file mesh_io.hpp
 /// Readers for tetrahedral mesh files: gmsh .msh (ASCII 1.0, 2.x, 4.1), legacy VTK .vtk
-/// (UNSTRUCTURED_GRID, ASCII or BINARY) and VTK XML .vtu (UnstructuredGrid, ascii or inline
-/// uncompressed binary DataArrays).
+/// (UNSTRUCTURED_GRID, ASCII or BINARY) and VTK XML .vtu (UnstructuredGrid: ascii, inline base64
+/// or appended raw / base64 DataArrays, uncompressed or zlib-compressed — VTK's default is
+/// appended raw zlib — with UInt32 or UInt64 headers, either byte order).
 ///
 /// The readers return the mesh exactly as stored: nodes in file order, linear tetrahedra in file
 /// order with their node references turned into zero-based indices into `nodes`. Every other
