@@ -18,6 +18,7 @@
 
 #include "tissue/input_error.hpp"
 #include "tissue/mesh_io.hpp"
+#include "tissue/mesh_prepare.hpp"
 
 namespace stroma {
 
@@ -416,14 +417,8 @@ class Translator {
       *used = static_cast<int>(std::count(in.begin(), in.end(), 1));
     }
     double v = 0;
-    for (const Tet& t : mesh.tets) {
-      const Vec3 &a = mesh.nodes[t[0]], &p = mesh.nodes[t[1]], &q = mesh.nodes[t[2]], &r = mesh.nodes[t[3]];
-      const double u[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-      const double w[3] = {q[0] - a[0], q[1] - a[1], q[2] - a[2]};
-      const double z[3] = {r[0] - a[0], r[1] - a[1], r[2] - a[2]};
-      v += std::abs(u[0] * (w[1] * z[2] - w[2] * z[1]) - u[1] * (w[0] * z[2] - w[2] * z[0]) +
-                    u[2] * (w[0] * z[1] - w[1] * z[0])) / 6.0;
-    }
+    for (const Tet& t : mesh.tets)
+      v += std::abs(signed_volume(mesh.nodes[t[0]], mesh.nodes[t[1]], mesh.nodes[t[2]], mesh.nodes[t[3]]));
     if (!(v > 0)) fail(at, attr, "the body's mesh has no volume");
     return v * b.scale * b.scale * b.scale;
   }

@@ -1365,8 +1365,7 @@ class VtuReader {
         got += n;
         if (got > want) break;
         out.insert(out.end(), chunk, chunk + n);
-        if (rc == Z_BUF_ERROR && z.avail_in == 0) break;
-        if (rc == Z_OK && n == 0 && z.avail_in == 0) break;
+        if (rc == Z_OK && n == 0 && z.avail_in == 0) break;  // no input left and no progress: truncated
       }
       inflateEnd(&z);
       if (rc != Z_STREAM_END || got != want)

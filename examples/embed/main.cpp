@@ -16,6 +16,7 @@
 #include <vector>
 
 #include <stroma/engine/compiled_scenario.hpp>
+#include <stroma/engine/headless_runner.hpp>
 #include <stroma/engine/scenario_spec.hpp>
 #include <stroma/engine/state.hpp>
 #include <stroma/engine/state_io.hpp>
@@ -51,11 +52,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const Model& m = *sc.model;
-  if (steps < 0) {
-    const RunSpec& run = sc.spec.run;
-    // As `stroma run`: the scenario's steps or duration, else 1,000 ticks.
-    steps = run.steps ? *run.steps : run.duration ? std::lround(*run.duration / m.time_step) : 1000;
-  }
+  if (steps < 0) steps = resolve_steps(sc, RunOptions{});  // as `stroma run`: the scenario's run length
 
   State s = State::initial(m);  // copy it to take a snapshot; assign it back to roll back
   TickWorkspace w(m);           // sized once here: tick() allocates nothing
