@@ -346,7 +346,6 @@ void feedback_thread(PhysicsLoop& loop, const Endpoints& ep, CrtkBridge* crtk) {
     seen = loop.feedback_published.load();
     if (!loop.feedback_out.update()) continue;
     const FeedbackBatch& b = loop.feedback_out.read_slot();
-    if (crtk) crtk->publish_feedback(b);
     for (int i = 0; i < b.count; ++i) {
       const ToolFeedbackFrame& f = b.frames[i];
       if (!f.active) continue;  // no client: nothing to send
@@ -363,6 +362,8 @@ void feedback_thread(PhysicsLoop& loop, const Endpoints& ep, CrtkBridge* crtk) {
       for (int k = 0; k < 9; ++k) msg.stiffness[k] = f.stiffness[k];
       dds_write(ep.feedback_writer, &msg);
     }
+    // CRTK after Stroma's own feedback: its writes never delay the haptic round trip.
+    if (crtk) crtk->publish_feedback(b);
   }
 }
 
