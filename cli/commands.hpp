@@ -32,6 +32,9 @@ void add_serve(CLI::App& app, std::vector<Command>& out);   ///< stroma serve
 void add_tool(CLI::App& app, std::vector<Command>& out);    ///< stroma tool
 void add_security(CLI::App& app, std::vector<Command>& out);  ///< stroma security init
 #endif
+#ifdef STROMA_WITH_MESHING
+void add_mesh(CLI::App& app, std::vector<Command>& out);    ///< stroma mesh surface | image
+#endif
 #ifdef STROMA_WITH_RENDER
 void add_render(CLI::App& app, std::vector<Command>& out);  ///< stroma render
 #endif

@@ -7,7 +7,9 @@
 ///   stroma tool              drive a served tool over DDS (script or stdin)
 ///   stroma render            record a served scenario off-screen (PNG frames, MP4)
 ///   stroma security init DIR certificates and signed documents for a protected DDS domain
-/// serve and tool exist when built with STROMA_WITH_DDS, render with STROMA_WITH_RENDER.
+///   stroma mesh surface|image  a closed surface or a labelled image to a tet mesh (CGAL)
+/// serve and tool exist when built with STROMA_WITH_DDS, render with STROMA_WITH_RENDER, mesh
+/// with STROMA_WITH_MESHING.
 /// Exit codes: 0 success, 1 check failed / run unhealthy, 2 bad input or usage.
 
 #include <cstdio>
@@ -40,6 +42,9 @@ int main(int argc, char** argv) {
   cli::add_render(app, commands);
 #endif
   cli::add_bench(app, commands);
+#ifdef STROMA_WITH_MESHING
+  cli::add_mesh(app, commands);
+#endif
 
   try {
     app.parse(argc, argv);

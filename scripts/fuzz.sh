@@ -15,7 +15,7 @@ fi
 secs=${1:-30}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(tet_mesh surface trajectory session_log state_csv scenario sofa_scene state_bytes)
+[ ${#targets[@]} -gt 0 ] || targets=(tet_mesh surface trajectory session_log state_csv scenario sofa_scene state_bytes label_image)
 build=${FUZZ_BUILD:-build-asan}
 work="$build/fuzz-work"
 artifacts="$build/fuzz-artifacts"

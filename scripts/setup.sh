@@ -30,6 +30,8 @@ PACKAGES=(
   libbullet-dev libbullet-extras-dev gmsh gnuplot-nox
   # surface checks when (re)building shipped meshes (scripts/meshes/)
   tetgen
+  # `stroma mesh`: CGAL's Mesh_3 (header-only; pulls Boost, GMP, MPFR)
+  libcgal-dev
   # the Python module (import stroma) and its tests
   python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-pip
 )

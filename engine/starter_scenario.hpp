@@ -1,0 +1,27 @@
+#pragma once
+/// \file starter_scenario.hpp
+/// The starter scenario `stroma mesh --scenario` writes next to a new mesh: a YAML file that
+/// runs as is (`stroma run`), in SI units, with soft-tissue defaults, the mesh's downward-facing
+/// boundary clamped, gravity, the real-time solver settings of the shipped physical scenes, and
+/// comments that say what to change. Every region of the mesh is listed (commented out) with the
+/// body's material, ready to be given its own.
+
+#include <string>
+
+#include "tissue/tet_mesh.hpp"
+
+namespace stroma {
+
+/// What the starter scenario needs to know.
+struct StarterScenarioSpec {
+  std::string name;           ///< scenario and body name
+  std::string mesh_path;      ///< as written into the YAML (relative to the YAML's folder)
+  std::string made_by;        ///< the command that made the mesh (a comment)
+  int up_axis = 2;            ///< 0, 1, 2: x, y, z is up (gravity along -up)
+  double up_sign = 1.0;       ///< +1 or -1
+};
+
+/// The YAML text for `mesh` (already in metres).
+std::string starter_scenario_yaml(const TetMesh& mesh, const StarterScenarioSpec& spec);
+
+}  // namespace stroma

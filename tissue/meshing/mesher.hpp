@@ -1,0 +1,80 @@
+#pragma once
+/// \file mesher.hpp
+/// Volume meshing for `stroma mesh`: a closed triangle surface, or a labelled image (a
+/// segmentation), to a quality tetrahedral mesh, by CGAL's Mesh_3 (Delaunay refinement, then
+/// ODT smoothing, sliver perturbation and sliver exudation). Stroma writes no mesher; this
+/// layer turns Stroma's inputs into CGAL's domains, its options into CGAL's criteria, and
+/// CGAL's complex back into a TetMesh, and checks what it got.
+///
+/// Sizes: `size` is the target edge length H (output units: metres for images, the surface's
+/// units times `scale` for surfaces). CGAL bounds circumradii, so H is turned into the cell
+/// size 0.61 H (a regular tetrahedron of edge H has circumradius sqrt(6)/4 H) and the facet
+/// size 0.58 H (an equilateral triangle's circumradius H / sqrt(3)).
+///
+/// Determinism: CGAL's random choices draw from a generator seeded with `seed`, and meshing is
+/// sequential, so the same input and options give the same mesh.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tissue/label_image.hpp"
+#include "tissue/mesh_quality.hpp"
+#include "tissue/surface_io.hpp"
+#include "tissue/tet_mesh.hpp"
+
+namespace stroma::meshing {
+
+/// Meshing parameters. Defaults are what `stroma mesh` uses.
+struct MeshingOptions {
+  /// Target edge length H (> 0). 0: chosen to give about `target_tets` tetrahedra.
+  double size = 0;
+  int64_t target_tets = 5000;  ///< for size 0: what one core steps at 1 kHz (docs/REALTIME.md)
+  /// Smallest dihedral angle the optimisers aim for (degrees); the result is checked against it.
+  double min_dihedral_deg = 8.0;
+  /// Elements with a dihedral angle below this are reported as slivers (degrees).
+  double sliver_angle_deg = 5.0;
+  /// Largest distance between a boundary facet and the input surface; 0: H / 40 for a surface;
+  /// for an image H / 20, at most 0.15 of the voxel's mean width.
+  double facet_distance = 0;
+  double max_seconds_per_optimiser = 60;  ///< ODT, perturbation and exudation each
+  uint32_t seed = 1;
+  /// Surfaces: let CGAL remove self-intersections (PMP::experimental::remove_self_intersections:
+  /// the triangles around each are removed and the hole refilled) instead of refusing them.
+  bool repair_self_intersections = false;
+  /// Surfaces: protect sharp edges, where neighbouring triangles' normals differ by more than
+  /// this (degrees; 0: none). Organs are smooth, so the default is 0; CAD-like parts with
+  /// crisp edges keep them with e.g. 60.
+  double feature_angle_deg = 0;
+  /// Images: the Gaussian that smooths each label's indicator, sigma in voxels along each axis
+  /// (0: trilinear interpolation of the raw labels, staircase surfaces).
+  double smooth_voxels = 0.4;
+  /// Called with a one-line message at each stage and every few seconds during long ones.
+  std::function<void(const std::string&)> progress;
+};
+
+/// A produced mesh with its quality report and what each stage cost.
+struct MeshingResult {
+  TetMesh mesh;            ///< nodes in output units; tet_tags = region labels (1 for a surface)
+  MeshQuality quality;     ///< regions carry input volumes; hausdorff is set
+  double size = 0;         ///< the H used
+  std::vector<std::pair<std::string, double>> stage_seconds;
+  std::vector<std::string> notes;  ///< what was changed on the way (a repaired surface)
+};
+
+/// Meshes the volume a closed surface bounds. `scale` multiplies the input's coordinates first.
+/// Throws InputError (naming `input.source`) when the surface is open, non-manifold or
+/// self-intersecting, listing the offending edges or triangle pairs with their coordinates, or
+/// when an option is out of range. Nothing is written by this function.
+MeshingResult mesh_surface(const SurfaceMesh& input, double scale, const MeshingOptions& options);
+
+/// Meshes the labelled regions of `image`: every label in `labels` (label, name) becomes a
+/// region of tetrahedra tagged with that label; other labels are background. Interfaces between
+/// labels are conforming (one shared surface). Throws InputError for a label not in the image, a
+/// region too small for the size, or an image with nothing to mesh.
+MeshingResult mesh_label_image(const LabelImage& image, const std::vector<std::pair<int32_t, std::string>>& labels,
+                               const MeshingOptions& options);
+
+}  // namespace stroma::meshing
