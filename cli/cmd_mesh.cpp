@@ -118,6 +118,14 @@ void parse_up(const std::string& source, const std::string& up, StarterScenarioS
 void resolve(MeshArgs& a, const char* default_up) {
   if (a.size_opt->count() && !(a.size > 0))
     throw InputError(a.input, 0, "--size", fmt::format("{} is not a length > 0 (metres)", a.size));
+  if (!(a.min_dihedral >= 0 && a.min_dihedral < 30))
+    throw InputError(a.input, 0, "--min-dihedral", fmt::format("{} degrees: give 0..30 (CGAL's optimisers reach ~10-15)", a.min_dihedral));
+  if (!(a.sliver_angle >= 0 && a.sliver_angle < 60))
+    throw InputError(a.input, 0, "--sliver-angle", fmt::format("{} degrees: give 0..60", a.sliver_angle));
+  if (!(a.facet_distance >= 0)) throw InputError(a.input, 0, "--facet-distance", fmt::format("{} is not a length >= 0", a.facet_distance));
+  if (a.tets < 1) throw InputError(a.input, 0, "--tets", fmt::format("{} is not a positive count", a.tets));
+  if (!(a.scale > 0)) throw InputError(a.input, 0, "--scale", fmt::format("{} is not > 0", a.scale));
+  if (!(a.smooth >= 0 && a.smooth <= 3)) throw InputError(a.input, 0, "--smooth", fmt::format("{} voxels: give 0..3", a.smooth));
   if (a.out.empty()) a.out = input_stem(a.input) + ".msh";
   std::string ext = fs::path(a.out).extension().string();
   if (ext != ".msh" && ext != ".vtu") throw InputError(a.out, 0, "--out", fmt::format("'{}': the mesh is written as .msh or .vtu", ext));
@@ -224,7 +232,7 @@ void add_mesh(CLI::App& app, std::vector<Command>& out) {
   surf->footer("Example: stroma mesh surface scenarios/meshes/liver-smooth.obj --scale 0.025 --repair --tets 2000 --out liver_2k.msh "
                "--scenario liver_2k.yaml");
   out.push_back({surf, [s, surf] {
-                   s->command_line = "stroma mesh surface " + s->input;
+                   s->command_line = invocation();
                    resolve(*s, "y");
                    const SurfaceMesh input = read_surface_mesh(s->input);
                    const meshing::MeshingOptions o = options_of(*s);
@@ -245,7 +253,7 @@ void add_mesh(CLI::App& app, std::vector<Command>& out) {
   img->footer("Example: stroma mesh image segmentation.nii.gz --labels 1=liver,2=tumour --size 0.006 --out liver.msh "
               "--scenario liver.yaml");
   out.push_back({img, [im] {
-                   im->command_line = "stroma mesh image " + im->input + " --labels " + im->labels;
+                   im->command_line = invocation();
                    resolve(*im, "z");
                    const auto labels = parse_labels(im->input, im->labels);
                    LabelImageReadOptions ro;

@@ -21,6 +21,9 @@ struct Command {
   std::function<int()> run;
 };
 
+/// The command line this process was started with (for reports that record how they were made).
+const std::string& invocation();
+
 /// Loads and compiles a scenario, logging its notes and size.
 CompiledScenario load(const std::string& path);
 

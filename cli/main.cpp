@@ -23,7 +23,14 @@
 
 using namespace stroma;
 
+namespace {
+std::string g_invocation;
+}
+
+const std::string& stroma::cli::invocation() { return g_invocation; }
+
 int main(int argc, char** argv) {
+  for (int i = 0; i < argc; ++i) g_invocation += (i ? " " : "") + std::string(i ? argv[i] : "stroma");
   CLI::App app{"Stroma: real-time soft-tissue simulation (corotational FEM, implicit Euler)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "stroma 0.1.0");

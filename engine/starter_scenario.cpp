@@ -25,7 +25,12 @@ std::string starter_scenario_yaml(const TetMesh& mesh, const StarterScenarioSpec
   std::string y;
   y += fmt::format("# Starter scenario for {} ({} tetrahedra, {} nodes; {:.3g} x {:.3g} x {:.3g} m).\n", spec.mesh_path,
                    mesh.tets.size(), mesh.nodes.size(), hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
-  if (!spec.made_by.empty()) y += fmt::format("# Mesh made by: {}\n", spec.made_by);
+  if (!spec.made_by.empty()) {
+    std::string one_line = spec.made_by;  // a comment must stay one line, whatever the arguments held
+    for (char& c : one_line)
+      if (c == '\n' || c == '\r') c = ' ';
+    y += fmt::format("# Mesh made by: {}\n", one_line);
+  }
   y += "# Runs as is: `stroma run THIS_FILE` (1 s under gravity; outputs in a folder beside it).\n"
        "# Units are SI throughout: metres, seconds, kilograms, pascals. What to change:\n"
        "#   material   soft tissue defaults (liver-like: E 5 kPa, nu 0.45, 1060 kg/m^3); stiffer organs\n"
@@ -44,7 +49,12 @@ std::string starter_scenario_yaml(const TetMesh& mesh, const StarterScenarioSpec
        "         tolerance: 1.0e-4, on_cg_cap: continue}\n";
   y += "bodies:\n";
   y += fmt::format("  - name: {}\n", spec.name);
-  y += fmt::format("    mesh: {}\n", spec.mesh_path);
+  std::string quoted;  // a YAML double-quoted scalar: any path, spaces and colons included
+  for (char c : spec.mesh_path) {
+    if (c == '"' || c == '\\') quoted += '\\';
+    quoted += c;
+  }
+  y += fmt::format("    mesh: \"{}\"\n", quoted);
   y += "    material: {model: corotational, young_modulus: 5000, poisson_ratio: 0.45, density: 1060,\n"
        "               rayleigh_mass: 1.0, rayleigh_stiffness: 0.005}\n";
   if (mesh.tag_names.size() > 1) {

@@ -111,8 +111,9 @@ TEST(LabelImage, EveryFormatRoundTripsWithGeometry) {
           EXPECT_NEAR(back.spacing[size_t(a)], im.spacing[size_t(a)], 1e-9);
           EXPECT_NEAR(back.origin[size_t(a)], im.origin[size_t(a)], 1e-9);
         }
-        if (std::string(ext).find(".inr") == std::string::npos)  // INR has no orientation
+        if (std::string(ext).find(".inr") == std::string::npos) {  // INR has no orientation
           for (int q = 0; q < 9; ++q) EXPECT_NEAR(back.direction[size_t(q)], im.direction[size_t(q)], 1e-6);
+        }
       }
     fs::remove_all(d);
   }

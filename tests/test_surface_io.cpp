@@ -2,6 +2,8 @@
 // every syntax variant, STL welding, exact file:line errors).
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -266,13 +268,83 @@ TEST(SurfaceIo, NotAnStl) {
 }
 
 TEST(SurfaceIo, UnknownExtensionAndMissingFile) {
-  const std::string ply = write_temp_file("cube.ply", "ply\n");
-  expect_error(ply, 0,
-               ply + ": unknown surface mesh file extension '.ply' (expected .obj or .stl)");
+  const std::string gltf = write_temp_file("cube.gltf", "{}\n");
+  expect_error(gltf, 0,
+               gltf + ": unknown surface mesh file extension '.gltf' (expected .obj, .stl, .off or .ply)");
   const std::string missing = ::testing::TempDir() + "surface_io_no_such_file.obj";
   std::remove(missing.c_str());
   expect_error(missing, 0, missing + ": cannot open file");
 }
 
 }  // namespace
+}  // namespace stroma
+
+namespace stroma {
+namespace {
+
+/// The cube of cube.obj as quads (0-based), for the OFF and PLY writers below.
+std::vector<std::array<int32_t, 4>> cube_quads() {
+  const SurfaceMesh m = read_surface_mesh(fixture("cube.obj"));
+  std::vector<std::array<int32_t, 4>> q;
+  for (size_t t = 0; t + 1 < m.triangles.size(); t += 2)  // fan pairs: (a b c), (a c d)
+    q.push_back({m.triangles[t][0], m.triangles[t][1], m.triangles[t][2], m.triangles[t + 1][2]});
+  return q;
+}
+
+}  // namespace
+
+TEST(SurfaceIo, OffAndPlyGiveTheSameCubeAsObj) {
+  const SurfaceMesh obj = read_surface_mesh(fixture("cube.obj"));
+  const auto quads = cube_quads();
+  // OFF, with a comment and the counts on the header line's next line.
+  std::string off = "OFF\n# a cube\n8 6 12\n";
+  for (const Vec3& v : obj.vertices) off += fmt::format("{} {} {}\n", v[0], v[1], v[2]);
+  for (const auto& q : quads) off += fmt::format("4 {} {} {} {}\n", q[0], q[1], q[2], q[3]);
+  SurfaceMesh m = read_surface_mesh(write_temp_file("cube.off", off));
+  EXPECT_EQ(m.vertices, obj.vertices);
+  EXPECT_EQ(m.triangles, obj.triangles);
+  // PLY: ASCII and both binary byte orders, with an extra vertex property and an extra element.
+  for (const std::string format : {"ascii", "binary_little_endian", "binary_big_endian"}) {
+    SCOPED_TRACE(format);
+    std::string ply = "ply\nformat " + format + " 1.0\ncomment made by a test\nelement vertex 8\nproperty float x\n"
+                      "property float y\nproperty float z\nproperty uchar red\nelement face 6\n"
+                      "property list uchar int vertex_indices\nelement edge 1\nproperty int vertex1\nproperty int vertex2\n"
+                      "end_header\n";
+    const bool big = format == "binary_big_endian";
+    auto put = [&](auto x) {
+      char b[sizeof x];
+      std::memcpy(b, &x, sizeof x);
+      if (big != (std::endian::native == std::endian::big)) std::reverse(b, b + sizeof x);
+      ply.append(b, sizeof x);
+    };
+    for (const Vec3& v : obj.vertices) {
+      if (format == "ascii") ply += fmt::format("{} {} {} 200\n", v[0], v[1], v[2]);
+      else { put(float(v[0])); put(float(v[1])); put(float(v[2])); put(uint8_t(200)); }
+    }
+    for (const auto& q : quads) {
+      if (format == "ascii") ply += fmt::format("4 {} {} {} {}\n", q[0], q[1], q[2], q[3]);
+      else { put(uint8_t(4)); for (int32_t i : q) put(i); }
+    }
+    if (format == "ascii") ply += "0 1\n";
+    else { put(int32_t(0)); put(int32_t(1)); }
+    m = read_surface_mesh(write_temp_file("cube_" + format + ".ply", ply));
+    EXPECT_EQ(m.vertices, obj.vertices);
+    EXPECT_EQ(m.triangles, obj.triangles);
+    // Cut inside the data: refused as truncated.
+    const std::string cut = ply.substr(0, ply.size() - 12);
+    try {
+      read_surface_mesh(write_temp_file("cut_" + format + ".ply", cut));
+      ADD_FAILURE() << "a truncated PLY was read";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
+    }
+  }
+  try {
+    read_surface_mesh(write_temp_file("bad.off", "OFF\n8 6 12\n0 0 0\n"));
+    ADD_FAILURE() << "a truncated OFF was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("truncated: 8 vertices and 6 faces announced"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace stroma

@@ -85,8 +85,10 @@ bool is_gzip(std::string_view s) { return s.size() >= 2 && uint8_t(s[0]) == 0x1f
 /// `verify_end`, the stream must also end (its checksum checked) within 64 MB past `want`:
 /// a file cut inside its trailer, or with a corrupt checksum, is refused.
 std::string inflate_up_to(std::string_view src, size_t want, std::string* error, bool verify_end = false) {
+  // The output grows with what really inflates (doubling from 64 KB), never to `want` up front:
+  // a small hostile file whose header claims gigabytes costs what it inflates to.
   std::string out;
-  out.resize(want);
+  out.resize(std::min<size_t>(want, size_t{1} << 16));
   z_stream z{};
   if (inflateInit2(&z, 32 + MAX_WBITS) != Z_OK) {
     *error = "zlib could not start";
@@ -95,8 +97,9 @@ std::string inflate_up_to(std::string_view src, size_t want, std::string* error,
   size_t in_pos = 0, out_pos = 0;
   int rc = Z_OK;
   while (out_pos < want) {
+    if (out_pos == out.size()) out.resize(std::min(want, 2 * out.size()));
     const size_t in_chunk = std::min<size_t>(src.size() - in_pos, 1u << 30);
-    const size_t out_chunk = std::min<size_t>(want - out_pos, 1u << 30);
+    const size_t out_chunk = std::min<size_t>(out.size() - out_pos, 1u << 30);
     z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(src.data() + in_pos));
     z.avail_in = static_cast<uInt>(in_chunk);
     z.next_out = reinterpret_cast<Bytef*>(out.data() + out_pos);
@@ -359,12 +362,16 @@ LabelImage read_nrrd(const std::string& path, const LabelImageReadOptions& opt) 
   ImageHeader h;
   const TextLine& dim = need("dimension");
   const auto ndim = parse_numbers(path, dim.number, "dimension", dim.value, 1);
+  if (!(ndim[0] == 3 || ndim[0] == 4))
+    throw InputError(path, dim.number, "dimension", fmt::format("{} axes: a 3-D label image is needed", ndim[0]));
   const TextLine& sizes = need("sizes");
   auto sz = parse_numbers(path, sizes.number, "sizes", sizes.value, size_t(ndim[0]));
   int first = 0;  // a leading axis of size 1 (a channel axis) is allowed
-  if (ndim[0] == 4 && sz[0] == 1) first = 1;
-  else if (ndim[0] != 3)
-    throw InputError(path, dim.number, "dimension", fmt::format("{} axes: a 3-D label image is needed", ndim[0]));
+  if (ndim[0] == 4) {
+    if (sz[0] != 1)
+      throw InputError(path, sizes.number, "sizes", fmt::format("4 axes with {} values per voxel: a label image has one", sz[0]));
+    first = 1;
+  }
   for (int a = 0; a < 3; ++a) {
     if (!(sz[first + a] >= 1 && sz[first + a] == std::floor(sz[first + a]) && sz[first + a] < 1e9))
       throw InputError(path, sizes.number, "sizes", fmt::format("axis {} size {} is not a positive integer", a, sz[first + a]));
@@ -434,7 +441,7 @@ LabelImage read_nrrd(const std::string& path, const LabelImageReadOptions& opt) 
   if (auto bs = f.find("byte skip"); bs != f.end()) {
     const auto b = parse_numbers(path, bs->second.number, "byte skip", bs->second.value, 1);
     if (b[0] == -1 && !gz) offset = block->size() >= data_bytes(h) ? block->size() - data_bytes(h) : 0;
-    else if (b[0] >= 0 && b[0] == std::floor(b[0])) offset += size_t(b[0]);
+    else if (b[0] >= 0 && b[0] == std::floor(b[0]) && b[0] < 1e15) offset += size_t(b[0]);
     else throw InputError(path, bs->second.number, "byte skip", "must be -1 or a byte count >= 0");
   }
   const size_t want = data_bytes(h);
@@ -665,14 +672,14 @@ LabelImage read_inr(const std::string& path, const LabelImageReadOptions& opt) {
   if (!head.starts_with("#INRIMAGE-4#{"))
     throw InputError(path, 1, "magic", fmt::format("'{}' is not #INRIMAGE-4#{{", clip(head.substr(0, 13))));
   // The header is a multiple of 256 bytes ending with "##}\n"; find how long it is.
-  size_t hlen = 256;
-  while (true) {
-    head = maybe_gunzip_prefix(path, raw, hlen);
-    if (head.size() < hlen) throw InputError(path, 0, "header", "truncated: the header has no '##}' end");
-    if (head.find("##}") != std::string::npos) break;
-    hlen += 256;
-    if (hlen > (1u << 20)) throw InputError(path, 0, "header", "no '##}' end within 1 MB");
-  }
+  head = maybe_gunzip_prefix(path, raw, size_t{1} << 20);
+  const size_t end = head.find("##}");
+  if (end == std::string::npos)
+    throw InputError(path, 0, "header", head.size() < (size_t{1} << 20) ? "truncated: the header has no '##}' end"
+                                                                         : "no '##}' end within 1 MB");
+  const size_t hlen = (end / 256 + 1) * 256;
+  if (head.size() < hlen) throw InputError(path, 0, "header", "truncated inside the header");
+  head.resize(hlen);
   ImageHeader h;
   int vdim = 1, pixsize = 0, line = 0;
   std::string type;
@@ -695,7 +702,11 @@ LabelImage read_inr(const std::string& path, const LabelImageReadOptions& opt) {
     if (k == "XDIM") count(h.dims[0]);
     else if (k == "YDIM") count(h.dims[1]);
     else if (k == "ZDIM") count(h.dims[2]);
-    else if (k == "VDIM") vdim = int(num());
+    else if (k == "VDIM") {
+      const double v = num();
+      if (!(v >= 1 && v <= 64 && v == std::floor(v))) throw InputError(path, line, k, fmt::format("{} is not a count of 1..64", v));
+      vdim = int(v);
+    }
     else if (k == "VX") h.spacing[0] = num();
     else if (k == "VY") h.spacing[1] = num();
     else if (k == "VZ") h.spacing[2] = num();
@@ -703,7 +714,11 @@ LabelImage read_inr(const std::string& path, const LabelImageReadOptions& opt) {
     else if (k == "TY") h.origin[1] = num();
     else if (k == "TZ") h.origin[2] = num();
     else if (k == "TYPE") type = v;
-    else if (k == "PIXSIZE") pixsize = int(parse_numbers(path, line, k, v.substr(0, v.find(' ')), 1)[0]);
+    else if (k == "PIXSIZE") {
+      const double b = parse_numbers(path, line, k, v.substr(0, v.find(' ')), 1)[0];
+      if (!(b == 8 || b == 16 || b == 32 || b == 64)) throw InputError(path, line, k, fmt::format("{} bits is not 8, 16, 32 or 64", b));
+      pixsize = int(b);
+    }
     else if (k == "CPU") {
       if (v == "sun" || v == "sgi") h.big_endian = true;
       else if (v != "decm" && v != "pc" && v != "alpha") throw InputError(path, line, k, fmt::format("'{}' is not decm, pc, alpha, sun or sgi", clip(v)));

@@ -352,16 +352,264 @@ SurfaceMesh read_stl(std::string_view bytes, const std::string& path) {
                                n, kStlHeader + kStlRecord * n, bytes.size()));
 }
 
+
+// =============================================================================================
+// OFF (Geomview Object File Format, ASCII)
+// =============================================================================================
+
+/// Splits `text` into lines (numbered from 1) without '#' comments and blank lines.
+std::vector<std::pair<int, std::string_view>> content_lines(std::string_view text) {
+  std::vector<std::pair<int, std::string_view>> out;
+  size_t pos = 0;
+  int line = 0;
+  while (pos < text.size()) {
+    size_t nl = text.find('\n', pos);
+    if (nl == std::string_view::npos) nl = text.size();
+    std::string_view l = text.substr(pos, nl - pos);
+    pos = nl + 1;
+    ++line;
+    const size_t hash = l.find('#');
+    if (hash != std::string_view::npos) l = l.substr(0, hash);
+    while (!l.empty() && is_space(l.back())) l.remove_suffix(1);
+    while (!l.empty() && is_space(l.front())) l.remove_prefix(1);
+    if (!l.empty()) out.emplace_back(line, l);
+  }
+  return out;
+}
+
+std::vector<std::string_view> tokens(std::string_view l) {
+  std::vector<std::string_view> t;
+  size_t i = 0;
+  while (i < l.size()) {
+    while (i < l.size() && is_space(l[i])) ++i;
+    const size_t b = i;
+    while (i < l.size() && !is_space(l[i])) ++i;
+    if (i > b) t.push_back(l.substr(b, i - b));
+  }
+  return t;
+}
+
+SurfaceMesh read_off(std::string_view text, const std::string& path) {
+  SurfaceMesh m;
+  m.source = path;
+  const auto lines = content_lines(text);
+  size_t li = 0;
+  if (lines.empty()) throw InputError(path, 0, "", "empty file");
+  auto head = tokens(lines[0].second);
+  if (!(head[0].size() >= 3 && head[0].substr(head[0].size() - 3) == "OFF"))
+    throw InputError(path, lines[0].first, "", fmt::format("'{}' is not an OFF header", clip(lines[0].second)));
+  if (head.size() == 1) {
+    if (++li >= lines.size()) throw InputError(path, 0, "", "truncated: no counts line");
+    head = tokens(lines[li].second);
+  } else {
+    head.erase(head.begin());
+  }
+  int64_t nv = -1, nf = -1;
+  if (head.size() < 2 || !parse_number(head[0], nv) || !parse_number(head[1], nf) || nv < 0 || nf < 0 ||
+      nv > (int64_t{1} << 30) || nf > (int64_t{1} << 30))
+    throw InputError(path, lines[li].first, "counts", fmt::format("'{}' is not 'vertices faces edges'", clip(lines[li].second)));
+  if (size_t(nv + nf) > lines.size() - li - 1)
+    throw InputError(path, 0, "", fmt::format("truncated: {} vertices and {} faces announced, {} lines follow", nv, nf, lines.size() - li - 1));
+  m.vertices.reserve(size_t(nv));
+  for (int64_t v = 0; v < nv; ++v) {
+    const auto& [n, l] = lines[++li];
+    const auto t = tokens(l);
+    Vec3 p;
+    if (t.size() < 3 || !parse_number(t[0], p[0]) || !parse_number(t[1], p[1]) || !parse_number(t[2], p[2]) ||
+        !std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      throw InputError(path, n, "vertex", fmt::format("'{}' is not three finite coordinates", clip(l)));
+    m.vertices.push_back(p);
+  }
+  for (int64_t f = 0; f < nf; ++f) {
+    const auto& [n, l] = lines[++li];
+    const auto t = tokens(l);
+    int64_t k = 0;
+    if (t.empty() || !parse_number(t[0], k) || k < 3 || size_t(k) + 1 > t.size())
+      throw InputError(path, n, "face", fmt::format("'{}' is not 'N i1 ... iN' with N >= 3", clip(l)));
+    std::vector<int32_t> idx(static_cast<size_t>(k));
+    for (int64_t i = 0; i < k; ++i) {
+      int64_t x = -1;
+      if (!parse_number(t[size_t(i + 1)], x) || x < 0 || x >= nv)
+        throw InputError(path, n, "face", fmt::format("vertex index '{}' is not in 0..{}", clip(t[size_t(i + 1)]), nv - 1));
+      idx[size_t(i)] = int32_t(x);
+    }
+    for (int64_t i = 1; i + 1 < k; ++i) add_triangle(m, idx[0], idx[size_t(i)], idx[size_t(i + 1)]);
+  }
+  return m;
+}
+
+// =============================================================================================
+// PLY (ASCII, binary little- and big-endian)
+// =============================================================================================
+
+struct PlyProperty {
+  std::string name;
+  std::string type;        // scalar type, or the item type of a list
+  std::string count_type;  // empty: a scalar
+};
+struct PlyElement {
+  std::string name;
+  int64_t count = 0;
+  std::vector<PlyProperty> props;
+};
+
+size_t ply_size(const std::string& t) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+  if (t == "double" || t == "float64") return 8;
+  return 0;
+}
+
+SurfaceMesh read_ply(std::string_view bytes, const std::string& path) {
+  SurfaceMesh m;
+  m.source = path;
+  size_t pos = 0;
+  int line = 0;
+  auto next_line = [&]() -> std::string_view {
+    const size_t nl = bytes.find('\n', pos);
+    if (nl == std::string_view::npos) throw InputError(path, line + 1, "", "truncated: the header has no end_header");
+    std::string_view l = bytes.substr(pos, nl - pos);
+    pos = nl + 1;
+    ++line;
+    if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
+    return l;
+  };
+  if (next_line() != "ply") throw InputError(path, 1, "", "not a PLY file (first line must be 'ply')");
+  std::string format;
+  std::vector<PlyElement> elements;
+  while (true) {
+    const std::string_view l = next_line();
+    const auto t = tokens(l);
+    if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
+    if (t[0] == "end_header") break;
+    if (t[0] == "format" && t.size() >= 2) {
+      format = std::string(t[1]);
+      if (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian")
+        throw InputError(path, line, "format", fmt::format("'{}' is not ascii, binary_little_endian or binary_big_endian", clip(t[1])));
+    } else if (t[0] == "element" && t.size() == 3) {
+      PlyElement e;
+      e.name = std::string(t[1]);
+      if (!parse_number(t[2], e.count) || e.count < 0 || e.count > (int64_t{1} << 30))
+        throw InputError(path, line, "element", fmt::format("'{}' is not a count", clip(t[2])));
+      elements.push_back(e);
+    } else if (t[0] == "property" && !elements.empty()) {
+      PlyProperty p;
+      if (t.size() == 5 && t[1] == "list") {
+        p.count_type = std::string(t[2]);
+        p.type = std::string(t[3]);
+        p.name = std::string(t[4]);
+        if (!ply_size(p.count_type) || p.count_type == "float" || p.count_type == "double")
+          throw InputError(path, line, "property", fmt::format("list count type '{}' is not an integer type", clip(t[2])));
+      } else if (t.size() == 3) {
+        p.type = std::string(t[1]);
+        p.name = std::string(t[2]);
+      } else {
+        throw InputError(path, line, "property", fmt::format("'{}' is not 'property TYPE NAME' or 'property list T T NAME'", clip(l)));
+      }
+      if (!ply_size(p.type)) throw InputError(path, line, "property", fmt::format("unknown type '{}'", clip(p.type)));
+      elements.back().props.push_back(p);
+    } else {
+      throw InputError(path, line, "", fmt::format("'{}' is not a PLY header line", clip(l)));
+    }
+  }
+  if (format.empty()) throw InputError(path, 0, "format", "missing");
+  const bool ascii = format == "ascii";
+  const bool swap = !ascii && ((format == "binary_big_endian") != (std::endian::native == std::endian::big));
+  std::vector<std::string_view> toks;
+  size_t tok_i = 0;
+  if (ascii) toks = tokens(bytes.substr(pos));
+  // One value of type `t`, as a double.
+  auto value = [&](const std::string& t) -> double {
+    if (ascii) {
+      if (tok_i >= toks.size()) throw InputError(path, 0, "", "truncated: fewer values than the header announces");
+      double v;
+      if (!parse_number(toks[tok_i], v)) throw InputError(path, 0, "", fmt::format("'{}' is not a number", clip(toks[tok_i])));
+      ++tok_i;
+      return v;
+    }
+    const size_t n = ply_size(t);
+    if (pos + n > bytes.size()) throw InputError(path, 0, "", "truncated: fewer bytes than the header announces");
+    unsigned char b[8];
+    std::memcpy(b, bytes.data() + pos, n);
+    pos += n;
+    if (swap) std::reverse(b, b + n);
+    auto get = [&](auto x) { std::memcpy(&x, b, sizeof x); return double(x); };
+    if (t == "char" || t == "int8") return get(int8_t{});
+    if (t == "uchar" || t == "uint8") return get(uint8_t{});
+    if (t == "short" || t == "int16") return get(int16_t{});
+    if (t == "ushort" || t == "uint16") return get(uint16_t{});
+    if (t == "int" || t == "int32") return get(int32_t{});
+    if (t == "uint" || t == "uint32") return get(uint32_t{});
+    if (t == "float" || t == "float32") return get(float{});
+    return get(double{});
+  };
+  bool have_vertices = false, have_faces = false;
+  for (const PlyElement& e : elements) {
+    int ix = -1, iy = -1, iz = -1, ilist = -1;
+    for (size_t k = 0; k < e.props.size(); ++k) {
+      const auto& p = e.props[k];
+      if (p.count_type.empty() && p.name == "x") ix = int(k);
+      if (p.count_type.empty() && p.name == "y") iy = int(k);
+      if (p.count_type.empty() && p.name == "z") iz = int(k);
+      if (!p.count_type.empty() && (p.name == "vertex_indices" || p.name == "vertex_index")) ilist = int(k);
+    }
+    const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
+    if (is_vertex && (ix < 0 || iy < 0 || iz < 0)) throw InputError(path, 0, "element vertex", "has no x, y and z properties");
+    if (is_face && ilist < 0) throw InputError(path, 0, "element face", "has no vertex_indices list");
+    if (is_vertex) m.vertices.reserve(size_t(e.count));
+    for (int64_t i = 0; i < e.count; ++i) {
+      Vec3 p{0, 0, 0};
+      std::vector<int32_t> idx;
+      for (size_t k = 0; k < e.props.size(); ++k) {
+        const auto& pr = e.props[k];
+        if (pr.count_type.empty()) {
+          const double v = value(pr.type);
+          if (int(k) == ix) p[0] = v;
+          if (int(k) == iy) p[1] = v;
+          if (int(k) == iz) p[2] = v;
+          continue;
+        }
+        const double c = value(pr.count_type);
+        if (!(c >= 0 && c < 1e6)) throw InputError(path, 0, e.name, fmt::format("list length {} is not valid", c));
+        for (int64_t j = 0; j < int64_t(c); ++j) {
+          const double v = value(pr.type);
+          if (int(k) == ilist && is_face) {
+            if (!(v >= 0 && v == std::floor(v) && v < double(m.vertices.size())))
+              throw InputError(path, 0, "face", fmt::format("face {}: vertex index {} is not in 0..{}", i, v, int64_t(m.vertices.size()) - 1));
+            idx.push_back(int32_t(v));
+          }
+        }
+      }
+      if (is_vertex) {
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+          throw InputError(path, 0, "vertex", fmt::format("vertex {} is not finite", i));
+        m.vertices.push_back(p);
+      }
+      if (is_face) {
+        if (idx.size() < 3) throw InputError(path, 0, "face", fmt::format("face {} has {} vertices (at least 3)", i, idx.size()));
+        for (size_t j = 1; j + 1 < idx.size(); ++j) add_triangle(m, idx[0], idx[j], idx[j + 1]);
+      }
+    }
+    have_vertices |= is_vertex;
+    have_faces |= is_face;
+  }
+  if (!have_vertices || !have_faces) throw InputError(path, 0, "", "a PLY surface needs a vertex and a face element");
+  return m;
+}
+
 }  // namespace
 
 SurfaceMesh read_surface_mesh(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), lower);
-  if (ext != ".obj" && ext != ".stl")
+  if (ext != ".obj" && ext != ".stl" && ext != ".off" && ext != ".ply")
     throw InputError(path, 0, "",
-                     fmt::format("unknown surface mesh file extension '{}' (expected .obj or .stl)",
+                     fmt::format("unknown surface mesh file extension '{}' (expected .obj, .stl, .off or .ply)",
                                  ext));
   const std::string bytes = read_file(path);
+  if (ext == ".off") return read_off(bytes, path);
+  if (ext == ".ply") return read_ply(bytes, path);
   return ext == ".obj" ? read_obj(bytes, path) : read_stl(bytes, path);
 }
 
