@@ -30,7 +30,7 @@ namespace {
 
 struct MeshArgs {
   std::string input, out, report, png, scenario, labels, up, unit;
-  double size = 0, scale = 1, min_dihedral = 8, sliver_angle = 5, facet_distance = 0;
+  double size = 0, scale = 1, min_dihedral = 5, sliver_angle = 5, facet_distance = 0;
   long tets = 5000;
   unsigned seed = 1;
   bool quiet = false, no_png = false, repair = false;
@@ -46,7 +46,8 @@ void add_common(CLI::App* c, MeshArgs& a) {
   c->add_option("--tets", a.tets, "Without --size: aim for about this many tetrahedra (5000: what one core steps at 1 kHz)")
       ->capture_default_str();
   c->add_option("--min-dihedral", a.min_dihedral,
-                "Smallest dihedral angle (degrees) the optimisers aim for; the result is checked against it")
+                "Smallest dihedral angle (degrees) the mesh must have: the optimisers aim 5 degrees higher, and a mesh "
+                "below it is reported (exit 1)")
       ->capture_default_str();
   c->add_option("--sliver-angle", a.sliver_angle, "Report elements with a dihedral angle below this (degrees) as slivers")
       ->capture_default_str();

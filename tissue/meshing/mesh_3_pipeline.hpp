@@ -70,8 +70,8 @@ class StageTicker {
 };
 
 /// CGAL's optimisers in their recommended order: ODT smoothing, sliver perturbation, sliver
-/// exudation, each bounded by `max_seconds_per_optimiser`, the last two aiming at
-/// `min_dihedral_deg`.
+/// exudation, each bounded by `max_seconds_per_optimiser`, the last two aiming 5 degrees above
+/// `min_dihedral_deg` (what they reach falls short of their aim; the bound is then checked).
 template <class C3t3, class Domain>
 void optimise(C3t3& c3t3, const Domain& domain, const MeshingOptions& o, MeshingResult& r) {
   namespace P = CGAL::parameters;
@@ -82,11 +82,11 @@ void optimise(C3t3& c3t3, const Domain& domain, const MeshingOptions& o, Meshing
   }
   {
     StageTicker t(o, r, "perturb slivers");
-    CGAL::perturb_mesh_3(c3t3, domain, P::time_limit = T, P::sliver_bound = o.min_dihedral_deg);
+    CGAL::perturb_mesh_3(c3t3, domain, P::time_limit = T, P::sliver_bound = o.min_dihedral_deg + 5.0);
   }
   {
     StageTicker t(o, r, "exude slivers");
-    CGAL::exude_mesh_3(c3t3, P::time_limit = T, P::sliver_bound = o.min_dihedral_deg);
+    CGAL::exude_mesh_3(c3t3, P::time_limit = T, P::sliver_bound = o.min_dihedral_deg + 5.0);
   }
 }
 

@@ -80,7 +80,7 @@ std::string write_quality_png(const MeshQuality& q, const std::string& title, co
   std::string script = fmt::format(
       "set terminal pngcairo size 1000,420 font 'sans,10'\n"
       "set output {out}\n"
-      "set multiplot layout 1,2 title {title}\n"
+      "set multiplot layout 1,2 title {title} noenhanced\n"
       "set style fill solid 0.8 border -1\nset grid ytics\nset ylabel 'elements'\n"
       "set title sprintf('radius ratio (min %.3f, mean %.3f)', {rr_min}, {rr_mean})\n"
       "set xlabel 'radius ratio 3 r_{{in}} / R_{{circ}}'\n"
