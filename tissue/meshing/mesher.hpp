@@ -34,7 +34,7 @@ struct MeshingOptions {
   int64_t target_tets = 5000;  ///< for size 0: what one core steps at 1 kHz (docs/REALTIME.md)
   /// Smallest dihedral angle the mesh must have (degrees): the optimisers aim 5 degrees above
   /// it, and the result is checked against it. CGAL guarantees no bound; measured minima are
-  /// 8-9 degrees on smooth surfaces and 1 mm images, 5.6-6.1 on anisotropic and 256^3 images
+  /// 8-10 degrees on smooth surfaces and 1 mm images, 5.6-7.4 on anisotropic and 256^3 images
   /// (docs/MESHING.md), hence the default.
   double min_dihedral_deg = 5.0;
   /// Elements with a dihedral angle below this are reported as slivers (degrees).
