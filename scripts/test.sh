@@ -9,7 +9,11 @@ cd "$(dirname "$0")/.."
 # Loopback only: every DDS participant started here uses Stroma's built-in loopback config,
 # never an inherited CYCLONEDDS_URI that could point at another interface or multicast.
 unset CYCLONEDDS_URI
+# Each stage's start and the seconds since the start, so a CI log shows where the time goes.
+stage() { echo "=== stage: $* (at ${SECONDS} s, $(date -u +%H:%M:%S))"; }
+stage setup
 scripts/setup.sh
+stage release build
 scripts/build.sh
 jobs=$(nproc 2>/dev/null || echo 2)
 # Sanitizer stage: the headless engine — `stroma run`, `check` and `bench` and their tests,
@@ -24,15 +28,21 @@ asan_skip+='|Feedback\.SlowIndenter|Contact\.PassiveWhenTheToolIsHeldStill|Preco
 asan_skip+='|PhysicsLoop\.PhaseLock'
 # Two runs of whole scenes whose code shorter tests cover (40 and 25 s under the sanitizers).
 asan_skip+='|cli\.check_sofa_scene|regression\.cylinder_qr_load'
+stage sanitizer build
 cmake --preset asan >/dev/null
 cmake --build build-asan -j "$jobs"
+stage sanitizer tests
 ctest --test-dir build-asan --output-on-failure -j "$jobs" -E "$asan_skip"
+stage fuzzing
 scripts/fuzz.sh "${STROMA_FUZZ_SECONDS:-20}"
 # A 2-minute soak of the demo's three processes (server, renderer, looping tool client):
 # memory flat after warm-up, nothing dies (bench/soak.sh; the 60-minute figures: REALTIME.md).
+stage soak
 bench/soak.sh 2
 # ThreadSanitizer stage, so ctest's summary of the full build is the last thing printed.
+stage thread sanitizer
 cmake --preset tsan >/dev/null
 cmake --build build-tsan -j "$jobs" --target stroma_thread_tests
 build-tsan/tests/stroma_thread_tests --gtest_filter='TripleBuffer*:SpscQueue*:PhysicsLoop*:CholeskyRefresher*:PreconditionerRefresh.SameTrajectory*:-PhysicsLoop.PhaseLock*' --gtest_brief=1
+stage release tests
 ctest --test-dir build --output-on-failure -j "$jobs"

@@ -16,7 +16,7 @@ using namespace stroma::meshing;
 
 namespace {
 
-constexpr double kA = 0.040, kB = 0.030, kC = 0.025;  // ellipsoid semi-axes (m)
+constexpr double kA = 0.024, kB = 0.019, kC = 0.017;  // ellipsoid semi-axes (m): 6 mm around the inclusion
 constexpr double kR = 0.010;                          // inclusion radius (m)
 const Vec3 kInclusion{0.008, 0.0, 0.0};               // inclusion centre (m)
 
