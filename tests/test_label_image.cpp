@@ -8,12 +8,14 @@
 #include <filesystem>
 #include <fstream>
 
+#include "tests/input_error_message.hpp"
 #include "tissue/input_error.hpp"
 #include "tissue/label_image.hpp"
 #include "tissue/mesh_quality.hpp"
 #include "tissue/surface_check.hpp"
 
 using namespace stroma;
+using stroma::test_support::message_of;
 namespace fs = std::filesystem;
 
 namespace {
@@ -24,15 +26,6 @@ fs::path temp_dir() {
   const fs::path d = fs::temp_directory_path() / ("stroma_label_image_" + std::to_string(::getpid()));
   fs::create_directories(d);
   return d;
-}
-
-std::string message_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
 }
 
 /// World position of voxel (i, j, k) by the image's geometry.

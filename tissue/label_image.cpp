@@ -6,7 +6,7 @@
 
 #include "tissue/label_image.hpp"
 
-#include <zlib.h>
+#include <zlib.h>  // deflate, for the writers
 
 #include <algorithm>
 #include <bit>
@@ -19,6 +19,7 @@
 
 #include <fmt/format.h>
 
+#include "tissue/inflate.hpp"
 #include "tissue/input_error.hpp"
 #include "tissue/text_scan.hpp"
 
@@ -79,67 +80,13 @@ std::string read_file_bytes(const std::string& path) {
 
 bool is_gzip(std::string_view s) { return s.size() >= 2 && uint8_t(s[0]) == 0x1f && uint8_t(s[1]) == 0x8b; }
 
-/// Inflates a zlib or gzip stream (auto-detected) into at most `want` bytes. Returns the bytes
-/// produced; sets `error` when the stream is corrupt (running out of input early is not an
-/// error here: the caller compares the size with what it needs and says "truncated"). With
-/// `verify_end`, the stream must also end (its checksum checked) within 64 MB past `want`:
-/// a file cut inside its trailer, or with a corrupt checksum, is refused.
+/// Inflates a zlib or gzip stream into at most `want` bytes (tissue/inflate.hpp); with
+/// `verify_end` the stream's checksum is checked too. Corrupt data sets `error`; running out of
+/// input early does not (the caller compares the size with what it needs and says "truncated").
 std::string inflate_up_to(std::string_view src, size_t want, std::string* error, bool verify_end = false) {
-  // The output grows with what really inflates (doubling from 64 KB), never to `want` up front:
-  // a small hostile file whose header claims gigabytes costs what it inflates to.
   std::string out;
-  out.resize(std::min<size_t>(want, size_t{1} << 16));
-  z_stream z{};
-  if (inflateInit2(&z, 32 + MAX_WBITS) != Z_OK) {
-    *error = "zlib could not start";
-    return {};
-  }
-  size_t in_pos = 0, out_pos = 0;
-  int rc = Z_OK;
-  while (out_pos < want) {
-    if (out_pos == out.size()) out.resize(std::min(want, 2 * out.size()));
-    const size_t in_chunk = std::min<size_t>(src.size() - in_pos, 1u << 30);
-    const size_t out_chunk = std::min<size_t>(out.size() - out_pos, 1u << 30);
-    z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(src.data() + in_pos));
-    z.avail_in = static_cast<uInt>(in_chunk);
-    z.next_out = reinterpret_cast<Bytef*>(out.data() + out_pos);
-    z.avail_out = static_cast<uInt>(out_chunk);
-    rc = inflate(&z, Z_NO_FLUSH);
-    in_pos += in_chunk - z.avail_in;
-    out_pos += out_chunk - z.avail_out;
-    if (rc == Z_STREAM_END) break;
-    if (rc == Z_BUF_ERROR && in_pos >= src.size()) break;  // input ended early
-    if (rc != Z_OK) {
-      *error = fmt::format("corrupt compressed data ({})", z.msg ? z.msg : "zlib error");
-      break;
-    }
-  }
-  if (verify_end && error->empty() && out_pos == want && rc != Z_STREAM_END) {
-    std::string scratch(1 << 16, '\0');
-    size_t extra = 0;
-    while (true) {
-      const size_t in_chunk = std::min<size_t>(src.size() - in_pos, 1u << 30);
-      z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(src.data() + in_pos));
-      z.avail_in = static_cast<uInt>(in_chunk);
-      z.next_out = reinterpret_cast<Bytef*>(scratch.data());
-      z.avail_out = static_cast<uInt>(scratch.size());
-      rc = inflate(&z, Z_NO_FLUSH);
-      in_pos += in_chunk - z.avail_in;
-      extra += scratch.size() - z.avail_out;
-      if (rc == Z_STREAM_END) break;
-      if (rc == Z_BUF_ERROR && in_pos >= src.size()) {
-        *error = "truncated: the compressed stream stops before its end (checksum) marker";
-        break;
-      }
-      if (rc != Z_OK) {
-        *error = fmt::format("corrupt compressed data ({})", z.msg ? z.msg : "zlib error");
-        break;
-      }
-      if (extra > (size_t{1} << 26)) break;  // more data than the header announced: ignore the rest
-    }
-  }
-  inflateEnd(&z);
-  out.resize(out_pos);
+  InflateOutcome r = inflate_bounded(src, want, verify_end ? InflateTail::verified : InflateTail::unchecked, out);
+  *error = std::move(r.error);
   return out;
 }
 
@@ -284,12 +231,7 @@ std::vector<double> parse_numbers(const std::string& path, int line, const std::
   return v;
 }
 
-std::string trim(std::string_view s) {
-  size_t b = 0, e = s.size();
-  while (b < e && text::is_space(s[b])) ++b;
-  while (e > b && text::is_space(s[e - 1])) --e;
-  return std::string(s.substr(b, e - b));
-}
+std::string trim(std::string_view s) { return std::string(text::trim(s)); }
 
 VoxelType nrrd_type(const std::string& path, int line, std::string t) {
   for (char& c : t) c = text::lower(c);

@@ -21,8 +21,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include <zlib.h>
 
+#include "tissue/inflate.hpp"
 #include "tissue/input_error.hpp"
 #include "tissue/text_scan.hpp"
 
@@ -36,12 +36,6 @@ constexpr size_t kNoPos = std::string_view::npos;
 // =============================================================================================
 // Shared text machinery
 // =============================================================================================
-
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && is_space(s.front())) s.remove_prefix(1);
-  while (!s.empty() && is_space(s.back())) s.remove_suffix(1);
-  return s;
-}
 
 /// Where an error is, in terms the user can act on: file text (to turn an offset into a line
 /// number), file name and the section being read.
@@ -1341,39 +1335,22 @@ class VtuReader {
                 fmt::format("compressed DataArray holds {} bytes; expected {} for {} values", total, expected, count));
     const unsigned char* sizes = bytes + 3 * hs;
     size_t at = 3 * hs + static_cast<size_t>(nblocks) * hs;
-    std::vector<unsigned char> out;
-    out.reserve(std::min<size_t>(expected, size_t{1} << 24));  // grows with what really inflates
-    unsigned char chunk[16384];
+    std::string out;  // grows with what really inflates (tissue/inflate.cpp)
     for (uint64_t b = 0; b < nblocks; ++b) {
       const uint64_t csize = load_bits(sizes + b * hs, static_cast<int>(hs), big_endian_);
       if (csize > avail - at)
         ctx_.fail(array.begin, fmt::format("compressed block {} of {} bytes runs past the data", b, csize));
-      if (csize > std::numeric_limits<uInt>::max())
-        ctx_.fail(array.begin, fmt::format("compressed block {} of {} bytes is larger than zlib takes at once", b, csize));
       const uint64_t want = b + 1 == nblocks ? last_size : block;
-      z_stream z{};
-      if (inflateInit(&z) != Z_OK) ctx_.fail(array.begin, "zlib could not start");
-      z.next_in = const_cast<unsigned char*>(bytes + at);
-      z.avail_in = static_cast<uInt>(csize);
-      uint64_t got = 0;
-      int rc = Z_OK;
-      while (rc == Z_OK) {
-        z.next_out = chunk;
-        z.avail_out = sizeof chunk;
-        rc = inflate(&z, Z_NO_FLUSH);
-        const size_t n = sizeof chunk - z.avail_out;
-        got += n;
-        if (got > want) break;
-        out.insert(out.end(), chunk, chunk + n);
-        if (rc == Z_OK && n == 0 && z.avail_in == 0) break;  // no input left and no progress: truncated
-      }
-      inflateEnd(&z);
-      if (rc != Z_STREAM_END || got != want)
+      const std::string_view src(reinterpret_cast<const char*>(bytes + at), static_cast<size_t>(csize));
+      const InflateOutcome r = inflate_bounded(src, static_cast<size_t>(want), InflateTail::exact, out);
+      if (!r.error.empty() || r.produced != want || !r.ended)
         ctx_.fail(array.begin, fmt::format("compressed block {} does not inflate to its {} bytes ({})", b, want,
-                                           rc == Z_STREAM_END ? "wrong size" : "corrupt zlib data"));
+                                           !r.error.empty() ? r.error
+                                           : r.produced < want ? fmt::format("{} bytes: truncated", r.produced)
+                                                               : std::string("its end marker is missing")));
       at += static_cast<size_t>(csize);
     }
-    return decode_values<T>(out.data(), count, type, big_endian_);
+    return decode_values<T>(reinterpret_cast<const unsigned char*>(out.data()), count, type, big_endian_);
   }
 
   /// Decodes base64 group by group, so that '=' padding in the middle is accepted: some writers

@@ -25,7 +25,7 @@
 namespace stroma {
 namespace {
 
-using namespace text;  // is_space, lower, iequals, clip, parse_number (tissue/text_scan.hpp)
+using namespace text;  // is_space, iequals, clip, parse_number, words, content_lines (tissue/text_scan.hpp)
 
 /// Whitespace-separated tokens of one line.
 class Tokens {
@@ -357,50 +357,18 @@ SurfaceMesh read_stl(std::string_view bytes, const std::string& path) {
 // OFF (Geomview Object File Format, ASCII)
 // =============================================================================================
 
-/// Splits `text` into lines (numbered from 1) without '#' comments and blank lines.
-std::vector<std::pair<int, std::string_view>> content_lines(std::string_view text) {
-  std::vector<std::pair<int, std::string_view>> out;
-  size_t pos = 0;
-  int line = 0;
-  while (pos < text.size()) {
-    size_t nl = text.find('\n', pos);
-    if (nl == std::string_view::npos) nl = text.size();
-    std::string_view l = text.substr(pos, nl - pos);
-    pos = nl + 1;
-    ++line;
-    const size_t hash = l.find('#');
-    if (hash != std::string_view::npos) l = l.substr(0, hash);
-    while (!l.empty() && is_space(l.back())) l.remove_suffix(1);
-    while (!l.empty() && is_space(l.front())) l.remove_prefix(1);
-    if (!l.empty()) out.emplace_back(line, l);
-  }
-  return out;
-}
-
-std::vector<std::string_view> tokens(std::string_view l) {
-  std::vector<std::string_view> t;
-  size_t i = 0;
-  while (i < l.size()) {
-    while (i < l.size() && is_space(l[i])) ++i;
-    const size_t b = i;
-    while (i < l.size() && !is_space(l[i])) ++i;
-    if (i > b) t.push_back(l.substr(b, i - b));
-  }
-  return t;
-}
-
 SurfaceMesh read_off(std::string_view text, const std::string& path) {
   SurfaceMesh m;
   m.source = path;
   const auto lines = content_lines(text);
   size_t li = 0;
   if (lines.empty()) throw InputError(path, 0, "", "empty file");
-  auto head = tokens(lines[0].second);
+  auto head = words(lines[0].second);
   if (!(head[0].size() >= 3 && head[0].substr(head[0].size() - 3) == "OFF"))
     throw InputError(path, lines[0].first, "", fmt::format("'{}' is not an OFF header", clip(lines[0].second)));
   if (head.size() == 1) {
     if (++li >= lines.size()) throw InputError(path, 0, "", "truncated: no counts line");
-    head = tokens(lines[li].second);
+    head = words(lines[li].second);
   } else {
     head.erase(head.begin());
   }
@@ -413,7 +381,7 @@ SurfaceMesh read_off(std::string_view text, const std::string& path) {
   m.vertices.reserve(size_t(nv));
   for (int64_t v = 0; v < nv; ++v) {
     const auto& [n, l] = lines[++li];
-    const auto t = tokens(l);
+    const auto t = words(l);
     Vec3 p;
     if (t.size() < 3 || !parse_number(t[0], p[0]) || !parse_number(t[1], p[1]) || !parse_number(t[2], p[2]) ||
         !std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
@@ -422,7 +390,7 @@ SurfaceMesh read_off(std::string_view text, const std::string& path) {
   }
   for (int64_t f = 0; f < nf; ++f) {
     const auto& [n, l] = lines[++li];
-    const auto t = tokens(l);
+    const auto t = words(l);
     int64_t k = 0;
     if (t.empty() || !parse_number(t[0], k) || k < 3 || size_t(k) + 1 > t.size())
       throw InputError(path, n, "face", fmt::format("'{}' is not 'N i1 ... iN' with N >= 3", clip(l)));
@@ -480,7 +448,7 @@ SurfaceMesh read_ply(std::string_view bytes, const std::string& path) {
   std::vector<PlyElement> elements;
   while (true) {
     const std::string_view l = next_line();
-    const auto t = tokens(l);
+    const auto t = words(l);
     if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
     if (t[0] == "end_header") break;
     if (t[0] == "format" && t.size() >= 2) {
@@ -518,7 +486,7 @@ SurfaceMesh read_ply(std::string_view bytes, const std::string& path) {
   const bool swap = !ascii && ((format == "binary_big_endian") != (std::endian::native == std::endian::big));
   std::vector<std::string_view> toks;
   size_t tok_i = 0;
-  if (ascii) toks = tokens(bytes.substr(pos));
+  if (ascii) toks = words(bytes.substr(pos));
   // One value of type `t`, as a double.
   auto value = [&](const std::string& t) -> double {
     if (ascii) {

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 namespace stroma::text {
 
@@ -53,6 +55,46 @@ bool parse_number(std::string_view tok, T& out) {
   if (e - b > 1 && *b == '+' && b[1] != '-') ++b;
   auto [p, ec] = std::from_chars(b, e, out);
   return ec == std::errc() && p == e;
+}
+
+/// `s` without leading and trailing whitespace.
+inline std::string_view trim(std::string_view s) {
+  while (!s.empty() && is_space(s.front())) s.remove_prefix(1);
+  while (!s.empty() && is_space(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+/// The whitespace-separated words of `line`.
+inline std::vector<std::string_view> words(std::string_view line) {
+  std::vector<std::string_view> out;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && is_space(line[i])) ++i;
+    const size_t b = i;
+    while (i < line.size() && !is_space(line[i])) ++i;
+    if (i > b) out.push_back(line.substr(b, i - b));
+  }
+  return out;
+}
+
+/// The lines of `text` that hold something, numbered from 1 as in the file, each trimmed and
+/// cut at `comment` (a comment runs to the end of its line): blank and comment lines dropped.
+inline std::vector<std::pair<int, std::string_view>> content_lines(std::string_view text, char comment = '#') {
+  std::vector<std::pair<int, std::string_view>> out;
+  size_t pos = 0;
+  int line = 0;
+  while (pos < text.size()) {
+    size_t nl = text.find('\n', pos);
+    if (nl == std::string_view::npos) nl = text.size();
+    std::string_view l = text.substr(pos, nl - pos);
+    pos = nl + 1;
+    ++line;
+    const size_t c = l.find(comment);
+    if (c != std::string_view::npos) l = l.substr(0, c);
+    l = trim(l);
+    if (!l.empty()) out.emplace_back(line, l);
+  }
+  return out;
 }
 
 }  // namespace stroma::text

@@ -7,11 +7,13 @@
 
 #include <cmath>
 
+#include "tests/input_error_message.hpp"
 #include "tissue/input_error.hpp"
 #include "tissue/mesh_prepare.hpp"
 #include "tissue/meshing/mesher.hpp"
 
 using namespace stroma;
+using stroma::test_support::message_of;
 using namespace stroma::meshing;
 
 namespace {
@@ -143,15 +145,6 @@ double enclosed(const SurfaceMesh& s) {
     v += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])) / 6;
   }
   return std::abs(v);
-}
-
-std::string message_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
 }
 
 }  // namespace
