@@ -51,12 +51,12 @@ void add_bench(CLI::App& app, std::vector<Command>& out) {
   };
   auto aco = std::make_shared<AccuracyArgs>();
   aco->o.source_dir = STROMA_SOURCE_DIR;
-  auto* acc = bench->add_subcommand("accuracy", "Run time against error on the reference problems (cantilever static and dynamic, bonded block, sphere indentation), with Pareto fronts");
+  auto* acc = bench->add_subcommand("accuracy", "Run time against error on the reference problems (cantilever static and dynamic, bonded block, sphere indentation, visco-elastic bar, fibre-reinforced bar and inflated fibre ring), with Pareto fronts");
   acc->add_flag("--quick", aco->o.quick, "Fewer levels: a few minutes");
   acc->add_option("--runs", aco->o.runs, "Timing repetitions per configuration (median)")->capture_default_str()->check(CLI::Range(1, 50));
   acc->add_option("--out", aco->o.out_dir, "Output directory (CSV, PNG plots, gnuplot scripts)")->capture_default_str();
   acc->add_option("--only", aco->o.only, "Run one problem only (cantilever: static and dynamic; with --peers: only its peer)")
-      ->check(CLI::IsMember({"cantilever", "indentation", "block_compression", "viscoelastic", "fibres"}));
+      ->check(CLI::IsMember({"cantilever", "indentation", "block_compression", "viscoelastic", "fibres", "fibre_ring"}));
   acc->add_flag("--peers", aco->peers, "Also run the Bullet peers (build/bench/stroma_bench_bullet) on the same problems and meshes and put them on the same tables and plots (adds ~25 min; ~12 min with --quick)");
   acc->add_option("--source-dir", aco->o.source_dir, "Repository with scenarios/ (default: where stroma was built from)")
       ->check(CLI::ExistingDirectory);

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/accuracy/quarter_block_mesh.hpp"
+#include "bench/accuracy/thick_ring.hpp"
 #include "engine/compiled_scenario.hpp"
 #include "engine/headless_runner.hpp"
 #include "engine/model.hpp"
@@ -845,6 +846,83 @@ AccuracyPoint run_fibre(const std::string& out_dir, const FibreConfig& c, int ru
   return p;
 }
 
+}  // namespace
+
+AccuracyPoint run_fibre_ring(const std::string& out_dir, const ThickRing& ring, int nr, int ntheta, int runs) {
+  const double layer = (ring.B - ring.A) / nr;  // cells about as thick as they are deep
+  const std::string mesh = write_quarter_ring_vtu(
+      (fs::path(out_dir) / fmt::format("fibre_ring_{}x{}.vtu", nr, ntheta)).string(), ring, layer, nr, ntheta, 1);
+  const double e = 1e-9;
+  const std::string yaml = fmt::format(
+      "name: fibre_ring\ntime_step: 0.001\ngravity: [0, 0, 0]\n"
+      "solver: {{integrator: static, linear_solver: cholmod, static_tolerance: 1.0e-10}}\n"
+      "bodies:\n  - name: ring\n    mesh: {}\n    material:\n      model: stable_neo_hookean\n"
+      "      young_modulus: {}\n      poisson_ratio: {}\n      density: 1000\n"
+      "      fibres: {{direction: mesh, k1: {}, k2: {}}}\n"
+      "    fixed:\n"
+      "      - {{box: {{min: [-{e}, -1, -1], max: [{e}, 1, 1]}}, axes: [x]}}\n"
+      "      - {{box: {{min: [-1, -{e}, -1], max: [1, {e}, 1]}}, axes: [y]}}\n"
+      "      - {{box: {{min: [-1, -1, -{e}], max: [1, 1, {e}]}}, axes: [z]}}\n"
+      "      - {{box: {{min: [-1, -1, {zl}], max: [1, 1, {zh}]}}, axes: [z]}}\n"
+      "run: {{steps: 1}}\n",
+      mesh, ring.E, ring.nu, ring.k1, ring.k2, fmt::arg("e", e), fmt::arg("zl", layer - e), fmt::arg("zh", layer + e));
+  const std::string yaml_path = (fs::path(out_dir) / "fibre_ring.yaml").string();
+  std::ofstream(yaml_path) << yaml;
+  Model m = *compile_model(load_scenario(yaml_path));
+  // The dead pressure: p0 × each inner facet's rest area, along its normal away from the axis,
+  // a third to each of its nodes.
+  auto radius = [&](const double* p) { return std::hypot(p[0], p[1]); };
+  auto inner = [&](int32_t n) { return std::abs(radius(&m.fem.rest[3 * n]) - ring.A) < 1e-9 * ring.A; };
+  std::fill(m.fem.f_ext.begin(), m.fem.f_ext.end(), 0.0);
+  for (const Tri& t : m.fem.bodies[0].boundary) {
+    if (!inner(t[0]) || !inner(t[1]) || !inner(t[2])) continue;
+    const double* P = &m.fem.rest[3 * t[0]];
+    const double* Q = &m.fem.rest[3 * t[1]];
+    const double* S = &m.fem.rest[3 * t[2]];
+    const double u[3] = {Q[0] - P[0], Q[1] - P[1], Q[2] - P[2]}, v[3] = {S[0] - P[0], S[1] - P[1], S[2] - P[2]};
+    double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};  // 2·area·normal
+    if (n[0] * (P[0] + Q[0] + S[0]) + n[1] * (P[1] + Q[1] + S[1]) < 0)
+      for (double& c : n) c = -c;
+    for (int32_t node : t)
+      for (int k = 0; k < 3; ++k) m.fem.f_ext[3 * node + k] += ring.p0 * 0.5 * n[k] / 3.0;
+  }
+  AccuracyPoint p;
+  p.problem = "fibre_ring";
+  p.sweep = "mesh (linear tetrahedra, CHOLMOD Newton)";
+  p.label = fmt::format("{} x {} cells", nr, ntheta);
+  p.nodes = m.fem.num_nodes;
+  p.reference = solve_thick_ring(ring).u_inner;
+  std::vector<double> secs;
+  for (int run = 0; run < std::max(1, runs); ++run) {
+    State s = State::initial(m);
+    TickWorkspace w(m);
+    StaticParameters from, to;
+    from.load = 0;
+    to.load = 1;
+    const auto t0 = std::chrono::steady_clock::now();
+    const StaticOutcome out = solve_equilibrium(m, s, w, from, to);
+    secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    if (!out.converged) {
+      p.ok = false;
+      p.failure = "Newton did not converge";
+      break;
+    }
+    double u = 0;
+    int n = 0;
+    for (int32_t i = 0; i < m.fem.num_nodes; ++i)
+      if (inner(i)) {
+        u += radius(&s.tissue.x[3 * i]) - ring.A;
+        ++n;
+      }
+    p.value = u / n;
+  }
+  p.error = p.ok ? std::abs(p.value / p.reference - 1) : 0;
+  p.s_per_sim_s = median(secs);
+  return p;
+}
+
+namespace {
+
 /// Stretch along and across the fibres (1.03 … 1.3: the exponential's toe to its stiff part),
 /// and the mesh at 1.2 along.
 std::vector<AccuracyPoint> run_fibre_problem(const AccuracyOptions& o, int runs) {
@@ -858,6 +936,15 @@ std::vector<AccuracyPoint> run_fibre_problem(const AccuracyOptions& o, int runs)
   for (double h : o.quick ? std::vector<double>{0.005} : std::vector<double>{0.005, 0.0025})
     record(fi, run_fibre(o.out_dir, {"mesh (stretch 1.2 along)", fmt::format("h {:g} mm", h * 1e3), 1.2, true, h}, runs), o);
   return fi;
+}
+
+/// Inhomogeneous: the inflated ring with circumferential fibres against its 1-D reference, the
+/// mesh refined (cells of 2.5 mm down to 0.31 mm through the 5 mm wall).
+std::vector<AccuracyPoint> run_fibre_ring_problem(const AccuracyOptions& o, int runs) {
+  std::vector<AccuracyPoint> ri;
+  for (int nr : o.quick ? std::vector<int>{4, 8} : std::vector<int>{2, 4, 8, 16})
+    record(ri, run_fibre_ring(o.out_dir, ThickRing{}, nr, 4 * nr, runs), o);
+  return ri;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -892,6 +979,8 @@ const ProblemReport& problem_report(const std::string& name) {
         "stable neo-Hookean (omega tau 1)"}},
       {"fibres", "Fibre-reinforced bar (stable neo-Hookean + HGO fibres): uniaxial stress vs the closed form", kToAnswer,
        "s to answer", {"along the fibres (h 10 mm)", "across the fibres (h 10 mm)", "mesh (stretch 1.2 along)"}},
+      {"fibre_ring", "Inflated ring, circumferential HGO fibres (plane strain, p 5 kPa): inner displacement vs the 1-D reference",
+       kToAnswer, "s to answer", {"mesh (linear tetrahedra, CHOLMOD Newton)"}},
       {"indentation", "Sphere indentation (refs/e): force at 1 mm vs 0.019604 N", kToAnswer, "s to answer",
        {"mesh grading (linear, penalty 1e9)", "penalty stiffness (first cell 0.2 mm)", "element model (first cell 0.2 mm)",
         "Bullet FEM (peer)"}},
@@ -1039,6 +1128,12 @@ void print_problem_table(const std::string& name, const std::vector<AccuracyPoin
       fmt::print("| {} | {} | {} | {} | {:g} | {} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
                  p.ok ? fmt::format("{:.6f}", p.value) : "—", p.reference,
                  p.ok ? fmt::format("{:.2e}", p.error) : "failed: " + p.failure, p.s_per_sim_s, p.pareto ? "●" : "");
+  } else if (name == "fibre_ring") {
+    fmt::print("| sweep | configuration | nodes | inner displacement (mm) | 1-D reference (mm) | error | s to answer | Pareto |\n|---|---|---|---|---|---|---|---|\n");
+    for (const auto& p : pts)
+      fmt::print("| {} | {} | {} | {} | {:.6f} | {} | {:.3f} | {} |\n", p.sweep, p.label, p.nodes,
+                 p.ok ? fmt::format("{:.6f}", 1e3 * p.value) : "—", 1e3 * p.reference,
+                 p.ok ? fmt::format("{:.2f} %", 100 * p.error) : "failed: " + p.failure, p.s_per_sim_s, p.pareto ? "●" : "");
   } else {  // indentation
     fmt::print("| sweep | configuration | nodes | force (N) | error | s to answer | Pareto |\n|---|---|---|---|---|---|---|\n");
     for (const auto& p : pts)
@@ -1135,6 +1230,12 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
     keep(fi);
     if (!o.only.empty()) return all;
   }
+  if (wanted("fibre_ring")) {
+    std::vector<AccuracyPoint> fi = run_fibre_ring_problem(o, runs);
+    finish_problem(o.out_dir, "fibre_ring", fi, {});
+    keep(fi);
+    if (!o.only.empty()) return all;
+  }
   std::vector<AccuracyPoint> st = run_cantilever_static_problem(o, runs);
   std::vector<AccuracyPoint> dy = run_cantilever_dynamic_problem(o, runs);
   finish_problem(o.out_dir, "cantilever_static", st, peers.cantilever_static);
@@ -1146,7 +1247,7 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& o) {
 
 std::vector<AccuracyPoint> replot_accuracy_csvs(const std::string& csv_dir, const std::string& png_dir) {
   std::vector<AccuracyPoint> all;
-  for (const char* name : {"cantilever_static", "cantilever_dynamic", "block_compression", "indentation", "viscoelastic", "fibres"}) {
+  for (const char* name : {"cantilever_static", "cantilever_dynamic", "block_compression", "indentation", "viscoelastic", "fibres", "fibre_ring"}) {
     for (const std::string& stem : {std::string(name), "accuracy_" + std::string(name)}) {
       const fs::path csv = fs::path(csv_dir) / (stem + ".csv");
       if (!fs::exists(csv)) continue;

@@ -62,7 +62,7 @@ struct AccuracyOptions {
   /// put on the same tables and plots; empty: no peers.
   std::string peer_program;
   /// Run only this problem ("cantilever" (static and dynamic), "indentation",
-  /// "block_compression", "viscoelastic" or "fibres"; empty: all).
+  /// "block_compression", "viscoelastic", "fibres" or "fibre_ring"; empty: all).
   std::string only;
 };
 
@@ -76,5 +76,15 @@ std::vector<AccuracyPoint> run_accuracy_suite(const AccuracyOptions& options);
 /// table <stem>_pareto.md beside the CSV and the plot to png_dir/<stem>.png, and prints the number
 /// tables. Returns the points read.
 std::vector<AccuracyPoint> replot_accuracy_csvs(const std::string& csv_dir, const std::string& png_dir);
+
+struct ThickRing;
+
+/// The inhomogeneous fibre problem (bench/accuracy/thick_ring.hpp): a quarter of the ring,
+/// nr × nθ cells in (R, θ) and one layer in z (plane strain: both faces slide in their planes),
+/// fibre directions read from the mesh (`direction: mesh`), the dead inner pressure as nodal
+/// forces on the inner facets; static Newton with CHOLMOD in load steps. value: the inner
+/// surface's mean radial displacement (m); reference: the 1-D solution's; error: relative.
+/// Writes the mesh and scenario to out_dir.
+AccuracyPoint run_fibre_ring(const std::string& out_dir, const ThickRing& ring, int nr, int ntheta, int runs);
 
 }  // namespace stroma
