@@ -90,6 +90,26 @@ TEST(SupernodalF32, SolvesToSinglePrecisionAndDiffersFromTheDoubleFactor) {
   std::printf("  float factor: relative residual %.3e\n", rf);
   EXPECT_LE(rf, 1e-5);
   EXPECT_GT(rf, 1e-12) << "the solve must have used the single-precision copy";
+  // CG needs a symmetric preconditioner: ⟨P⁻¹a, c⟩ = ⟨a, P⁻¹c⟩ to the float factor's rounding
+  // (the forward and backward solves use the same rounded triangle inverses and blocks).
+  {
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::vector<double> a(s->b.size()), c(s->b.size()), pa(a.size()), pc(a.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      a[i] = u(rng);
+      c[i] = u(rng);
+    }
+    flt.solve(a.data(), pa.data());
+    flt.solve(c.data(), pc.data());
+    double lhs = 0, rhs = 0, scale = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+      lhs += pa[i] * c[i];
+      rhs += a[i] * pc[i];
+      scale += std::abs(pa[i] * c[i]);
+    }
+    EXPECT_LE(std::abs(lhs - rhs), 1e-6 * scale) << lhs << " vs " << rhs;
+  }
   // A refactorisation with other values is followed (the values are re-copied each factor()).
   std::vector<double> A2 = s->A;
   for (double& v : A2) v *= 2.0;

@@ -60,10 +60,12 @@ class WarpedPreconditioner {
   bool factored() const { return factor_ != nullptr && key_[0] != -1; }
 
   /// What one application costs against one Jacobi-PCG iteration, from the memory each streams:
-  /// the factor twice in float (8 bytes per entry), which streams at about half the SpMV's rate
-  /// here (measured: beam k6 0.30 ms against 8 MB; 7,457-node block ~10 ms), against the
-  /// matrix's 72 bytes per stored block: 1 + 16·entries(L) / (72·blocks). Deterministic, so the
-  /// fallback it sets (TimeStepper::solve) is too.
+  /// the factor twice in float (8 bytes per entry), which streamed at about half the SpMV's rate
+  /// when this was fit (beam k6 0.30 ms against 8 MB; 7,457-node block ~10 ms), against the
+  /// matrix's 72 bytes per stored block: 1 + 16·entries(L) / (72·blocks). The blocked solves
+  /// of 2026-12-04 take ~0.6 of that (beam 0.19 ms), so the estimate errs towards the Jacobi
+  /// fallback; kept, as the fallbacks it decides are tested. Deterministic, so the fallback it
+  /// sets (TimeStepper::solve) is too.
   double relative_cost() const {
     return factor_ ? 1.0 + 16.0 * factor_->factor_entries() / (72.0 * m_.pattern.nnzb()) : 1.0;
   }
