@@ -773,6 +773,30 @@ struct FibreConfig {
   double h = 0.01;       ///< cell size of the 20 × 20 × 100 mm bar (m)
 };
 
+/// Solves `m` statically from rest to its full load `runs` times (at least once), timing each
+/// (p.s_per_sim_s: the median); the last solve's state goes to `out`. A solve that does not
+/// converge marks `p` failed and stops. Returns p.ok.
+bool timed_static_solves(const Model& m, int runs, AccuracyPoint& p, State& out) {
+  std::vector<double> secs;
+  for (int run = 0; run < std::max(1, runs); ++run) {
+    out = State::initial(m);
+    TickWorkspace w(m);
+    StaticParameters from, to;
+    from.load = 0;
+    to.load = 1;
+    const auto t0 = std::chrono::steady_clock::now();
+    const StaticOutcome o = solve_equilibrium(m, out, w, from, to);
+    secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    if (!o.converged) {
+      p.ok = false;
+      p.failure = "Newton did not converge";
+      break;
+    }
+  }
+  p.s_per_sim_s = median(secs);
+  return p.ok;
+}
+
 /// The bar [0, 20 mm]² × [0, 100 mm] (cells of h, six tetrahedra each), fibres along z (along)
 /// or x (across), its end z = 0 sliding on its plane, pulled at z = L by a consistent nominal
 /// traction P(target stretch): a homogeneous state. Static Newton with CHOLMOD from rest in load
@@ -816,22 +840,8 @@ AccuracyPoint run_fibre(const std::string& out_dir, const FibreConfig& c, int ru
   p.label = c.label;
   p.nodes = m.fem.num_nodes;
   p.reference = c.stretch;
-  std::vector<double> secs;
-  p.ok = true;
-  for (int run = 0; run < runs && p.ok; ++run) {
-    State s = State::initial(m);
-    TickWorkspace w(m);
-    StaticParameters from, to;
-    from.load = 0;
-    to.load = 1;
-    const auto t0 = std::chrono::steady_clock::now();
-    const StaticOutcome out = solve_equilibrium(m, s, w, from, to);
-    secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    if (!out.converged) {
-      p.ok = false;
-      p.failure = "Newton did not converge";
-      break;
-    }
+  State s;
+  if (timed_static_solves(m, runs, p, s)) {
     double stretch = 0;
     int n = 0;
     for (int32_t i = 0; i < m.fem.num_nodes; ++i)
@@ -842,7 +852,6 @@ AccuracyPoint run_fibre(const std::string& out_dir, const FibreConfig& c, int ru
     p.value = stretch / n;
   }
   p.error = p.ok ? std::abs(fibre_uniaxial_stress(p.value, c.along) / P - 1) : 0;
-  p.s_per_sim_s = median(secs);
   return p;
 }
 
@@ -892,21 +901,8 @@ AccuracyPoint run_fibre_ring(const std::string& out_dir, const ThickRing& ring, 
   p.label = fmt::format("{} x {} cells", nr, ntheta);
   p.nodes = m.fem.num_nodes;
   p.reference = solve_thick_ring(ring).u_inner;
-  std::vector<double> secs;
-  for (int run = 0; run < std::max(1, runs); ++run) {
-    State s = State::initial(m);
-    TickWorkspace w(m);
-    StaticParameters from, to;
-    from.load = 0;
-    to.load = 1;
-    const auto t0 = std::chrono::steady_clock::now();
-    const StaticOutcome out = solve_equilibrium(m, s, w, from, to);
-    secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    if (!out.converged) {
-      p.ok = false;
-      p.failure = "Newton did not converge";
-      break;
-    }
+  State s;
+  if (timed_static_solves(m, runs, p, s)) {
     double u = 0;
     int n = 0;
     for (int32_t i = 0; i < m.fem.num_nodes; ++i)
@@ -917,7 +913,6 @@ AccuracyPoint run_fibre_ring(const std::string& out_dir, const ThickRing& ring, 
     p.value = u / n;
   }
   p.error = p.ok ? std::abs(p.value / p.reference - 1) : 0;
-  p.s_per_sim_s = median(secs);
   return p;
 }
 
