@@ -80,22 +80,12 @@ std::string read_file_bytes(const std::string& path) {
 
 bool is_gzip(std::string_view s) { return s.size() >= 2 && uint8_t(s[0]) == 0x1f && uint8_t(s[1]) == 0x8b; }
 
-/// Inflates a zlib or gzip stream into at most `want` bytes (tissue/inflate.hpp); with
-/// `verify_end` the stream's checksum is checked too. Corrupt data sets `error`; running out of
-/// input early does not (the caller compares the size with what it needs and says "truncated").
-std::string inflate_up_to(std::string_view src, size_t want, std::string* error, bool verify_end = false) {
-  std::string out;
-  InflateOutcome r = inflate_bounded(src, want, verify_end ? InflateTail::verified : InflateTail::unchecked, out);
-  *error = std::move(r.error);
-  return out;
-}
-
 /// The whole of a possibly gzip-compressed file, inflated only as far as `want` bytes.
 std::string maybe_gunzip_prefix(const std::string& path, const std::string& raw, size_t want, bool verify_end = false) {
   if (!is_gzip(raw)) return raw.substr(0, std::min(raw.size(), want));
-  std::string err;
-  std::string out = inflate_up_to(raw, want, &err, verify_end);
-  if (!err.empty()) throw InputError(path, 0, "", err);
+  std::string out;
+  const InflateOutcome r = inflate_bounded(raw, want, verify_end ? InflateTail::verified : InflateTail::unchecked, out);
+  if (!r.error.empty()) throw InputError(path, 0, "", r.error);
   return out;
 }
 
@@ -193,9 +183,9 @@ size_t data_bytes(const ImageHeader& h) {
 
 /// Inflates (zlib or gzip) a compressed data block to exactly the header's size.
 std::string inflate_data(const std::string& path, std::string_view block, size_t want) {
-  std::string err;
-  std::string out = inflate_up_to(block, want, &err, true);
-  if (!err.empty()) throw InputError(path, 0, "data", err);
+  std::string out;
+  const InflateOutcome r = inflate_bounded(block, want, InflateTail::verified, out);
+  if (!r.error.empty()) throw InputError(path, 0, "data", r.error);
   if (out.size() < want)
     throw InputError(path, 0, "data", fmt::format("truncated: compressed data inflates to {} bytes, the header announces {}", out.size(), want));
   return out;

@@ -25,9 +25,9 @@ bool SupernodalF32::load(const void* factor) {
     int32_t max_rows = 0;
     for (int32_t k = 0; k < nsuper_; ++k) max_rows = std::max(max_rows, pi[k + 1] - pi[k]);
     y_.assign(L->n, 0.0);
-    int32_t panels = 0;
-    for (int32_t k = 0; k < nsuper_; ++k) panels += (super[k + 1] - super[k] + kPanel - 1) / kPanel;
-    panel_inv_.assign(static_cast<size_t>(panels) * kPanel * kPanel, 0.0f);
+    panel_ptr_.assign(nsuper_ + 1, 0);
+    for (int32_t k = 0; k < nsuper_; ++k) panel_ptr_[k + 1] = panel_ptr_[k] + (super[k + 1] - super[k] + kPanel - 1) / kPanel;
+    panel_inv_.assign(static_cast<size_t>(panel_ptr_[nsuper_]) * kPanel * kPanel, 0.0f);
     panel_inv_t_.assign(panel_inv_.size(), 0.0f);
     tmp_.assign(static_cast<size_t>(max_rows) + 8, 0.0);  // + 8: zeros the padded dot products read
     n_ = static_cast<int32_t>(L->n);
@@ -36,10 +36,11 @@ bool SupernodalF32::load(const void* factor) {
   // Each panel's small triangle T (kPanel columns of a diagonal block) inverted, from the
   // rounded values: the solves multiply by T⁻¹ (forward) and T⁻ᵀ (backward) instead of running
   // the triangle's chain of dependent steps. Column-major 8 × 8, zero outside T⁻¹'s triangle.
-  for (int32_t sn = 0, panel = 0; sn < nsuper_; ++sn) {
+  for (int32_t sn = 0; sn < nsuper_; ++sn) {
     const int32_t k1 = super_[sn], nscol = super_[sn + 1] - k1, nsrow = pi_[sn + 1] - pi_[sn];
     const float* Ls = val_.data() + px_[sn];
-    for (int32_t p0 = 0; p0 < nscol; p0 += kPanel, ++panel) {
+    for (int32_t p0 = 0; p0 < nscol; p0 += kPanel) {
+      const size_t panel = static_cast<size_t>(panel_ptr_[sn] + p0 / kPanel);
       const int32_t np = std::min(kPanel, nscol - p0);
       double T[kPanel][kPanel] = {}, Ti[kPanel][kPanel] = {};  // [row][column]
       for (int32_t j = 0; j < np; ++j)
@@ -50,8 +51,8 @@ bool SupernodalF32::load(const void* factor) {
           for (int32_t k = c; k < i; ++k) r -= T[i][k] * Ti[k][c];
           Ti[i][c] = r / T[i][i];
         }
-      float* M = &panel_inv_[static_cast<size_t>(panel) * kPanel * kPanel];
-      float* Mt = &panel_inv_t_[static_cast<size_t>(panel) * kPanel * kPanel];
+      float* M = &panel_inv_[panel * kPanel * kPanel];
+      float* Mt = &panel_inv_t_[panel * kPanel * kPanel];
       for (int32_t j = 0; j < kPanel; ++j)
         for (int32_t l = 0; l < kPanel; ++l) {
           M[j * kPanel + l] = static_cast<float>(Ti[l][j]);   // column j of T⁻¹
@@ -100,17 +101,19 @@ inline void rows_times_vector(const float* L, int32_t ld, const double* w, int32
   for (int l = 0; l < R; ++l) acc[l] = a[l];
 }
 
-/// out[i] −= (L·w)[i] for the m rows of a column-major block (ld, ncol columns), 32 rows at a
-/// time and a last block of 8, 16 or 32 (the fewest lanes that cover it).
+/// out[i] −= (L·w)[i] for the m rows of a column-major block (ld, ncol columns), kRows (32)
+/// rows at a time and a last block of 8, 16 or 32 (the fewest lanes that cover it).
 inline void subtract_block_times_vector(const float* L, int32_t ld, const double* w, int32_t ncol, int32_t m,
                                         double* out) {
-  double acc[32];
-  for (int32_t i0 = 0; i0 < m; i0 += 32) {
+  constexpr int kRows = SupernodalF32::kRows;
+  static_assert(kRows == 32, "the last block picks 8, 16 or 32 lanes");
+  double acc[kRows];
+  for (int32_t i0 = 0; i0 < m; i0 += kRows) {
     const int32_t left = m - i0;
     if (left > 16) rows_times_vector<32>(L + i0, ld, w, ncol, acc);
     else if (left > 8) rows_times_vector<16>(L + i0, ld, w, ncol, acc);
     else rows_times_vector<8>(L + i0, ld, w, ncol, acc);
-    const int32_t n = std::min<int32_t>(32, left);
+    const int32_t n = std::min<int32_t>(kRows, left);
     for (int32_t l = 0; l < n; ++l) out[i0 + l] -= acc[l];
   }
 }
@@ -135,20 +138,20 @@ void SupernodalF32::solve(const double* b, double* x) const {
   // Each supernode's columns k1..k1+nscol are a dense nsrow × nscol block (column-major), whose
   // first nscol rows are the diagonal block's lower triangle and the rest the rows `rows`. Both
   // solves work on w = [y of the supernode's columns, y of its other rows] in panels of kPanel
-  // columns: a panel's own small triangle column by column, and everything below the panel —
+  // columns: a panel's own small triangle by its precomputed inverse, and everything below it —
   // the rest of the triangle and the off-diagonal rows, one contiguous run of each column — by
   // register-blocked products (one load and store of w per row and panel, not per entry).
   // Forward, L y = Pb; w's off-diagonal rows collect the updates, added to y at the end.
-  for (int32_t s = 0, panel = 0; s < nsuper_; ++s) {
+  for (int32_t s = 0; s < nsuper_; ++s) {
     const int32_t k1 = super_[s], nscol = super_[s + 1] - k1;
     const int32_t nsrow = pi_[s + 1] - pi_[s];
     const int32_t* rows = rows_.data() + pi_[s];
     const float* Ls = val_.data() + px_[s];
     std::copy(y + k1, y + k1 + nscol, w);
     std::fill(w + nscol, w + nsrow, 0.0);
-    for (int32_t p0 = 0; p0 < nscol; p0 += kPanel, ++panel) {
+    for (int32_t p0 = 0; p0 < nscol; p0 += kPanel) {
       const int32_t p1 = std::min(p0 + kPanel, nscol);
-      panel_times(&panel_inv_[static_cast<size_t>(panel) * kPanel * kPanel], w + p0, p1 - p0);
+      panel_times(&panel_inv_[static_cast<size_t>(panel_ptr_[s] + p0 / kPanel) * kPanel * kPanel], w + p0, p1 - p0);
       subtract_block_times_vector(Ls + static_cast<size_t>(p0) * nsrow + p1, nsrow, w + p0, p1 - p0, nsrow - p1, w + p1);
     }
     std::copy(w, w + nscol, y + k1);
@@ -157,10 +160,8 @@ void SupernodalF32::solve(const double* b, double* x) const {
   // Backward, Lᵀ z = y, supernodes in reverse (the rows below are final by then), panels from
   // the last: each column's dot product with everything below its panel, four columns at a
   // time, then the panel's small triangle. w is zero past nsrow for the padded dot products.
-  for (int32_t s = nsuper_ - 1, panel_end = static_cast<int32_t>(panel_inv_.size() / (kPanel * kPanel)); s >= 0; --s) {
+  for (int32_t s = nsuper_ - 1; s >= 0; --s) {
     const int32_t k1 = super_[s], nscol = super_[s + 1] - k1;
-    const int32_t first_panel = panel_end - (nscol + kPanel - 1) / kPanel;
-    panel_end = first_panel;
     const int32_t nsrow = pi_[s + 1] - pi_[s];
     const int32_t* rows = rows_.data() + pi_[s];
     const float* Ls = val_.data() + px_[s];
@@ -178,7 +179,7 @@ void SupernodalF32::solve(const double* b, double* x) const {
         }
         for (; c < p1; ++c) w[c] -= dot8(Ls + static_cast<size_t>(c) * nsrow + p1, w + p1, below);
       }
-      panel_times(&panel_inv_t_[static_cast<size_t>(first_panel + p0 / kPanel) * kPanel * kPanel], w + p0, p1 - p0);
+      panel_times(&panel_inv_t_[static_cast<size_t>(panel_ptr_[s] + p0 / kPanel) * kPanel * kPanel], w + p0, p1 - p0);
     }
     std::copy(w, w + nscol, y + k1);
   }

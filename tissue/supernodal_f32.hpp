@@ -36,16 +36,19 @@ class SupernodalF32 {
   /// the rest of the triangle is updated by register-blocked products (a large supernode's
   /// triangle holds ~1/3 of the factor).
   static constexpr int32_t kPanel = 8;
-  /// Floats of zeros after the factor's values: the row blocks read up to kRows − 1 past a
-  /// block's last row.
+  /// Floats of zeros after the factor's values: the forward row blocks read up to kRows − 1,
+  /// the backward padded dot products up to 7, past a block's last row.
   static constexpr size_t kPad = kRows;
 
  private:
   int32_t n_ = 0, nsuper_ = 0;
   std::vector<int32_t> super_, pi_, px_, rows_, perm_;
   std::vector<float> val_;
-  /// Per panel (supernodes in order, kPanel columns each) its triangle's inverse T⁻¹ and T⁻ᵀ,
-  /// kPanel × kPanel column-major, rounded to float (in double the solves measured slower).
+  /// Per panel (supernodes in order, kPanel columns each; supernode s's first is panel_ptr_[s])
+  /// its triangle's inverse T⁻¹ and T⁻ᵀ, kPanel × kPanel column-major, rounded to float (in
+  /// double the solves measured slower). T⁻ᵀ is T⁻¹ stored transposed so that the backward
+  /// solve's product streams columns as the forward one does (no horizontal sums).
+  std::vector<int32_t> panel_ptr_;
   std::vector<float> panel_inv_, panel_inv_t_;
   mutable std::vector<double> y_, tmp_;
 };
