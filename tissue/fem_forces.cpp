@@ -195,6 +195,17 @@ inline void batch_rotations(const FemModel& m, int32_t e0, int count, const Batc
   }
 }
 
+/// R[entry][lane] from / into 9 doubles per element (row-major), elements e0 .. e0 + count.
+/// Spare lanes get the identity (finite, as gather's spare elements expect).
+inline void load_rotations(const double* __restrict rot, int32_t e0, int count, double (&R)[9][kBatch]) {
+  for (int l = 0; l < kBatch; ++l)
+    for (int k = 0; k < 9; ++k) R[k][l] = l < count ? rot[9 * (e0 + l) + k] : ((k % 4 == 0) ? 1.0 : 0.0);
+}
+inline void store_rotations(const double (&R)[9][kBatch], int32_t e0, int count, double* __restrict rot) {
+  for (int l = 0; l < count; ++l)
+    for (int k = 0; k < 9; ++k) rot[9 * (e0 + l) + k] = R[k][l];
+}
+
 inline void scatter_nodal(const ElementParams& ep, const double (&c)[12][kBatch], int l,
                           double* __restrict out) {
   for (int a = 0; a < 4; ++a) {
@@ -295,11 +306,15 @@ double pass_range(const FemModel& m, const ElasticPass& p, const ElementRange& r
         in.lambda[l] = -(2.0 / 3.0) * in.mu[l];
       }
     batch_gradient(in.d, in.g, F);
-    batch_rotations<K>(m, e0, count, in, F, R);
-    if (!kHasKv && !kHasK && !p.force && !p.rotations) {  // energy only
+    if (K != ElementKernel::Linear && p.rotations_in)
+      load_rotations(p.rotations_in, e0, count, R);
+    else
+      batch_rotations<K>(m, e0, count, in, F, R);
+    if (!kHasKv && !kHasK && !p.force) {  // energy only (and the rotations when asked)
       batch_energy(R, F, in, en);
       if (visco) add_visco_history(r, p, vstep, e0, count, R, F, in, nullptr, en);
       for (int l = 0; l < count; ++l) energy += en[l];
+      if (p.rotations) store_rotations(R, e0, count, p.rotations);
       continue;
     }
     for (int l = 0; l < kBatch; ++l) force_scale[l] = in.vol[l];
@@ -309,9 +324,8 @@ double pass_range(const FemModel& m, const ElasticPass& p, const ElementRange& r
       const ElementParams& ep = m.elements[e0 + l];
       energy += en[l];
       if (p.force) scatter_nodal(ep, fo, l, p.force);
-      if (p.rotations)
-        for (int k = 0; k < 9; ++k) p.rotations[9 * (e0 + l) + k] = R[k][l];
     }
+    if (p.rotations) store_rotations(R, e0, count, p.rotations);
     if constexpr (kHasKv) {
       // K·v = V·R·σ(sym(Rᵀ L))·g_a with L the velocity gradient (a negative scale turns the
       // force sign convention of batch_stress_forces into +K·v).

@@ -24,6 +24,9 @@ struct ElasticPass {
   double* kvals = nullptr;     ///< BSR values: += (k_beta·β_e + k_const)·R·Ke·Rᵀ
   double k_beta = 0, k_const = 0;
   double* rotations = nullptr; ///< 9 per element: the element rotation (row-major)
+  /// 9 per element: the corotational elements' rotations at x, already computed (an energy
+  /// pass's `rotations` at the same positions); used instead of recomputing them. Null: computed.
+  const double* rotations_in = nullptr;
   const float* damage = nullptr;  ///< per element damage d: λ, μ scaled by (1 − d); null = none
   /// Visco-elastic state (TissueState::visco_q / visco_s0) and the step length h ≥ 0 it is
   /// stepped over: a visco-elastic range's stress is c(h)·σ₀ + H (viscoelastic.hpp). Null: the

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "tissue/clock.hpp"
@@ -19,6 +20,12 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
   rhs_.assign(n3, 0.0);
   tmp_.assign(n3, 0.0);
   rot_.assign(9 * m_.elements.size(), 0.0);
+  for (const ElementRange& r : m_.ranges)
+    if (!r.fixed && (r.kernel == ElementKernel::CorotationalPolar || r.kernel == ElementKernel::CorotationalQR)) {
+      end_rot_.assign(9 * m_.elements.size(), 0.0);
+      end_rot_x_.assign(n3, 0.0);
+      break;
+    }
   if (cfg_.newton_iterations > 1 && cfg_.integrator == Integrator::ImplicitEuler)
     for (auto* v : {&newton_x_, &newton_v_, &newton_r_, &newton_trial_r_, &newton_delta_, &newton_dv_}) v->assign(n3, 0.0);
   A_.assign(9 * static_cast<size_t>(m_.pattern.nnzb()), 0.0);
@@ -93,6 +100,12 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
   p.x = s.x.data();
   p.force = force_.data();
   p.rotations = rot_.data();
+  // The energy guard ended the last step here: its rotations are these positions' (end_rot_).
+  if (end_rot_valid_ && std::memcmp(s.x.data(), end_rot_x_.data(), s.x.size() * sizeof(double)) == 0) {
+    p.rotations_in = end_rot_.data();
+    ++rotations_reused_;
+  }
+  end_rot_valid_ = false;
   p.damage = in_.damage;
   // Visco-elastic bodies: the implicit step's stress c(h)·σ₀ + H; an explicit step's force is
   // the present stress (h = 0).
@@ -541,9 +554,14 @@ double TimeStepper::external_potential(const TissueState& s) const {
   return e;
 }
 
-double TimeStepper::step_potential(const double* x) const {
+double TimeStepper::step_potential(const double* x) {
   ElasticPass p;
   p.x = x;
+  if (!end_rot_.empty()) {
+    p.rotations = end_rot_.data();
+    std::copy(x, x + end_rot_x_.size(), end_rot_x_.begin());
+    end_rot_valid_ = true;
+  }
   p.damage = in_.damage;
   p.visco_q = visco_q_start_.data();  // the step's history, as in assemble()
   p.visco_s0 = visco_s0_start_.data();

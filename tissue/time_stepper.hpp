@@ -189,6 +189,8 @@ class TimeStepper {
   const StepperSettings& settings() const { return cfg_; }
   /// The element rotations of the last assemble (9 per element), for stress output.
   const std::vector<double>& rotations() const { return rot_; }
+  /// Assembles that took the energy guard's rotations instead of recomputing them (end_rot_).
+  int64_t rotations_reused() const { return rotations_reused_; }
 
  private:
   void project_constraints(double* A, double diag_scale);
@@ -221,8 +223,9 @@ class TimeStepper {
   /// energy guard measures the step's own potential c·Ψ₀ + H:ε with it, before and after.
   std::vector<double> visco_q_start_, visco_s0_start_;
   /// The step's potential at positions x: the elastic energy with the step's visco-elastic
-  /// history (= elastic_energy without visco-elastic bodies).
-  double step_potential(const double* x) const;
+  /// history (= elastic_energy without visco-elastic bodies). Keeps the element rotations it
+  /// computed, with a copy of x, in end_rot_ (see there).
+  double step_potential(const double* x);
   /// The visco-elastic internal variables stepped again from the step's start to the state's
   /// (changed) positions, after the energy guard moved them.
   void redo_viscous_update(TissueState& s) const;
@@ -233,6 +236,16 @@ class TimeStepper {
   void error_bounds(const double* r, double h, SolveStats& st) const;
   double mass(int32_t i) const { return in_.node_mass ? in_.node_mass[i] : m_.mass[i]; }
   std::vector<double> force_, kv_, rhs_, A_, rot_, tmp_;
+  /// The element rotations of the energy guard's last pass (step_potential) and the positions
+  /// they belong to. The guard evaluates the step's end, which is where the next assemble()
+  /// starts: when its positions are bit for bit end_rot_x_, it takes these rotations instead of
+  /// recomputing them (the polar decompositions are a third of the element pass). Rotations
+  /// depend on the positions alone (not on damage or visco-elastic history), and m_ never
+  /// changes under a stepper, so equal positions are the whole validity test. Empty when no
+  /// range is corotational.
+  std::vector<double> end_rot_, end_rot_x_;
+  bool end_rot_valid_ = false;
+  int64_t rotations_reused_ = 0;
   std::vector<double> newton_x_, newton_v_, newton_r_, newton_trial_r_, newton_delta_, newton_dv_;  // Newton scratch
   CgSolver cg_;
   std::unique_ptr<CholmodSolver> cholmod_;
