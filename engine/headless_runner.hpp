@@ -46,6 +46,11 @@ struct RunResult {
   double sim_time = 0;
   double wall_seconds = 0;
   TimingSummary step_ms;
+  /// The same ticks less their waits for a late preconditioner refresh (TickReport::
+  /// refresh_wait_ns): what they cost as `serve` runs them. Those waits: ticks, total and longest.
+  TimingSummary step_ms_without_refresh_waits;
+  long refresh_wait_ticks = 0;
+  double refresh_wait_ms_total = 0, refresh_wait_ms_max = 0;
   double cg_iterations_mean = 0;
   int cg_iterations_max = 0;
   long ticks_not_converged = 0;

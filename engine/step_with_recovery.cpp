@@ -53,6 +53,12 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
     const double e = stepper.assemble(t, h, step_inputs(m, s, w));
     if (first) r.elastic_energy = e;
   }
+  // A headless wait for a late refresh worker is not the engine's work: the deadline moves
+  // with it (a served tick never waits).
+  if (const int64_t waited = stepper.last_refresh_wait_ns(); waited > 0) {
+    r.refresh_wait_ns += waited;
+    if (deadline.at_ns > 0) deadline.at_ns += waited;
+  }
   {
     StageTimer st(r, Stage::Solve);
     r.solve = stepper.solve(t, &deadline);

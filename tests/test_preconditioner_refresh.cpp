@@ -196,8 +196,14 @@ RunTrace run(const ScenarioSpec& spec, int ticks) {
       in.seq = static_cast<uint64_t>(k + 1);
       in.pose = sc.tool_scripts[0].sample(s.time);
     }
+    const int64_t refreshes_before = w.stepper().preconditioner_refreshes();
     const TickReport& r = tick(m, s, w, &in, n_in);
     EXPECT_EQ(r.status, TickStatus::Ok) << "tick " << k;
+    // A tick waits for the worker only where it swaps a refreshed factor in (headless schedule).
+    if (r.refresh_wait_ns > 0) {
+      EXPECT_GT(w.stepper().preconditioner_refreshes(), refreshes_before) << "tick " << k;
+      EXPECT_LT(r.refresh_wait_ns, r.total_ns) << "tick " << k;
+    }
     it += r.solve.iterations;
     out.fallbacks += r.solve.preconditioner_fallback;
     out.not_converged += !r.solve.converged;
@@ -342,6 +348,16 @@ TEST(PreconditionerRefresh, RunSummaryCountsFallbacksAndRefreshes) {
   ASSERT_TRUE(j.contains("warped_preconditioner"));
   EXPECT_EQ(j["warped_preconditioner"]["refreshes"].get<int64_t>(), direct.refreshes);
   EXPECT_EQ(j["warped_preconditioner"]["fallbacks"].get<long>(), direct.fallbacks);
+  // Every scheduled swap is timed (its wait for the worker, however short) and taken out of
+  // the ticks' times that stand for serve's.
+  const auto& waits = j["warped_preconditioner"]["refresh_waits"];
+  EXPECT_EQ(waits["ticks"].get<long>(), r.preconditioner_refreshes);
+  EXPECT_GT(waits["total_ms"].get<double>(), 0.0);
+  EXPECT_LE(waits["max_ms"].get<double>(), waits["total_ms"].get<double>());
+  const auto& served = j["warped_preconditioner"]["step_ms_without_refresh_waits"];
+  EXPECT_LE(served["mean"].get<double>(), j["step_ms"]["mean"].get<double>());
+  EXPECT_NEAR(served["mean"].get<double>(),
+              j["step_ms"]["mean"].get<double>() - waits["total_ms"].get<double>() / 60.0, 1e-9);
 }
 
 // `auto` leaves a small system on the rest-pose factor and refreshes a large one.

@@ -121,6 +121,9 @@ class TimeStepper {
   void set_realtime(bool realtime);
   /// Refreshed preconditioner factors swapped in so far (0 without a refresh).
   int64_t preconditioner_refreshes() const { return warped_ ? warped_->refreshes() : 0; }
+  /// Time the last assemble() waited for a late preconditioner refresh (headless, whose swap
+  /// is deterministic; 0 in real time, which never waits).
+  int64_t last_refresh_wait_ns() const { return warped_ ? warped_->last_wait_ns() : 0; }
   /// Rest-pose factorisations of the warped preconditioner so far (1 after prepare()).
   int64_t preconditioner_rest_factorizations() const { return warped_ ? warped_->rest_factorizations() : 0; }
 

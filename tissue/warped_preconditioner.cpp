@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "tissue/clock.hpp"
 #include "tissue/constraints.hpp"
 #include "tissue/fem_forces.hpp"
 #include "tissue/mat3.hpp"
@@ -83,11 +84,16 @@ void WarpedPreconditioner::adopt(bool wait) {
 }
 
 void WarpedPreconditioner::begin_step(std::vector<double>& last_system, double h_last) {
+  last_wait_ns_ = 0;
   if (!refresh_ || h_last <= 0 || h_last != key_[0]) return;
   if (++steps_since_offer_ < period_) return;
   // Deterministic: the factor handed over `period` steps ago is swapped in now, whatever the
   // worker's speed. Real time: poll() swapped it in as soon as it was ready.
-  if (deterministic_ && refresh_->pending()) adopt(true);
+  if (deterministic_ && refresh_->pending()) {
+    const int64_t t0 = steady_now_ns();
+    adopt(true);
+    last_wait_ns_ = steady_now_ns() - t0;
+  }
   if (refresh_->offer(last_system, node_abs_.data(), h_last)) steps_since_offer_ = 0;
 }
 

@@ -72,6 +72,9 @@ class WarpedPreconditioner {
   /// Stored entries of the factor (after factor()).
   double factor_entries() const { return factor_ ? factor_->factor_entries() : 0.0; }
   int64_t refreshes() const { return refreshes_; }  ///< refreshed factors swapped in
+  /// Time the last begin_step() waited for a late worker (deterministic swap only; 0 in real
+  /// time, which never waits). A served tick would not have spent it.
+  int64_t last_wait_ns() const { return last_wait_ns_; }
   int64_t rest_factorizations() const { return rest_factorizations_; }  ///< factor() calls that factored
   bool refreshing() const { return refresh_ != nullptr; }
 
@@ -92,6 +95,7 @@ class WarpedPreconditioner {
   int steps_since_offer_ = 0;
   int64_t refreshes_ = 0;
   int64_t rest_factorizations_ = 0;
+  int64_t last_wait_ns_ = 0;
 };
 
 }  // namespace stroma
