@@ -60,14 +60,14 @@ class WarpedPreconditioner {
   bool factored() const { return factor_ != nullptr && key_[0] != -1; }
 
   /// What one application costs against one Jacobi-PCG iteration, from the memory each streams:
-  /// the factor twice in float (8 bytes per entry), which streamed at about half the SpMV's rate
-  /// when this was fit (beam k6 0.30 ms against 8 MB; 7,457-node block ~10 ms), against the
-  /// matrix's 72 bytes per stored block: 1 + 16·entries(L) / (72·blocks). The blocked solves
-  /// of 2026-12-04 take ~0.6 of that (beam 0.19 ms), so the estimate errs towards the Jacobi
-  /// fallback; kept, as the fallbacks it decides are tested. Deterministic, so the fallback it
-  /// sets (TimeStepper::solve) is too.
+  /// the factor twice (forward and backward) in float, 8 bytes per stored entry, against the
+  /// matrix's 72 bytes per stored block: 1 + 8·entries(L) / (72·blocks). Since the blocked
+  /// solves (2026-12-04) the factor streams at about the SpMV's rate; measured per iteration,
+  /// warped against Jacobi: liver 13.4 against 4.0 µs (3.3; this estimate 3.5), 0.2 m Armadillo
+  /// ~4.3 (5.3). (Before them it streamed at half that rate and the estimate's constant was 16.)
+  /// Deterministic, so the fallback it sets (TimeStepper::solve) is too.
   double relative_cost() const {
-    return factor_ ? 1.0 + 16.0 * factor_->factor_entries() / (72.0 * m_.pattern.nnzb()) : 1.0;
+    return factor_ ? 1.0 + 8.0 * factor_->factor_entries() / (72.0 * m_.pattern.nnzb()) : 1.0;
   }
   /// Stored entries of the factor (after factor()).
   double factor_entries() const { return factor_ ? factor_->factor_entries() : 0.0; }
