@@ -8,7 +8,7 @@
 namespace stroma {
 
 CutWorker::CutWorker(std::shared_ptr<const Model> original, size_t edges, CutModelRegistry* registry)
-    : snapshot_(edges, kEdgeUncut), original_(std::move(original)), registry_(registry) {
+    : original_(std::move(original)), registry_(registry), snapshot_(edges, kEdgeUncut) {
   thread_ = std::thread([this] { loop(); });
 }
 

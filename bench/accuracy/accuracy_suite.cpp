@@ -533,7 +533,7 @@ std::vector<AccuracyPoint> run_block_compression_problem(const AccuracyOptions& 
       c.locking_free = 0.1;
       record(bl, run_block(src, c, runs), o);
     }
-  for (const std::string& mesh : {"8p333", "6p250"})
+  for (const char* mesh : {"8p333", "6p250"})
     for (double share : o.quick ? std::vector<double>{0.0, 1.0} : std::vector<double>{0.0, 0.05, 0.2, 0.5, 1.0}) {
       BlockConfig c{mesh, "locking-free stabilisation (CHOLMOD)", false, true};
       c.locking_free = share;
