@@ -23,7 +23,9 @@ struct ElasticPass {
   double kv_beta = 0, kv_const = 0;
   double* kvals = nullptr;     ///< BSR values: += (k_beta·β_e + k_const)·R·Ke·Rᵀ
   double k_beta = 0, k_const = 0;
-  double* rotations = nullptr; ///< 9 per element: the element rotation (row-major)
+  /// 9 per element: the element rotation (row-major). An energy-only pass (no force, no
+  /// matrix) writes those of the corotational ranges only.
+  double* rotations = nullptr;
   /// 9 per element: the corotational elements' rotations at x, already computed (an energy
   /// pass's `rotations` at the same positions); used instead of recomputing them. Null: computed.
   const double* rotations_in = nullptr;

@@ -163,7 +163,10 @@ double pass(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
     for (int i = 0; i < vstep.terms; ++i) g_inf -= m.visco[r.visco].g[i];
   const double cb = vstep.c - g_inf;  // the branches' instantaneous share over the step
   const bool want_k = p.kvals != nullptr || p.kv != nullptr;
-  const bool want_svd = want_k || p.rotations != nullptr || visco;
+  // An energy-only pass (the energy guard's) needs no SVD here and writes no rotations: only
+  // corotational ranges hand theirs on (TimeStepper::end_rot_ reuses nothing of this range).
+  const bool write_rotations = p.rotations != nullptr && (want_k || p.force != nullptr);
+  const bool want_svd = want_k || write_rotations || visco;
   double Fb[9][kBatch], Ub[9][kBatch], Vb[9][kBatch], sb[3][kBatch], Ab[9][kBatch], Eb[9][kBatch];
   double lb[kBatch], mb[kBatch];
   for (int32_t e0 = begin; e0 < end; e0 += kBatch) {
@@ -217,8 +220,8 @@ double pass(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
         Vr[k] = Vb[k][l];
       }
       double R[9];  // the polar rotation (warped preconditioner; the visco-elastic frame)
-      if (p.rotations || visco) polar_from_svd(U, Vr, R);
-      if (p.rotations) std::copy(R, R + 9, p.rotations + 9 * e);
+      if (write_rotations || visco) polar_from_svd(U, Vr, R);
+      if (write_rotations) std::copy(R, R + 9, p.rotations + 9 * e);
       if (visco) {  // the branches: the corotational element's stress c_b·R·σ(ε) plus R·H
         double h6[6] = {0, 0, 0, 0, 0, 0};
         if (history) {
