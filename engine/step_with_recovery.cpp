@@ -87,7 +87,8 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
     stepper.integrate(t, h);
     // An inexact solve is kept only if the step did not gain energy (implicit Euler's exact
     // step never does): the guard takes out what it added.
-    if (!r.solve.converged && stepper.settings().integrator == Integrator::ImplicitEuler) {
+    if (!r.solve.converged && stepper.settings().integrator == Integrator::ImplicitEuler &&
+        stepper.energy_guard_applies()) {
       double removed = 0;
       const int64_t g0 = steady_now_ns();
       const EnergyLimit e = stepper.energy_guard(t, h, &removed);

@@ -73,7 +73,8 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     body_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
     body_pairs.clear();
   }
-  if (m.stepper.integrator == Integrator::ImplicitEuler && !m.fem.elements.empty()) {
+  if (m.stepper.integrator == Integrator::ImplicitEuler && !m.fem.elements.empty() &&
+      stepper_.energy_guard_applies()) {
     ElasticPass p;  // what the guard runs: elastic energy only (plus O(n) potential terms)
     p.x = m.fem.rest.data();
     int64_t t[3];

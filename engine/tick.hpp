@@ -137,7 +137,7 @@ class TickWorkspace {
   /// What the energy guard that follows an inexact step costs (one energy-only element pass):
   /// the median of three passes timed when the workspace is made, then a running mean (1/8) of
   /// the guard's measured times. A budgeted tick's solve stops 1.25 × this before the deadline,
-  /// so the guard does not take the tick past it. 0 for an explicit integrator (no guard).
+  /// so the guard does not take the tick past it. 0 for an explicit integrator or a model the guard does not apply to (TimeStepper::energy_guard_applies).
   int64_t guard_ns = 0;
 
  private:

@@ -21,6 +21,8 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
   tmp_.assign(n3, 0.0);
   rot_.assign(9 * m_.elements.size(), 0.0);
   for (const ElementRange& r : m_.ranges)
+    if (!r.fixed && r.kernel == ElementKernel::CorotationalQR) guard_applies_ = false;
+  for (const ElementRange& r : m_.ranges)
     if (!r.fixed && (r.kernel == ElementKernel::CorotationalPolar || r.kernel == ElementKernel::CorotationalQR)) {
       end_rot_.assign(9 * m_.elements.size(), 0.0);
       end_rot_x_.assign(n3, 0.0);

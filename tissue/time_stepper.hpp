@@ -155,6 +155,13 @@ class TimeStepper {
   /// Costs one elastic-energy element pass, only when called. Returns what it did; `removed`
   /// gets the energy taken out (J).
   EnergyLimit energy_guard(TissueState& s, double h, double* removed);
+  /// Whether energy_guard() means anything for this model: its elastic forces are the gradient
+  /// of the energy it measures. Not so with QR-rotation corotational elements (SOFA's "large"
+  /// frame: the rotation is not the polar one, the force not −∂E/∂x), where an exact step can
+  /// raise that energy as well: the guard would hold such a body still for good (SOFA's liver
+  /// demo, imported: frozen from its 200th step). Their inexact steps are kept as solved, as
+  /// SOFA keeps them.
+  bool energy_guard_applies() const { return guard_applies_; }
 
   /// Newton iterations to static equilibrium of load_factor·f_ext + f(x) + f_c(x) = 0 from s.x
   /// (velocities zeroed; tissue/static_solve.cpp). `inputs_at`, if given, returns the inputs
@@ -248,6 +255,7 @@ class TimeStepper {
   /// range is corotational.
   std::vector<double> end_rot_, end_rot_x_;
   bool end_rot_valid_ = false;
+  bool guard_applies_ = true;  ///< see energy_guard_applies()
   int64_t rotations_reused_ = 0;
   std::vector<double> newton_x_, newton_v_, newton_r_, newton_trial_r_, newton_delta_, newton_dv_;  // Newton scratch
   CgSolver cg_;
