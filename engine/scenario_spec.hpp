@@ -38,7 +38,8 @@ struct SolverSpec {
   /// 4, … 16; the last level keeps its capped solve), whose systems are better conditioned:
   /// more accurate on badly conditioned steps (ν → 0.5, slivers, large dt), at up to 16× the
   /// cost. `continue` keeps the capped step — the cap bounds the tick's cost — and the energy
-  /// guard takes out any energy that step gained (TimeStepper::energy_guard). Why substep stays
+  /// guard takes out any energy that step gained (TimeStepper::energy_guard; not for a model with
+  /// QR-rotation bodies, TimeStepper::energy_guard_applies). Why substep stays
   /// the default: with `continue` the stability suite passes 269 of 373 cases instead of 270,
   /// and three inverted-mesh cases regress (docs/STABILITY.md). Served ticks are budgeted either
   /// way: the ladder stops at the deadline.

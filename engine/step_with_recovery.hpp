@@ -8,7 +8,8 @@
 ///
 /// A step whose linear solve did not converge (capped with `on_cg_cap: continue`, or stopped by
 /// the deadline) is kept only without an energy gain: TimeStepper::energy_guard takes out what
-/// it added (TickReport::energy_limit, energy_removed).
+/// it added (TickReport::energy_limit, energy_removed) — where the guard applies
+/// (TimeStepper::energy_guard_applies: not with QR-rotation bodies, which keep it as solved).
 ///
 /// With a deadline (the tick's time budget) nothing here runs past it; what does not fit
 /// degrades (TickReport::degradation):

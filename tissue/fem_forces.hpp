@@ -24,7 +24,7 @@ struct ElasticPass {
   double* kvals = nullptr;     ///< BSR values: += (k_beta·β_e + k_const)·R·Ke·Rᵀ
   double k_beta = 0, k_const = 0;
   /// 9 per element: the element rotation (row-major). An energy-only pass (no force, no
-  /// matrix) writes those of the corotational ranges only.
+  /// matrix) writes those of the corotational and linear ranges only, not the hyperelastic.
   double* rotations = nullptr;
   /// 9 per element: the corotational elements' rotations at x, already computed (an energy
   /// pass's `rotations` at the same positions); used instead of recomputing them. Null: computed.

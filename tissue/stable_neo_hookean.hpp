@@ -32,8 +32,8 @@ namespace stroma {
 
 /// The elastic pass (fem_forces.hpp) over range r's elements with the stable Neo-Hookean
 /// material (hyperelastic_pass.hpp), plus FemModel::fibres' term when r.fibres and its Prony
-/// series when r.visco ≥ 0; returns their energy. `rotations` (when requested, for the warped preconditioner) are the polar rotations
-/// of F.
+/// series when r.visco ≥ 0; returns their energy. `rotations` (when requested with forces or a matrix, for the warped
+/// preconditioner; an energy-only pass writes none) are the polar rotations of F.
 double stable_neo_hookean_pass(const FemModel& m, const ElasticPass& p, const ElementRange& r);
 
 /// Energy density Ψ(F) and first Piola stress P (row-major) for Lamé (λ, μ) of the scenario.

@@ -20,14 +20,17 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
   rhs_.assign(n3, 0.0);
   tmp_.assign(n3, 0.0);
   rot_.assign(9 * m_.elements.size(), 0.0);
-  for (const ElementRange& r : m_.ranges)
-    if (!r.fixed && r.kernel == ElementKernel::CorotationalQR) guard_applies_ = false;
-  for (const ElementRange& r : m_.ranges)
-    if (!r.fixed && (r.kernel == ElementKernel::CorotationalPolar || r.kernel == ElementKernel::CorotationalQR)) {
-      end_rot_.assign(9 * m_.elements.size(), 0.0);
-      end_rot_x_.assign(n3, 0.0);
-      break;
-    }
+  bool polar = false;
+  for (const ElementRange& r : m_.ranges) {
+    if (r.fixed) continue;
+    if (r.kernel == ElementKernel::CorotationalQR) guard_applies_ = false;
+    if (r.kernel == ElementKernel::CorotationalPolar) polar = true;
+  }
+  // Rotations to hand on exist only where a guard runs after implicit steps of polar elements.
+  if (polar && guard_applies_ && cfg_.integrator == Integrator::ImplicitEuler) {
+    end_rot_.assign(9 * m_.elements.size(), 0.0);
+    end_rot_x_.assign(n3, 0.0);
+  }
   if (cfg_.newton_iterations > 1 && cfg_.integrator == Integrator::ImplicitEuler)
     for (auto* v : {&newton_x_, &newton_v_, &newton_r_, &newton_trial_r_, &newton_delta_, &newton_dv_}) v->assign(n3, 0.0);
   A_.assign(9 * static_cast<size_t>(m_.pattern.nnzb()), 0.0);
