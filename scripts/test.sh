@@ -32,6 +32,9 @@ asan_skip+='|cli\.check_sofa_scene|regression\.cylinder_qr_load'
 # Contact.*, ScriptedTool.HeadlessRun*, PreconditionerRefresh.*, BodyContact.* (2026-12-04 CI log).
 asan_skip+='|Contact\.SpherePressingTheBeamBalancesTheClampReaction|ScriptedTool\.IdleToolReleasesTheTissueAfterItsTimeout'
 asan_skip+='|PreconditionerRefresh\.RunSummaryCountsFallbacksAndRefreshes|BodyContact\.BarDroppedOntoAFixedBlock'
+# 2,500 ticks of the pressed liver at SOFA's settings (24 s under the sanitizers); the warped
+# solve and its fallback run here in PreconditionerRefresh.* and Cantilever.WarpedCholesky*.
+asan_skip+='|SofaSettingsLiver\.'
 stage sanitizer build
 cmake --preset asan >/dev/null
 cmake --build build-asan -j "$jobs"

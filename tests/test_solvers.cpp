@@ -89,6 +89,7 @@ const char* name(Preconditioner p) {
     case Preconditioner::Jacobi: return "Jacobi";
     case Preconditioner::BlockJacobi: return "BlockJacobi";
     case Preconditioner::None: return "None";
+    case Preconditioner::WarpedCholesky: return "WarpedCholesky";  // needs a factor: not in kAllPrec
   }
   return "?";
 }
