@@ -106,7 +106,7 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
   p.force = force_.data();
   p.rotations = rot_.data();
   // The energy guard ended the last step here: its rotations are these positions' (end_rot_).
-  if (end_rot_valid_ && std::memcmp(s.x.data(), end_rot_x_.data(), s.x.size() * sizeof(double)) == 0) {
+  if (reuse_rotations_ && end_rot_valid_ && std::memcmp(s.x.data(), end_rot_x_.data(), s.x.size() * sizeof(double)) == 0) {
     p.rotations_in = end_rot_.data();
     ++rotations_reused_;
   }
@@ -244,8 +244,10 @@ SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
     // each of its iterations costs a triangular solve, relative_cost() Jacobi iterations, so it
     // gets the share of the cap that costs as much as the cap of Jacobi iterations (at least
     // 3); then Jacobi-PCG, whose diagonal holds this tick's contacts and tangent, continues
-    // from its iterate with the full cap. Measured (docs/PERFORMANCE.md): a stiff sphere on a
-    // 7,457-node block, where one warped iteration costs ~40 Jacobi iterations.
+    // from its iterate with the full cap. Why (docs/PERFORMANCE.md): a stiff sphere on a
+    // 7,457-node block, where the rest factor fits so badly that CG stalled on it, and one warped
+    // iteration cost ~40 Jacobi iterations before the blocked float solves (relative_cost()
+    // estimates that ratio from the factor's size; ~4–5 on the 0.2 m Armadillo today).
     const int share = std::max(3, static_cast<int>(cfg_.max_iterations / warped_->relative_cost()));
     st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, std::min(share, cfg_.max_iterations),
                    cfg_.tolerance, external(), deadline, converged_in_a_row_ == 0, extra());
@@ -572,6 +574,18 @@ double TimeStepper::step_potential(const double* x) {
   p.visco_s0 = visco_s0_start_.data();
   p.visco_h = h_;
   return elastic_pass(m_, p);
+}
+
+int64_t TimeStepper::time_energy_guard_pass(const double* x) {
+  int64_t t[3];
+  for (int64_t& ti : t) {
+    const int64_t a = steady_now_ns();
+    step_potential(x);
+    ti = steady_now_ns() - a;
+  }
+  end_rot_valid_ = false;  // the first assemble computes its own rotations
+  std::sort(t, t + 3);
+  return t[1];
 }
 
 double TimeStepper::elastic_energy(const TissueState& s) const {

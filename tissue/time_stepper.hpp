@@ -162,6 +162,9 @@ class TimeStepper {
   /// demo, imported: frozen from its 200th step). Their inexact steps are kept as solved, as
   /// SOFA keeps them.
   bool energy_guard_applies() const { return guard_applies_; }
+  /// Load time: the median of three runs (ns) of the element pass energy_guard() makes, at
+  /// positions x, with the rotation store it has in a step. Leaves nothing for the next step.
+  int64_t time_energy_guard_pass(const double* x);
 
   /// Newton iterations to static equilibrium of load_factor·f_ext + f(x) + f_c(x) = 0 from s.x
   /// (velocities zeroed; tissue/static_solve.cpp). `inputs_at`, if given, returns the inputs
@@ -201,6 +204,9 @@ class TimeStepper {
   const std::vector<double>& rotations() const { return rot_; }
   /// Assembles that took the energy guard's rotations instead of recomputing them (end_rot_).
   int64_t rotations_reused() const { return rotations_reused_; }
+  /// Off: every assemble computes its rotations (the reuse's A/B, in tests and benchmarks).
+  /// Results agree to round-off either way.
+  void set_rotation_reuse(bool on) { reuse_rotations_ = on; }
 
  private:
   void project_constraints(double* A, double diag_scale);
@@ -257,6 +263,7 @@ class TimeStepper {
   bool end_rot_valid_ = false;
   bool guard_applies_ = true;  ///< see energy_guard_applies()
   int64_t rotations_reused_ = 0;
+  bool reuse_rotations_ = true;  ///< see set_rotation_reuse()
   std::vector<double> newton_x_, newton_v_, newton_r_, newton_trial_r_, newton_delta_, newton_dv_;  // Newton scratch
   CgSolver cg_;
   std::unique_ptr<CholmodSolver> cholmod_;
