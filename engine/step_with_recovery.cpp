@@ -57,6 +57,7 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
   // with it (a served tick never waits).
   if (const int64_t waited = stepper.last_refresh_wait_ns(); waited > 0) {
     r.refresh_wait_ns += waited;
+    r.stage_ns[static_cast<int>(Stage::Assemble)] -= waited;  // the stage times the work alone
     if (deadline.at_ns > 0) deadline.at_ns += waited;
   }
   {

@@ -85,6 +85,7 @@ struct TickReport {
   /// swap refreshed factors on a fixed schedule (deterministic results) and wait for a late
   /// worker; `serve` never waits. The wait moves the tick's deadline with it and does not count
   /// against the budget (over_budget), so a headless tick does the work a served one would.
+  /// Not in any stage's time (it happens in assemble's, which leaves it out).
   int64_t refresh_wait_ns = 0;
   int64_t budget_ns = 0;     ///< this tick's time budget (0: none)
   /// The deadline check at which the tick ran out of time (−1: it did not): what a session log

@@ -204,6 +204,10 @@ RunTrace run(const ScenarioSpec& spec, int ticks) {
     const bool swapped = w.stepper().preconditioner_refreshes() > refreshes_before;
     EXPECT_EQ(r.refresh_wait_ns > 0, swapped) << "tick " << k;
     EXPECT_LT(r.refresh_wait_ns, r.total_ns) << "tick " << k;
+    int64_t stages = 0;  // the stages time the work, not the wait
+    for (int64_t ns : r.stage_ns) stages += ns;
+    EXPECT_LE(stages + r.refresh_wait_ns, r.total_ns) << "tick " << k;
+    EXPECT_GE(r.stage_ns[static_cast<int>(Stage::Assemble)], 0) << "tick " << k;
     it += r.solve.iterations;
     out.fallbacks += r.solve.preconditioner_fallback;
     out.not_converged += !r.solve.converged;
