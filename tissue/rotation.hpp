@@ -177,7 +177,7 @@ inline bool polar_rotation_newton_batch(const double (&F)[9][W], double (&R)[9][
                            b * g - a * h, b * f - c * e, c * d - a * f, a * e - b * d};
       const double det = a * C[0] + b * C[1] + c * C[2];
       bad = std::max(bad, det > 0.0 ? 0.0 : 1.0);  // also NaN
-      const double safe = det > 0.0 ? det : 1.0;
+      const double safe = det > 0.0 ? det : 1.0;  // keeps a bad lane finite: the batch is abandoned below
       double zeta = 1.0;
       if (it < 2) {
         double nx = 0, nc = 0;
@@ -187,7 +187,6 @@ inline bool polar_rotation_newton_batch(const double (&F)[9][W], double (&R)[9][
         }
         // ‖X⁻¹‖/‖X‖ = ‖C‖/(det·‖X‖); ζ is its square root.
         zeta = std::sqrt(std::sqrt(nc / (nx + 1e-300)) / safe);
-        zeta = det > 0.0 ? zeta : 1.0;
       }
       const double p = 0.5 * zeta, q = 0.5 / (zeta * safe);
       double dx = 0;
