@@ -5,6 +5,7 @@ tool pressing and sliding in each, timed and compared with a converged solve of 
 Scenes (scenarios/physical/, each states its units, scale and support):
   liver_16cm        SOFA's liver, 596 tets, 16 cm, rho 1060, E 5 kPa, nu 0.45, on its lower face
   liver_fine_16cm   the same liver meshed finer by gmsh (3,876 tets)
+  liver_16cm_locking_free  the 596-tet liver at nu 0.49 with locking-free elements (block Jacobi)
   armadillo_0p2m    the Armadillo, 4,406 tets, 0.2 m, rho 1000, E 10 kPa, nu 0.45, on its back
   *_warped          the same with the warped Cholesky preconditioner, refreshed on a worker thread
   beam_k6_converged SOFA's beam k6, 6,480 tets, SI, CG to 1e-6 every tick
@@ -27,7 +28,7 @@ Usage: bench/physical.py [--stroma build/stroma] [--runs 5] [--every 50] [--scen
 import argparse, csv, json, math, os, re, statistics, subprocess, sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SCENES = ["liver_16cm", "liver_fine_16cm", "liver_fine_16cm_warped", "armadillo_0p2m", "armadillo_0p2m_warped",
+SCENES = ["liver_16cm", "liver_16cm_locking_free", "liver_fine_16cm", "liver_fine_16cm_warped", "armadillo_0p2m", "armadillo_0p2m_warped",
           "beam_k6_converged", "beam_k6_sofa"]
 CONVERGED = "max_iterations: 5000, tolerance: 1.0e-10"
 
