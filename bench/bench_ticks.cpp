@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
   bool markdown = false;
   std::string pc;
   double poisson = -1, locking_free = -1, budget = -1;
-  int max_iterations = -1;
+  int max_iterations = -1, patch = 0;
   app.add_option("scenario", scenario, "Scenario YAML")->required()->check(CLI::ExistingFile);
   app.add_option("--mesh", mesh, "Replace the first body's mesh")->check(CLI::ExistingFile);
   app.add_option("--runs", runs, "Repetitions")->capture_default_str();
@@ -51,6 +51,10 @@ int main(int argc, char** argv) {
   app.add_option("--locking-free", locking_free,
                  "Make the first body locking-free (node smoothing) with this stabilisation share")
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--patch", patch,
+                 "With --locking-free B: element patches of at least this many tetrahedra (F-bar-patch) "
+                 "instead of node domains, the elements keeping the share B of the bulk modulus")
+      ->check(CLI::Range(2, 64));
   app.add_option("--max-iterations", max_iterations, "Override the CG iteration cap")->check(CLI::PositiveNumber);
   app.add_option("--time-budget", budget, "Override solver.time_budget (s; 0: none)")->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
@@ -59,7 +63,15 @@ int main(int argc, char** argv) {
   if (!mesh.empty()) spec.bodies.at(0).mesh_path = mesh;
   if (tolerance > 0) spec.solver.tolerance = tolerance;
   if (poisson >= 0) spec.bodies.at(0).material.poisson_ratio = poisson;
-  if (locking_free >= 0) spec.bodies.at(0).material.locking_free = LockingFreeSpec{"node_smoothing", locking_free, {}};
+  if (locking_free >= 0) {
+    LockingFreeSpec l{"node_smoothing", locking_free, {}};
+    if (patch > 0) {  // (--locking-free's value is then the share of the bulk on the elements)
+      l = LockingFreeSpec::element_patches();
+      l.patch_elements = patch;
+      l.element_bulk = std::min(locking_free, 0.99);
+    }
+    spec.bodies.at(0).material.locking_free = l;
+  }
   if (max_iterations > 0) spec.solver.max_iterations = max_iterations;
   if (budget >= 0) spec.solver.time_budget = budget;
   if (pc == "jacobi") spec.solver.preconditioner = Preconditioner::Jacobi;

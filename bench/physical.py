@@ -5,7 +5,7 @@ tool pressing and sliding in each, timed and compared with a converged solve of 
 Scenes (scenarios/physical/, each states its units, scale and support):
   liver_16cm        SOFA's liver, 596 tets, 16 cm, rho 1060, E 5 kPa, nu 0.45, on its lower face
   liver_fine_16cm   the same liver meshed finer by gmsh (3,876 tets)
-  liver_16cm_locking_free  the 596-tet liver at nu 0.49 with locking-free elements (block Jacobi)
+  liver_16cm_locking_free  the 596-tet liver at nu 0.49 with locking-free elements (F-bar-patch, warped)
   armadillo_0p2m    the Armadillo, 4,406 tets, 0.2 m, rho 1000, E 10 kPa, nu 0.45, on its back
   *_warped          the same with the warped Cholesky preconditioner, refreshed on a worker thread
   beam_k6_converged SOFA's beam k6, 6,480 tets, SI, CG to 1e-6 every tick

@@ -405,6 +405,8 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
                                        "create energy (docs/TISSUE.md)",
                                        ti));
       in.locking_free_share = lf->stabilisation;
+      in.locking_free_patch = lf->patch_elements;
+      in.locking_free_bulk = lf->element_bulk;
     }
     in.mesh = &pm;
     apply_regions(b, pm, field, in);
@@ -633,8 +635,13 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
   const std::vector<PreparedMesh> meshes = load_meshes(spec, out.notes);
   try {
     // Locking-free node domains: matrix-free under CG, assembled (two-ring) for CHOLMOD.
+    // Element patches are always assembled: their pattern grows little, and the warped
+    // factor is then of the system itself (docs/PERFORMANCE.md, "F-bar-patch").
+    bool patches = false;
+    for (const BodySpec& b : spec.bodies)
+      patches = patches || (b.material.locking_free && b.material.locking_free->patch_elements > 0);
     model->fem = build_fem_model(body_inputs(spec, meshes), spec.gravity,
-                                 spec.solver.linear_solver == LinearSolverKind::CG);
+                                 spec.solver.linear_solver == LinearSolverKind::CG && !patches);
   } catch (const std::invalid_argument& e) {  // a mesh the locking-free smoothing cannot take
     const BodySpec* lf = nullptr;
     for (const BodySpec& b : spec.bodies)

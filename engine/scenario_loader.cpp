@@ -256,28 +256,54 @@ ViscoSpec parse_viscoelastic(const Field& f) {
   return v;
 }
 
-/// `locking_free: node_smoothing` | `{method: node_smoothing, stabilisation: SHARE}`.
+/// `locking_free: node_smoothing | element_patches` |
+/// `{method: node_smoothing, stabilisation: SHARE}` |
+/// `{method: element_patches, patch_elements: K, element_bulk: SHARE}`.
 LockingFreeSpec parse_locking_free(const Field& f) {
   LockingFreeSpec l;
   l.where = location_of(f);
   auto method = [&](const Field& m) {
     const std::string name = m.string();
-    if (name != "node_smoothing")
-      m.fail("expected node_smoothing (node-based strain smoothing, the only locking-free method so far), got " +
-             m.got());
+    if (name != "node_smoothing" && name != "element_patches")
+      m.fail("expected node_smoothing (node-based strain smoothing) or element_patches (the volumetric strain "
+             "averaged over patches of elements, F-bar-patch), got " + m.got());
+    if (name == "element_patches") l = LockingFreeSpec::element_patches();
     l.method = name;
   };
   if (f.is_scalar()) {
+    const SourceLocation where = l.where;
     method(f);
+    l.where = where;
     return l;
   }
-  const MapReader m = f.map({"method", "stabilisation"});
-  l.where = location_of(m);
+  const MapReader m = f.map({"method", "stabilisation", "patch_elements", "element_bulk"});
   method(m.req("method"));
-  Range share = physical_range(0, 1, "");
-  share.note_lo = "the share of the deviatoric stiffness kept on the elements: 0 is pure node smoothing";
-  share.note_hi = "1 keeps all of it on the elements: only the bulk is smoothed";
-  m.read("stabilisation", l.stabilisation, share);
+  l.where = location_of(m);
+  const bool patches = l.method == "element_patches";
+  if (auto st = m.opt("stabilisation")) {
+    if (patches)
+      st->fail("stabilisation belongs to method node_smoothing (element_patches keep the whole deviatoric part on "
+               "the elements; element_bulk is theirs)");
+    Range share = physical_range(0, 1, "");
+    share.note_lo = "the share of the deviatoric stiffness kept on the elements: 0 is pure node smoothing";
+    share.note_hi = "1 keeps all of it on the elements: only the bulk is smoothed";
+    l.stabilisation = st->number(share);
+  }
+  if (auto k = m.opt("patch_elements")) {
+    if (!patches) k->fail("patch_elements belongs to method element_patches");
+    const double v = k->number();
+    if (v != std::floor(v) || v < 2 || v > 64)
+      k->fail("expected a whole number of tetrahedra from 2 to 64 (a patch's least size), got " + k->got());
+    l.patch_elements = static_cast<int>(v);
+  }
+  if (auto b = m.opt("element_bulk")) {
+    if (!patches) b->fail("element_bulk belongs to method element_patches");
+    const double v = b->number();
+    if (!(v >= 0 && v < 1))
+      b->fail("expected the share of the bulk modulus kept on each element, from 0 (all of it averaged over the "
+              "patch) to below 1, got " + b->got());
+    l.element_bulk = v;
+  }
   return l;
 }
 

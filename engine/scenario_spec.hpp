@@ -129,12 +129,32 @@ struct ViscoSpec {
   SourceLocation where;
 };
 
-/// `locking_free:` of a material (tissue/nodal_smoothing.hpp): node-based strain smoothing.
-/// Invariant: 0 ≤ stabilisation ≤ 1.
+/// `locking_free:` of a material (tissue/nodal_smoothing.hpp): node-based strain smoothing
+/// (`node_smoothing`) or the volumetric strain averaged over disjoint element patches
+/// (`element_patches`, F-bar-patch). Invariants: 0 ≤ stabilisation ≤ 1 (1 for element_patches:
+/// the deviatoric part stays on the elements); patch_elements in [2, 64] for element_patches,
+/// 0 for node_smoothing; 0 ≤ element_bulk < 1 (0 for node_smoothing).
+/// element_patches' defaults (docs/TISSUE.md, "Candidates"): the least patch size, and the share
+/// of the bulk modulus each element keeps.
+inline constexpr int kDefaultPatchElements = 16;
+inline constexpr double kDefaultElementBulk = 0.02;
+
 struct LockingFreeSpec {
-  std::string method = "node_smoothing";  ///< the only one so far
+  std::string method = "node_smoothing";  ///< node_smoothing | element_patches
   double stabilisation = 0.1;  ///< share of the deviatoric stiffness kept on the elements
   SourceLocation where;
+  int patch_elements = 0;      ///< element_patches: a patch's least number of tetrahedra
+  double element_bulk = 0;     ///< element_patches: share of the bulk modulus kept on the elements
+
+  /// element_patches at its defaults.
+  static LockingFreeSpec element_patches() {
+    LockingFreeSpec l;
+    l.method = "element_patches";
+    l.stabilisation = 1.0;
+    l.patch_elements = kDefaultPatchElements;
+    l.element_bulk = kDefaultElementBulk;
+    return l;
+  }
 };
 
 struct MaterialSpec {

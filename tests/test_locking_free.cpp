@@ -9,6 +9,8 @@
 ///    meshes, where plain tetrahedra are 36–53 % too stiff;
 ///  - a released near-incompressible block never gains energy;
 ///  - load errors name the field.
+/// Each for both methods: node domains (node_smoothing) and element patches (element_patches,
+/// F-bar-patch), whose partition is checked too (disjoint, covering, patches of at least k).
 
 #include <gtest/gtest.h>
 
@@ -31,6 +33,7 @@
 #include "tissue/constraints.hpp"
 #include "tissue/input_error.hpp"
 #include "tissue/mesh_prepare.hpp"
+#include "tissue/nodal_smoothing.hpp"
 
 using namespace stroma;
 using namespace stroma::test_fem;
@@ -39,17 +42,28 @@ using namespace stroma::test_scenarios;
 
 namespace {
 
-/// A 3×3×3-cell box (0.03 m), E 10 kPa, ν 0.49, node-smoothed with stabilisation `share`.
+/// A 3×3×3-cell box (0.03 m), E 10 kPa, ν 0.49, locking-free with stabilisation `share`:
+/// node domains (patch 0) or element patches of at least `patch` tetrahedra.
 struct SmoothedBox {
   PreparedMesh mesh;
   FemModel fem;
-  SmoothedBox(double share, ElementModel model = ElementModel::Corotational, double nu = 0.49) {
+  SmoothedBox(double share, ElementModel model = ElementModel::Corotational, double nu = 0.49, int patch = 0) {
     mesh.mesh = box_mesh(3, 3, 3, {0.03, 0.03, 0.03});
     FemBodyInput b = body_input(mesh, model, RotationMethod::Polar, 1e4, nu, 1000);
     b.locking_free_share = share;
+    b.locking_free_patch = patch;
+    if (patch > 0) b.locking_free_bulk = kDefaultElementBulk;
     fem = build_fem_model({b}, {0, 0, 0});
   }
 };
+
+/// The two methods at their defaults: node smoothing (s 0.1) and F-bar-patch (k 16, the
+/// elements keeping 2 % of the bulk).
+struct Method {
+  double share;
+  int patch;
+};
+const Method kMethods[] = {{0.1, 0}, {1.0, kDefaultPatchElements}};
 
 double volume_of(const FemModel& m) {
   double v = 0;
@@ -79,8 +93,9 @@ bool on_boundary(const FemModel& m, int32_t i) {
 }  // namespace
 
 TEST(LockingFree, PatchTestHomogeneousStrainGivesTheContinuumEnergyAndNoInteriorForce) {
+  for (const Method& me : kMethods)
   for (ElementModel model : {ElementModel::Linear, ElementModel::Corotational}) {
-    SmoothedBox b(0.1, model);
+    SmoothedBox b(me.share, model, 0.49, me.patch);
     ASSERT_FALSE(b.fem.smoothing.empty());
     // A symmetric small strain (no rotation: the corotational element sees the same strain).
     Eigen::Matrix3d eps;
@@ -102,12 +117,13 @@ TEST(LockingFree, PatchTestHomogeneousStrainGivesTheContinuumEnergyAndNoInterior
       if (!on_boundary(b.fem, i)) interior = std::max(interior, fi);
     }
     EXPECT_GT(fmax, 0.0);
-    EXPECT_LT(interior, 1e-9 * fmax) << "a homogeneous stress is in equilibrium inside";
+    EXPECT_LT(interior, 1e-9 * fmax) << "a homogeneous stress is in equilibrium inside (patch " << me.patch << ")";
   }
 }
 
 TEST(LockingFree, RigidMotionIsForceAndEnergyFree) {
-  SmoothedBox b(0.1);
+  for (const Method& me : kMethods) {
+  SmoothedBox b(me.share, ElementModel::Corotational, 0.49, me.patch);
   const Eigen::Matrix3d R = Eigen::AngleAxisd(0.9, Eigen::Vector3d(1, 2, -0.5).normalized()).toRotationMatrix();
   const std::vector<double> x = mapped(b.fem, R, Eigen::Vector3d(0.1, -0.2, 0.05));
   std::vector<double> f;
@@ -122,10 +138,12 @@ TEST(LockingFree, RigidMotionIsForceAndEnergyFree) {
   fmax = 0;
   for (double v : f) fmax = std::max(fmax, std::abs(v));
   EXPECT_GT(fmax, 1e-4);
+  }
 }
 
 TEST(LockingFree, ForcesAreMinusTheEnergyGradient) {
-  SmoothedBox b(0.1);
+  for (const Method& me : kMethods) {
+  SmoothedBox b(me.share, ElementModel::Corotational, 0.49, me.patch);
   std::mt19937 g(7);
   std::uniform_real_distribution<double> u(-1.5e-3, 1.5e-3);  // 5 % of a cell: large rotations of patches
   const Eigen::Matrix3d R = Eigen::AngleAxisd(0.4, Eigen::Vector3d(0, 1, 1).normalized()).toRotationMatrix();
@@ -144,12 +162,14 @@ TEST(LockingFree, ForcesAreMinusTheEnergyGradient) {
     scale = std::max(scale, std::abs(f[d]));
   }
   EXPECT_GT(scale, 1e-3);
-  EXPECT_LT(worst, 1e-5 * scale);
+  EXPECT_LT(worst, 1e-5 * scale) << "patch " << me.patch;
+  }
 }
 
 TEST(LockingFree, RestTangentIsTheForceDerivativeSymmetricWithSixZeroModes) {
-  for (double share : {0.1, 0.0}) {
-    SmoothedBox b(share);
+  for (const Method& me : {Method{0.1, 0}, Method{0.0, 0}, Method{1.0, kDefaultPatchElements}, Method{0.5, 4}}) {
+    const double share = me.share;
+    SmoothedBox b(share, ElementModel::Corotational, 0.49, me.patch);
     const Eigen::MatrixXd K = dense_stiffness(b.fem, b.fem.rest);
     // Derivative of the forces at rest (central differences; linear there up to O(h²)).
     const double h = 1e-7;
@@ -163,7 +183,7 @@ TEST(LockingFree, RestTangentIsTheForceDerivativeSymmetricWithSixZeroModes) {
       for (int32_t r = 0; r < 3 * b.fem.num_nodes; ++r)
         worst = std::max(worst, std::abs(-(fp[r] - fm[r]) / (2 * h) - K(r, d)));
     }
-    EXPECT_LT(worst, 1e-5 * K.cwiseAbs().maxCoeff()) << "share " << share;
+    EXPECT_LT(worst, 1e-5 * K.cwiseAbs().maxCoeff()) << "share " << share << " patch " << me.patch;
     EXPECT_LT((K - K.transpose()).cwiseAbs().maxCoeff(), 1e-12 * K.cwiseAbs().maxCoeff());
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(K);
     const Eigen::VectorXd ev = es.eigenvalues();
@@ -173,7 +193,8 @@ TEST(LockingFree, RestTangentIsTheForceDerivativeSymmetricWithSixZeroModes) {
       EXPECT_GT(ev(k), -1e-10 * top);
       if (ev(k) < 1e-8 * top) ++zero;
     }
-    EXPECT_EQ(zero, 6) << "rigid modes only (share " << share << "); smallest non-rigid " << ev(6) / top;
+    EXPECT_EQ(zero, 6) << "rigid modes only (share " << share << ", patch " << me.patch << "); smallest non-rigid "
+                       << ev(6) / top;
   }
 }
 
@@ -219,8 +240,70 @@ TEST(LockingFree, BondedBlockWithinFivePercentOnTheTwoCoarsestMeshes) {
   for (const std::string mesh : {"8p333", "6p250"}) {
     const double plain = block_force(mesh, "");
     const double smoothed = block_force(mesh, ", locking_free: node_smoothing");
+    const double patches = block_force(mesh, ", locking_free: element_patches");
     EXPECT_GT(plain / kConverged - 1, 0.3) << mesh << ": plain tetrahedra lock";
     EXPECT_LT(std::abs(smoothed / kConverged - 1), 0.05) << mesh << ": " << smoothed << " N";
+    EXPECT_LT(std::abs(patches / kConverged - 1), 0.05) << mesh << ": F-bar-patch " << patches << " N";
+  }
+  // Patches of two tetrahedra are too many volume constraints: they still lock (the test's
+  // measure can tell the methods apart).
+  EXPECT_GT(block_force("8p333", ", locking_free: {method: element_patches, patch_elements: 2}") / kConverged - 1, 0.1);
+}
+
+TEST(LockingFree, ElementPatchesAreDisjointCoverEveryElementAndHoldAtLeastK) {
+  PreparedMesh mesh;
+  mesh.mesh = box_mesh(5, 4, 3, {0.05, 0.04, 0.03});
+  FemBodyInput b = body_input(mesh, ElementModel::Corotational, RotationMethod::Polar, 1e4, 0.49, 1000);
+  const FemModel plain = build_fem_model({b}, {0, 0, 0});
+  for (int k : {2, 4, 8, 12, 16}) {
+    const std::vector<int32_t> pid =
+        partition_element_patches(plain, 0, static_cast<int32_t>(plain.elements.size()), 0, plain.num_nodes, k);
+    ASSERT_EQ(pid.size(), plain.elements.size());
+    const int32_t np = *std::max_element(pid.begin(), pid.end()) + 1;
+    std::vector<int> size(np, 0);
+    for (int32_t p : pid) {
+      ASSERT_GE(p, 0);
+      ++size[p];
+    }
+    for (int32_t p = 0; p < np; ++p) EXPECT_GE(size[p], k) << "patch " << p << " of k " << k;
+    EXPECT_LE(np, static_cast<int32_t>(plain.elements.size()) / k);
+    EXPECT_GT(np, 1);
+    // Every patch is connected through shared faces or edges (a patch grows around a node).
+    for (int32_t p = 0; p < np; ++p) {
+      std::vector<int32_t> els, seen;
+      for (size_t e = 0; e < pid.size(); ++e)
+        if (pid[e] == p) els.push_back(static_cast<int32_t>(e));
+      seen.push_back(els[0]);
+      for (size_t q = 0; q < seen.size(); ++q)
+        for (int32_t f : els) {
+          if (std::find(seen.begin(), seen.end(), f) != seen.end()) continue;
+          int shared = 0;
+          for (int32_t x : plain.elements[seen[q]].node)
+            for (int32_t y : plain.elements[f].node) shared += x == y;
+          if (shared >= 1) seen.push_back(f);
+        }
+      EXPECT_EQ(seen.size(), els.size()) << "patch " << p << " of k " << k << " is in pieces";
+    }
+    // Deterministic: the same mesh gives the same patches.
+    EXPECT_EQ(pid, partition_element_patches(plain, 0, static_cast<int32_t>(plain.elements.size()), 0, plain.num_nodes, k));
+  }
+  // The model's domains are the patches: as many, each element in exactly one.
+  b.locking_free_share = 1.0;
+  b.locking_free_patch = 8;
+  b.locking_free_bulk = 0.02;
+  const FemModel m = build_fem_model({b}, {0, 0, 0});
+  std::vector<int> count(m.elements.size(), 0);
+  for (int32_t e : m.smoothing.element) ++count[e];
+  for (int c : count) EXPECT_EQ(c, 1);
+  EXPECT_EQ(m.smoothing.element_ptr.size(), static_cast<size_t>(m.smoothing.domains()) + 1);
+  for (int32_t d = 0; d < m.smoothing.domains(); ++d) {
+    EXPECT_DOUBLE_EQ(m.smoothing.mu[d], 0.0) << "bulk only";
+    const double E = 1e4, nu = 0.49, kappa = E / (3 * (1 - 2 * nu));
+    EXPECT_NEAR(m.smoothing.lambda[d], 0.98 * kappa, 1e-9 * kappa) << "98 % of the bulk on the patch";
+    double v = 0;
+    for (int32_t q = m.smoothing.element_ptr[d]; q < m.smoothing.element_ptr[d + 1]; ++q)
+      v += m.elements[m.smoothing.element[q]].volume;
+    EXPECT_NEAR(m.smoothing.volume[d], v, 1e-12 * v) << "a patch counts its elements whole";
   }
 }
 
@@ -288,11 +371,19 @@ TEST(LockingFree, MatrixFreeCgAndAssembledCholmodGiveTheSameStaticBlock) {
                                 "linear_solver: cg, preconditioner: warped_cholesky, tolerance: 1.0e-10, max_iterations: 5000",
                                 true);
   EXPECT_NEAR(fz, direct, 1e-7 * direct);
+  // Element patches are assembled under CG too (their pattern grows little): same force.
+  const std::string fp = ", locking_free: element_patches";
+  const double pd = block_force("8p333", fp);
+  const double pc = block_force("8p333", fp,
+                                "linear_solver: cg, preconditioner: warped_cholesky, tolerance: 1.0e-10, max_iterations: 5000",
+                                false);
+  EXPECT_NEAR(pc, pd, 1e-7 * pd);
 }
 
 TEST(LockingFree, ReleasedNearIncompressibleBlockNeverGainsEnergy) {
   // A twisted-and-squeezed free block released at rest, no damping: implicit Euler may only lose
   // energy. A spurious low-energy mode or a wrong tangent would show as growth or blow-up.
+  for (const std::string lf : {"{method: node_smoothing, stabilisation: 0.05}", "element_patches"}) {
   const std::string yaml = R"(name: released
 gravity: [0, 0, 0]
 time_step: 0.001
@@ -301,7 +392,7 @@ bodies:
   - name: block
     mesh: )" + std::string(STROMA_SOURCE_DIR) + R"(/scenarios/meshes/cube_tet4_h8p333mm.msh
     material: {model: corotational, young_modulus: 1.0e4, poisson_ratio: 0.49, density: 1000,
-               locking_free: {method: node_smoothing, stabilisation: 0.05}}
+               locking_free: )" + lf + R"(}
 )";
   auto m = compile_model(parse_scenario(yaml, "released.yaml", STROMA_SOURCE_DIR));
   State s = State::initial(*m);
@@ -331,7 +422,8 @@ bodies:
     max_kin_seen = std::max(max_kin_seen, e - energy_and_force(m->fem, s.tissue.x, nullptr));
     prev = e;
   }
-  EXPECT_GT(max_kin_seen, 0.05 * e0) << "the block did move";
+  EXPECT_GT(max_kin_seen, 0.05 * e0) << "the block did move (" << lf << ")";
+  }
 }
 
 TEST(LockingFree, BadOptionsAreLoadErrorsNamingTheField) {
@@ -364,8 +456,25 @@ bodies:
   EXPECT_NE(e.find("corotational or linear"), std::string::npos) << e;
   e = error_of(base + "locking_free: node_smoothing, viscoelastic: {model: maxwell, tau: 0.1}}");
   EXPECT_NE(e.find("Prony"), std::string::npos) << e;
+  e = error_of(base + "locking_free: {method: node_smoothing, patch_elements: 8}}");
+  EXPECT_NE(e.find("patch_elements belongs to method element_patches"), std::string::npos) << e;
+  for (const char* bad : {"1", "65", "7.5", "many"}) {
+    e = error_of(base + "locking_free: {method: element_patches, patch_elements: " + bad + "}}");
+    EXPECT_NE(e.find("patch_elements"), std::string::npos) << bad << ": " << e;
+    EXPECT_NE(e.find(":5:"), std::string::npos) << bad << ": " << e;
+  }
   e = error_of(base + "locking_free: node_smoothing}");
   EXPECT_EQ(e, "no error");
+  e = error_of(base + "locking_free: {method: element_patches, patch_elements: 8, element_bulk: 0.05}}");
+  EXPECT_EQ(e, "no error");
+  for (const char* bad : {"1", "-0.1", "1.5"}) {
+    e = error_of(base + "locking_free: {method: element_patches, element_bulk: " + bad + "}}");
+    EXPECT_NE(e.find("element_bulk"), std::string::npos) << bad << ": " << e;
+  }
+  e = error_of(base + "locking_free: {method: node_smoothing, element_bulk: 0.02}}");
+  EXPECT_NE(e.find("element_bulk belongs to method element_patches"), std::string::npos) << e;
+  e = error_of(base + "locking_free: {method: element_patches, stabilisation: 0.1}}");
+  EXPECT_NE(e.find("stabilisation belongs to method node_smoothing"), std::string::npos) << e;
   // A scalpel that cuts it: refused (a cut would split node domains and create energy).
   ScenarioSpec spec = load_scenario(write_temp("lf_cut.yaml", R"(name: bad
 bodies:

@@ -48,6 +48,8 @@ const std::vector<std::string> kClaimed = {
     "dt 33 ms, E 1kPa, nu 0.499, inverted, visco, stable neo-Hookean",
     "dt 1 ms, E 100kPa, nu 0.499, good, locking-free",
     "dt 1 ms, E 100kPa, nu 0.499, inverted, locking-free",
+    "dt 1 ms, E 100kPa, nu 0.499, good, locking-free F-bar-patch",
+    "dt 1 ms, E 100kPa, nu 0.499, inverted, locking-free F-bar-patch",
     "clamp turned 180° in 0.1 s (E 10 MPa, dt 1 ms)",
     "random initial velocities ±10 m/s (E 100 kPa, dt 10 ms)",
     "tool at 5 m/s into the liver, then held (dt 1 ms)",

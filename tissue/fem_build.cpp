@@ -71,6 +71,8 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
   if (b.locking_free_share >= 0) {
     range.smoothed = true;
     range.element_share = b.locking_free_share;
+    range.patch_elements = b.locking_free_patch;
+    range.element_bulk_share = b.locking_free_bulk;
   }
   if (b.visco.terms > 0) {  // its internal variables' place in the state arrays
     range.visco = static_cast<int32_t>(m.visco.size());

@@ -36,6 +36,11 @@ struct FemBodyInput {
   /// Locking-free node smoothing (nodal_smoothing.hpp): the share of the deviatoric stiffness
   /// kept on the elements, in [0, 1]; negative: off (plain elements).
   double locking_free_share = -1;
+  /// Locking-free: 0, node domains; ≥ 2, domains are disjoint patches of at least this many
+  /// tetrahedra (element_patches, nodal_smoothing.hpp).
+  int locking_free_patch = 0;
+  /// Locking-free: the share of the bulk modulus kept on the elements, in [0, 1).
+  double locking_free_bulk = 0;
   /// Mass lumping: false, each tetrahedron gives ρV/4 to each of its nodes; true, the body's
   /// mass Σ ρV is shared equally by the nodes its tetrahedra use (SOFA's UniformMass).
   bool uniform_mass = false;

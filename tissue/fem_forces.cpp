@@ -300,10 +300,11 @@ double pass_range(const FemModel& m, const ElasticPass& p, const ElementRange& r
         in.lambda[l] *= vstep.c;
         in.mu[l] *= vstep.c;
       }
-    if (r.smoothed && !p.unsmoothed)  // locking-free: the elements keep a share of the deviatoric part only
-      for (int l = 0; l < count; ++l) {
+    if (r.smoothed && !p.unsmoothed)  // locking-free: the elements keep a share of the deviatoric part
+      for (int l = 0; l < count; ++l) {  // (and element patches a share of the bulk, too)
+        const double kappa = in.lambda[l] + (2.0 / 3.0) * in.mu[l];
         in.mu[l] *= r.element_share;
-        in.lambda[l] = -(2.0 / 3.0) * in.mu[l];
+        in.lambda[l] = -(2.0 / 3.0) * in.mu[l] + r.element_bulk_share * kappa;
       }
     batch_gradient(in.d, in.g, F);
     if (K != ElementKernel::Linear && p.rotations_in)

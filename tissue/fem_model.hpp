@@ -56,6 +56,12 @@ struct ElementRange {
   /// kernels only.
   bool smoothed = false;
   double element_share = 1.0;
+  /// 0: the domains are node domains; ≥ 2: disjoint patches of at least this many elements.
+  int32_t patch_elements = 0;
+  /// The share of the bulk modulus κ kept on each element (the kernel's λ gains
+  /// element_bulk_share·κ, the domains carry the rest); 0 for node domains. It keeps single
+  /// elements of a patch from collapsing while the patch keeps its volume (docs/TISSUE.md).
+  double element_bulk_share = 0.0;
 };
 
 /// One body's slice of the global arrays.

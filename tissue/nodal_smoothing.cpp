@@ -48,6 +48,118 @@ inline void patch_scatter(const NodalSmoothing& s, int32_t j0, int32_t j1, const
 
 }  // namespace
 
+namespace {
+
+/// Appends one domain over the elements `els`, element e weighing wt (m³: V_e/4 in a node
+/// domain, V_e in an element patch): its patch, averaged gradients, volume and materials.
+void add_domain(NodalSmoothing& s, const FemModel& m, const BodyRange& body, const ElementRange& r, int32_t centre,
+                const std::vector<int32_t>& els, const std::vector<double>& wt, std::vector<int32_t>& patch,
+                std::vector<double>& g) {
+  patch.clear();
+  double va = 0, lam = 0, mu = 0, beta = 0;
+  for (size_t k = 0; k < els.size(); ++k) {
+    const ElementParams& ep = m.elements[els[k]];
+    for (int32_t n : ep.node) patch.push_back(n);
+    va += wt[k];
+    lam += wt[k] * ep.lambda;
+    mu += wt[k] * ep.mu;
+    beta += wt[k] * ep.beta;
+  }
+  std::sort(patch.begin(), patch.end());
+  patch.erase(std::unique(patch.begin(), patch.end()), patch.end());
+  if (patch.size() > static_cast<size_t>(kMaxPatch))
+    throw std::invalid_argument("locking_free: " +
+                                (r.patch_elements > 0 ? "a patch around node " : std::string("node ")) +
+                                std::to_string(centre - body.node_begin) + " of body '" + body.name + "' has " +
+                                std::to_string(patch.size() - 1) + " neighbours; smoothing supports up to " +
+                                std::to_string(kMaxPatch - 1) + " (a degenerate mesh?)");
+  g.assign(3 * patch.size(), 0.0);
+  for (size_t k = 0; k < els.size(); ++k) {
+    const ElementParams& ep = m.elements[els[k]];
+    double G[4][3];
+    element_gradients(ep, G);
+    const double w = wt[k] / va;
+    for (int i = 0; i < 4; ++i) {
+      const auto at = std::lower_bound(patch.begin(), patch.end(), ep.node[i]) - patch.begin();
+      for (int c = 0; c < 3; ++c) g[3 * at + c] += w * G[i][c];
+    }
+  }
+  lam /= va;
+  mu /= va;
+  beta /= va;
+  const double share = r.element_share;
+  s.centre.push_back(centre);
+  s.patch_node.insert(s.patch_node.end(), patch.begin(), patch.end());
+  s.grad.insert(s.grad.end(), g.begin(), g.end());
+  s.ptr.push_back(static_cast<int32_t>(s.patch_node.size()));
+  s.element.insert(s.element.end(), els.begin(), els.end());
+  s.element_ptr.push_back(static_cast<int32_t>(s.element.size()));
+  const int32_t n = static_cast<int32_t>(patch.size());
+  s.pair_ptr.push_back(s.pair_ptr.back() + n * (n + 1) / 2);
+  s.volume.push_back(va);
+  s.mu.push_back((1.0 - share) * mu);
+  // The domain carries (1 − share)·μ̄ of the shear and (1 − bulk share)·κ̄ of the bulk.
+  s.lambda.push_back((1.0 - r.element_bulk_share) * (lam + (2.0 / 3.0) * mu) - (2.0 / 3.0) * (1.0 - share) * mu);
+  s.beta.push_back(beta);
+  s.linear.push_back(r.kernel == ElementKernel::Linear ? 1 : 0);
+}
+
+}  // namespace
+
+std::vector<int32_t> partition_element_patches(const FemModel& m, int32_t element_begin, int32_t element_end,
+                                               int32_t node_begin, int32_t node_end, int k) {
+  const int32_t ne = element_end - element_begin;
+  std::vector<int32_t> patch(ne, -1), size;
+  std::vector<int32_t> free_els;
+  for (int32_t a = node_begin; a < node_end; ++a) {  // greedy: a node's untaken elements
+    free_els.clear();
+    for (int32_t q = m.node_element_ptr[a]; q < m.node_element_ptr[a + 1]; ++q) {
+      const int32_t e = m.node_element[q];
+      if (e >= element_begin && e < element_end && patch[e - element_begin] < 0) free_els.push_back(e);
+    }
+    if (static_cast<int>(free_els.size()) < k) continue;
+    for (int32_t e : free_els) patch[e - element_begin] = static_cast<int32_t>(size.size());
+    size.push_back(static_cast<int32_t>(free_els.size()));
+  }
+  // The leftovers join a neighbouring patch: the one they share most nodes with (a face
+  // before an edge before a node), the smallest among equals; sweeps until none is left. A
+  // component no patch reached starts its own.
+  for (bool left = true; left;) {
+    left = false;
+    bool progress = false;
+    for (int32_t le = 0; le < ne; ++le) {
+      if (patch[le] >= 0) continue;
+      const ElementParams& ep = m.elements[element_begin + le];
+      int32_t best = -1, best_shared = 0;
+      for (int32_t n : ep.node)
+        for (int32_t q = m.node_element_ptr[n]; q < m.node_element_ptr[n + 1]; ++q) {
+          const int32_t f = m.node_element[q];
+          if (f < element_begin || f >= element_end || patch[f - element_begin] < 0) continue;
+          int32_t shared = 0;
+          for (int32_t a : ep.node)
+            for (int32_t b : m.elements[f].node) shared += a == b;
+          const int32_t p = patch[f - element_begin];
+          if (shared > best_shared || (shared == best_shared && size[p] < size[best])) best = p, best_shared = shared;
+        }
+      if (best < 0) {
+        left = true;
+        continue;
+      }
+      patch[le] = best;
+      ++size[best];
+      progress = true;
+    }
+    if (left && !progress)
+      for (int32_t le = 0; le < ne; ++le)
+        if (patch[le] < 0) {
+          patch[le] = static_cast<int32_t>(size.size());
+          size.push_back(1);
+          break;
+        }
+  }
+  return patch;
+}
+
 void build_nodal_smoothing(FemModel& m) {
   NodalSmoothing& s = m.smoothing;
   const bool matrix_free = s.matrix_free;  // chosen by the caller before
@@ -55,8 +167,9 @@ void build_nodal_smoothing(FemModel& m) {
   s.matrix_free = matrix_free;
   s.ptr.push_back(0);
   s.pair_ptr.push_back(0);
-  std::vector<int32_t> patch;
-  std::vector<double> g;
+  s.element_ptr.push_back(0);
+  std::vector<int32_t> patch, els;
+  std::vector<double> g, wt;
   for (size_t ri = 0; ri < m.ranges.size(); ++ri) {
     const ElementRange& r = m.ranges[ri];
     if (!r.smoothed || r.fixed) continue;
@@ -64,53 +177,35 @@ void build_nodal_smoothing(FemModel& m) {
     for (const BodyRange& b : m.bodies)
       if (b.element_begin == r.begin) body = &b;
     if (body == nullptr) throw std::logic_error("nodal smoothing: a smoothed range without its body");
-    const double share = r.element_share;
+    if (r.patch_elements > 0) {  // F-bar-patch: disjoint element patches, each element whole
+      const std::vector<int32_t> pid =
+          partition_element_patches(m, r.begin, r.end, body->node_begin, body->node_end, r.patch_elements);
+      const int32_t np = pid.empty() ? 0 : *std::max_element(pid.begin(), pid.end()) + 1;
+      std::vector<std::vector<int32_t>> members(np);
+      for (int32_t le = 0; le < r.end - r.begin; ++le) members[pid[le]].push_back(r.begin + le);
+      for (const std::vector<int32_t>& p : members) {
+        wt.clear();
+        for (int32_t e : p) wt.push_back(m.elements[e].volume);
+        int32_t centre = m.elements[p[0]].node[0];  // the node the patch was taken around
+        for (int32_t a : m.elements[p[0]].node) {
+          bool all = true;
+          for (int32_t e : p) {
+            const auto& nd = m.elements[e].node;
+            all = all && std::find(nd.begin(), nd.end(), a) != nd.end();
+          }
+          if (all) centre = a;
+        }
+        add_domain(s, m, *body, r, centre, p, wt, patch, g);
+      }
+      continue;
+    }
     for (int32_t a = body->node_begin; a < body->node_end; ++a) {
       const int32_t e0 = m.node_element_ptr[a], e1 = m.node_element_ptr[a + 1];
       if (e0 == e1) continue;  // an unused node (a fixed node's domain still acts on its neighbours)
-      patch.clear();
-      double va = 0, lam = 0, mu = 0, beta = 0;
-      for (int32_t k = e0; k < e1; ++k) {
-        const ElementParams& ep = m.elements[m.node_element[k]];
-        for (int32_t n : ep.node) patch.push_back(n);
-        const double w = ep.volume / 4.0;
-        va += w;
-        lam += w * ep.lambda;
-        mu += w * ep.mu;
-        beta += w * ep.beta;
-      }
-      std::sort(patch.begin(), patch.end());
-      patch.erase(std::unique(patch.begin(), patch.end()), patch.end());
-      if (patch.size() > static_cast<size_t>(kMaxPatch))
-        throw std::invalid_argument("locking_free: node " + std::to_string(a - body->node_begin) + " of body '" +
-                                    body->name + "' has " + std::to_string(patch.size() - 1) +
-                                    " neighbours; node smoothing supports up to " + std::to_string(kMaxPatch - 1) +
-                                    " (a degenerate mesh?)");
-      g.assign(3 * patch.size(), 0.0);
-      for (int32_t k = e0; k < e1; ++k) {
-        const ElementParams& ep = m.elements[m.node_element[k]];
-        double G[4][3];
-        element_gradients(ep, G);
-        const double w = ep.volume / 4.0 / va;
-        for (int i = 0; i < 4; ++i) {
-          const auto at = std::lower_bound(patch.begin(), patch.end(), ep.node[i]) - patch.begin();
-          for (int c = 0; c < 3; ++c) g[3 * at + c] += w * G[i][c];
-        }
-      }
-      lam /= va;
-      mu /= va;
-      beta /= va;
-      s.centre.push_back(a);
-      s.patch_node.insert(s.patch_node.end(), patch.begin(), patch.end());
-      s.grad.insert(s.grad.end(), g.begin(), g.end());
-      s.ptr.push_back(static_cast<int32_t>(s.patch_node.size()));
-      const int32_t n = static_cast<int32_t>(patch.size());
-      s.pair_ptr.push_back(s.pair_ptr.back() + n * (n + 1) / 2);
-      s.volume.push_back(va);
-      s.mu.push_back((1.0 - share) * mu);
-      s.lambda.push_back(lam + (2.0 / 3.0) * share * mu);
-      s.beta.push_back(beta);
-      s.linear.push_back(r.kernel == ElementKernel::Linear ? 1 : 0);
+      els.assign(m.node_element.begin() + e0, m.node_element.begin() + e1);
+      wt.clear();
+      for (int32_t e : els) wt.push_back(m.elements[e].volume / 4.0);
+      add_domain(s, m, *body, r, a, els, wt, patch, g);
     }
   }
   if (!s.matrix_free) s.pair_slot.assign(s.pair_ptr.back(), -1);
@@ -153,10 +248,9 @@ double nodal_smoothing_pass(const FemModel& m, const ElasticPass& p) {
     const double* g = s.grad.data();
     double lambda = s.lambda[d], mu = s.mu[d];
     if (p.damage) {  // the patch's volume-weighted intactness
-      const int32_t a = s.centre[d];
       double keep = 0, w = 0;
-      for (int32_t k = m.node_element_ptr[a]; k < m.node_element_ptr[a + 1]; ++k) {
-        const int32_t e = m.node_element[k];
+      for (int32_t k = s.element_ptr[d]; k < s.element_ptr[d + 1]; ++k) {
+        const int32_t e = s.element[k];
         keep += m.elements[e].volume * (1.0 - static_cast<double>(p.damage[e]));
         w += m.elements[e].volume;
       }
@@ -192,6 +286,19 @@ double nodal_smoothing_pass(const FemModel& m, const ElasticPass& p) {
       for (int32_t a = 0; a < n; ++a) m3::mulv(R, g + 3 * (j0 + a), r + 3 * a);
       const double sl = scale * lambda, sm = scale * mu;
       const int32_t* slot = s.pair_slot.data() + s.pair_ptr[d];
+      if (mu == 0.0) {  // bulk only (element patches, or s = 1): block (a, b) = Vλ r_a r_bᵀ
+        for (int32_t a = 0; a < n; ++a) {
+          double ra[3];
+          for (int i = 0; i < 3; ++i) ra[i] = sl * r[3 * a + i];
+          for (int32_t b = a; b < n; ++b) {
+            const double* rb = r + 3 * b;
+            double* S = p.kvals + 9 * static_cast<size_t>(*slot++);
+            for (int i = 0; i < 3; ++i)
+              for (int k = 0; k < 3; ++k) S[3 * i + k] += ra[i] * rb[k];
+          }
+        }
+        continue;
+      }
       for (int32_t a = 0; a < n; ++a) {
         const double* ra = r + 3 * a;
         const double* ga = g + 3 * (j0 + a);

@@ -1,7 +1,7 @@
 #pragma once
 /// \file nodal_smoothing.hpp
-/// Locking-free near-incompressible tetrahedra: node-based strain smoothing (selective NS-FEM,
-/// `material.locking_free`).
+/// Locking-free near-incompressible tetrahedra (`material.locking_free`): node-based strain
+/// smoothing (selective NS-FEM) and element patches (F-bar-patch), one domain machinery.
 ///
 /// Linear tetrahedra lock at ν → 0.5: one volume constraint per element, ~5 elements per node,
 /// only 3 DOFs per node. Here the strain is instead measured on a smoothing domain around each
@@ -23,6 +23,18 @@
 /// μ̄, λ̄ (and the Rayleigh β) the patch's volume-weighted averages (regions mix at their
 /// interface). Total: exactly the material's μ and κ, split across the two.
 ///
+/// Element patches (`element_patches`, F-bar-patch in its small-strain corotational form): the
+/// domains are instead disjoint patches of at least k elements (partition_element_patches),
+/// each element counted whole (weight V_e), carrying only the bulk: the elements keep all of
+/// the deviatoric stiffness (element_share = 1) and a share b of the bulk modulus
+/// (ElementRange::element_bulk_share, default 0.02), the patch the rest. One volume
+/// constraint per patch: with k ≥ 12–16 about one per node or fewer, so no locking; a patch
+/// couples only its own nodes (one node's star and what joined it), so the assembled pattern
+/// grows far less than node smoothing's two-ring and the warped factor of the whole system
+/// stays cheap. The share b stops a patch's elements from collapsing one into another while
+/// the patch keeps its volume (without it, soft beams gained energy through inverted
+/// elements in the stability suite; docs/STABILITY.md). Element patches are always assembled.
+///
 /// Two ways to put the domains' tangent into the implicit system (NodalSmoothing::matrix_free):
 ///  - assembled: a domain couples every pair of its patch's nodes, so the BSR pattern grows to
 ///    the two-ring (~4× the blocks) and every solver takes the matrix as it is. Needed by
@@ -43,7 +55,7 @@ struct FemModel;
 struct ElasticPass;
 struct ExtraOperator;
 
-/// The node domains of all smoothed bodies, in CSR form.
+/// The smoothing domains (node domains or element patches) of all smoothed bodies, in CSR form.
 /// Invariants: `ptr`/`pair_ptr` have domains()+1 entries; domain d's patch is entries
 /// ptr[d] .. ptr[d+1] of `patch_node` (ascending global node ids, the centre node among them)
 /// and `grad` (3 per entry; Σ of a domain's gradients = 0, Σ_j X_j ⊗ g_j = I at rest); its
@@ -51,12 +63,14 @@ struct ExtraOperator;
 /// row: (0,0), (0,1) … (0,n−1), (1,1) …, each the slot of block (node a, node b), a ≤ b.
 /// volume > 0; mu ≥ 0; lambda + ⅔mu ≥ 0.
 struct NodalSmoothing {
-  std::vector<int32_t> centre;      ///< the domain's node
+  std::vector<int32_t> centre;      ///< the domain's node (a patch: the node all its elements share, else its first element's first node)
   std::vector<int32_t> ptr;         ///< CSR offsets into patch_node / grad
   std::vector<int32_t> patch_node;  ///< global node ids of each patch, ascending
   std::vector<double> grad;         ///< 3 per patch entry: smoothed shape gradient (1/m)
   std::vector<int32_t> pair_ptr;    ///< CSR offsets into pair_slot
   std::vector<int32_t> pair_slot;   ///< BSR slot of each upper pair
+  std::vector<int32_t> element_ptr; ///< CSR offsets into element
+  std::vector<int32_t> element;     ///< each domain's elements (a node's star, or its patch)
   std::vector<double> volume;       ///< V_a (m³)
   std::vector<double> lambda, mu;   ///< the domain's Lamé parameters (after the element share)
   std::vector<double> beta;         ///< Rayleigh stiffness coefficient
@@ -71,6 +85,15 @@ struct NodalSmoothing {
 /// Largest patch a node may have (its neighbours and itself); a larger one is a load error
 /// (a degenerate mesh). The pass keeps its rotated gradients on the stack.
 inline constexpr int kMaxPatch = 256;
+
+/// Disjoint patches of at least k elements covering elements [element_begin, element_end) of
+/// one body (nodes [node_begin, node_end)), for `element_patches`: greedy over the nodes in
+/// order (a node's not yet taken elements become a patch when there are k or more), then each
+/// element left over joins the neighbouring patch it shares most nodes with (the smallest among
+/// equals), sweeping until none is left. Returns each element's patch id (0 .. patches − 1).
+/// Needs m.node_element*. Deterministic.
+std::vector<int32_t> partition_element_patches(const FemModel& m, int32_t element_begin, int32_t element_end,
+                                               int32_t node_begin, int32_t node_end, int k);
 
 /// Builds the node domains of every range with `smoothed` set (not fixed), from the elements
 /// and node → element lists of `m` (set before). Returns, per domain, its patch as a node group

@@ -72,17 +72,36 @@ void timed_static_runs(const CompiledScenario& sc, int runs, const std::function
 // ---------------------------------------------------------------------------------------------
 // Static tip deflection (refs/a)
 
-/// ", locking_free: {...}" for a material, or "" (share < 0: plain elements).
-std::string locking_free_yaml(double share) {
-  return share < 0 ? "" : fmt::format(", locking_free: {{method: node_smoothing, stabilisation: {:g}}}", share);
+/// ", locking_free: {...}" for a material, or "" (share < 0: plain elements). patch ≥ 2: the
+/// volumetric strain averaged over element patches of at least that many tetrahedra
+/// (F-bar-patch, its default element bulk share; `share` unused); 0: node smoothing with
+/// stabilisation `share`.
+std::string locking_free_yaml(double share, int patch = 0) {
+  if (share < 0) return "";
+  if (patch > 0) return fmt::format(", locking_free: {{method: element_patches, patch_elements: {}}}", patch);
+  return fmt::format(", locking_free: {{method: node_smoothing, stabilisation: {:g}}}", share);
 }
-std::string locking_free_label(double share) { return share < 0 ? "" : fmt::format(", node-smoothed s {:g}", share); }
+std::string locking_free_label(double share, int patch = 0) {
+  if (share < 0) return "";
+  if (patch > 0) return fmt::format(", F-bar-patch {}", patch);
+  return fmt::format(", node-smoothed s {:g}", share);
+}
+/// The scenario's locking_free for (share, patch), as locking_free_yaml gives it.
+LockingFreeSpec locking_free_spec(double share, int patch) {
+  if (patch > 0) {
+    LockingFreeSpec l = LockingFreeSpec::element_patches();
+    l.patch_elements = patch;
+    return l;
+  }
+  return LockingFreeSpec{"node_smoothing", share, {}};
+}
 
 struct StaticConfig {
   std::string mesh, sweep, solver;  // solver: "cholmod" or "cg 1e-6"
   ElementModel model = ElementModel::Corotational;
   double tolerance = 1e-6;
   double locking_free = -1;  ///< ≥ 0: node smoothing with this stabilisation
+  int patch = 0;             ///< ≥ 2: element patches (F-bar-patch) instead of node domains
 };
 
 const char* model_name(ElementModel m) {
@@ -96,7 +115,7 @@ AccuracyPoint run_static(const std::string& src, const StaticConfig& c, int runs
   ScenarioSpec spec = load_scenario(src + "/scenarios/cantilever_static.yaml");
   spec.bodies[0].mesh_path = mesh_path(src, c.mesh);
   spec.bodies[0].material.model = c.model;
-  if (c.locking_free >= 0) spec.bodies[0].material.locking_free = LockingFreeSpec{"node_smoothing", c.locking_free, {}};
+  if (c.locking_free >= 0) spec.bodies[0].material.locking_free = locking_free_spec(c.locking_free, c.patch);
   if (c.solver == "cholmod") {
     spec.solver.linear_solver = LinearSolverKind::Cholmod;
   } else {
@@ -110,7 +129,7 @@ AccuracyPoint run_static(const std::string& src, const StaticConfig& c, int runs
   AccuracyPoint p;
   p.problem = "cantilever_static";
   p.sweep = c.sweep;
-  p.label = fmt::format("h {} mm, {}{}, {}", tag_mm(c.mesh), model_name(c.model), locking_free_label(c.locking_free),
+  p.label = fmt::format("h {} mm, {}{}, {}", tag_mm(c.mesh), model_name(c.model), locking_free_label(c.locking_free, c.patch),
                         c.solver == "cholmod" ? "CHOLMOD" : fmt::format("CG {:.0e}", c.tolerance));
   p.nodes = m->fem.num_nodes;
   p.reference = kStaticReference;
@@ -137,6 +156,7 @@ struct BlockConfig {
   bool cholmod = true;
   double tolerance = 1e-8;  ///< CG tolerance inside each Newton step (Newton itself to 1e-10)
   double locking_free = -1; ///< ≥ 0: node smoothing with this stabilisation (nodal_smoothing.hpp)
+  int patch = 0;            ///< ≥ 2: element patches (F-bar-patch) instead of node domains
 };
 
 
@@ -154,13 +174,13 @@ bodies:
       - box: {{min: [-1, -1, -1.0e-7], max: [1, 1, 1.0e-7]}}
       - box: {{min: [-1, -1, 0.0499999], max: [1, 1, 1]}}
 )", c.cholmod ? "cholmod" : "cg", c.tolerance, src + "/scenarios/meshes/cube_tet4_h" + c.mesh + "mm.msh",
-                                       c.linear ? "linear" : "corotational", locking_free_yaml(c.locking_free));
+                                       c.linear ? "linear" : "corotational", locking_free_yaml(c.locking_free, c.patch));
   auto m = compile_model(parse_scenario(yaml, "block_compression (accuracy suite)", src));
   AccuracyPoint p;
   p.problem = "block_compression";
   p.sweep = c.sweep;
   p.label = fmt::format("h {} mm, {}{}, {}", tag_mm(c.mesh), c.linear ? "linear" : "corot.",
-                        locking_free_label(c.locking_free), c.cholmod ? "CHOLMOD" : fmt::format("CG {:.0e}", c.tolerance));
+                        locking_free_label(c.locking_free, c.patch), c.cholmod ? "CHOLMOD" : fmt::format("CG {:.0e}", c.tolerance));
   p.nodes = m->fem.num_nodes;
   p.reference = kBlockForce;
   std::vector<double> secs;
@@ -189,6 +209,37 @@ bodies:
   return p;
 }
 
+/// The tick cost of the same block at 1 kHz (issue 17 §2's "≤ 2× the tick cost of plain
+/// corotational"): the block, bottom held, sagging under gravity from rest (in SI: 50 mm,
+/// E 10 kPa, ν 0.49, ρ 1000), implicit Euler at 1 ms, CG with the warped Cholesky
+/// preconditioner — the plain element's best configuration here — to 1e-6, no budget; the
+/// median over `runs` (at least 3) of each run's tick p50 over 300 ticks, in ms.
+double block_tick_ms(const std::string& src, const std::string& mesh, const std::string& locking_free, int runs) {
+  const std::string yaml = fmt::format(R"(name: block_tick
+gravity: [0, 0, -9.81]
+time_step: 0.001
+solver: {{integrator: implicit_euler, linear_solver: cg, preconditioner: warped_cholesky, tolerance: 1.0e-6,
+          max_iterations: 2000}}
+bodies:
+  - name: block
+    mesh: {}
+    material: {{model: corotational, young_modulus: 1.0e4, poisson_ratio: 0.49, density: 1000,
+               rayleigh_mass: 1.0, rayleigh_stiffness: 0.005{}}}
+    fixed:
+      - box: {{min: [-1, -1, -1.0e-7], max: [1, 1, 1.0e-7]}}
+)", src + "/scenarios/meshes/cube_tet4_h" + mesh + "mm.msh", locking_free);
+  auto m = compile_model(parse_scenario(yaml, "block_tick (accuracy suite)", src));
+  std::vector<double> p50s;
+  for (int r = 0; r < std::max(runs, 3); ++r) {
+    State s = State::initial(*m);
+    TickWorkspace w(*m);
+    std::vector<double> t;
+    for (int k = 0; k < 300; ++k) t.push_back(static_cast<double>(tick(*m, s, w).total_ns) * 1e-6);
+    p50s.push_back(median(t));
+  }
+  return median(p50s);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Sphere indentation (refs/e)
 
@@ -200,6 +251,7 @@ struct IndentConfig {
   bool linear = true;
   std::string sweep;
   double locking_free = -1;  // ≥ 0: node smoothing with this stabilisation
+  int patch = 0;             // ≥ 2: element patches (F-bar-patch) instead of node domains
 };
 
 AccuracyPoint run_indentation(const std::string& src, const std::string& out_dir, const IndentConfig& c, int runs) {
@@ -226,14 +278,14 @@ tools:
     script: {}
     shape: {{type: sphere, radius: 0.005}}
     contact: {{stiffness: {:g}}}
-)", mesh, c.linear ? "linear" : "corotational", locking_free_yaml(c.locking_free), traj, c.stiffness);
+)", mesh, c.linear ? "linear" : "corotational", locking_free_yaml(c.locking_free, c.patch), traj, c.stiffness);
   const CompiledScenario sc = compile_scenario(parse_scenario(yaml, "indentation (accuracy suite)", src));
   const auto& m = sc.model;
   AccuracyPoint p;
   p.problem = "indentation";
   p.sweep = c.sweep;
   p.label = fmt::format("first cell {:g} mm, penalty {:.0e}, {}{}", c.h0 * 1e3, c.stiffness,
-                        c.linear ? "linear" : "corot.", locking_free_label(c.locking_free));
+                        c.linear ? "linear" : "corot.", locking_free_label(c.locking_free, c.patch));
   p.nodes = m->fem.num_nodes;
   p.reference = kIndentForce;
   // Force = 4 × the quarter model's.
@@ -503,6 +555,12 @@ std::vector<AccuracyPoint> run_indentation_problem(const AccuracyOptions& o, int
   record(in, run_indentation(src, o.out_dir, {2e-4, 1e9, false, "element model (first cell 0.2 mm)"}, runs), o);
   for (double h0 : o.quick ? std::vector<double>{4e-4, 2e-4} : std::vector<double>{8e-4, 4e-4, 2e-4, 1e-4})
     record(in, run_indentation(src, o.out_dir, {h0, 1e9, false, "locking-free (corot., penalty 1e9)", 0.1}, runs), o);
+  for (double h0 : o.quick ? std::vector<double>{4e-4} : std::vector<double>{8e-4, 4e-4, 2e-4, 1e-4})
+    for (int k : o.quick ? std::vector<int>{16} : std::vector<int>{12, 16, 24}) {
+      IndentConfig c{h0, 1e9, false, "locking-free: F-bar-patch (corot., penalty 1e9)", 1.0};
+      c.patch = k;
+      record(in, run_indentation(src, o.out_dir, c, runs), o);
+    }
   return in;
 }
 
@@ -539,6 +597,32 @@ std::vector<AccuracyPoint> run_block_compression_problem(const AccuracyOptions& 
       c.locking_free = share;
       record(bl, run_block(src, c, runs), o);
     }
+  // §2's cost goal, beside its accuracy goal: the tick of the same block at 1 kHz, plain and
+  // locking-free, each pair in one run (the ratio in the label; ms_per_tick holds the tick).
+  for (const char* mesh : {"8p333", "6p250"}) {
+    const double plain_ms = block_tick_ms(src, mesh, "", runs);
+    for (double share : {-1.0, 0.1, 1.0}) {
+      const int patch = share == 1.0 ? kDefaultPatchElements : 0;
+      BlockConfig c{mesh, "tick at 1 kHz (warped CG 1e-6) vs plain", false, true};
+      c.locking_free = share;
+      c.patch = patch;
+      AccuracyPoint p = run_block(src, c, runs);
+      p.ms_per_tick = share < 0 ? plain_ms : block_tick_ms(src, mesh, locking_free_yaml(share, patch), runs);
+      p.label += fmt::format(", tick p50 {:.3f} ms = {:.2f}x plain", p.ms_per_tick, p.ms_per_tick / plain_ms);
+      record(bl, p, o);
+    }
+  }
+  // The other method (docs/TISSUE.md, "Candidates"): F-bar-patch, the volumetric strain
+  // averaged over disjoint patches of at least k tetrahedra (the elements keep the deviatoric
+  // part and 2 % of the bulk).
+  for (const std::string& mesh : o.quick ? std::vector<std::string>{"8p333", "6p250"}
+                                         : std::vector<std::string>{"8p333", "6p250", "5p000", "3p333", "2p500"})
+    for (int k : o.quick ? std::vector<int>{16} : std::vector<int>{2, 4, 8, 12, 16, 24, 32}) {
+      BlockConfig c{mesh, "locking-free: F-bar-patch (CHOLMOD)", false, true};
+      c.locking_free = 1.0;
+      c.patch = k;
+      record(bl, run_block(src, c, runs), o);
+    }
   return bl;
 }
 
@@ -560,6 +644,11 @@ std::vector<AccuracyPoint> run_cantilever_static_problem(const AccuracyOptions& 
     }
     // Locking-free: bending must not get worse than the plain corotational element's.
     record(st, run_static(src, {mesh, "locking-free (CHOLMOD)", "cholmod", ElementModel::Corotational, 0, 0.1}, runs), o);
+    for (int k : o.quick ? std::vector<int>{16} : std::vector<int>{12, 16, 24}) {
+      StaticConfig c{mesh, "locking-free: F-bar-patch (CHOLMOD)", "cholmod", ElementModel::Corotational, 0, 1.0};
+      c.patch = k;
+      record(st, run_static(src, c, runs), o);
+    }
     for (double tol : o.quick ? std::vector<double>{1e-4} : std::vector<double>{1e-3, 1e-4, 1e-6})
       record(st, run_static(src, {mesh, "CG tolerance (warped Cholesky PCG)", "cg", ElementModel::Corotational, tol}, runs), o);
   }
