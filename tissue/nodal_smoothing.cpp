@@ -46,10 +46,6 @@ inline void patch_scatter(const NodalSmoothing& s, int32_t j0, int32_t j1, const
   }
 }
 
-}  // namespace
-
-namespace {
-
 /// Appends one domain over the elements `els`, element e weighing wt (m³: V_e/4 in a node
 /// domain, V_e in an element patch): its patch, averaged gradients, volume and materials.
 void add_domain(NodalSmoothing& s, const FemModel& m, const BodyRange& body, const ElementRange& r, int32_t centre,
@@ -69,7 +65,7 @@ void add_domain(NodalSmoothing& s, const FemModel& m, const BodyRange& body, con
   patch.erase(std::unique(patch.begin(), patch.end()), patch.end());
   if (patch.size() > static_cast<size_t>(kMaxPatch))
     throw std::invalid_argument("locking_free: " +
-                                (r.patch_elements > 0 ? "a patch around node " : std::string("node ")) +
+                                (r.patch_elements > 0 ? "a patch at node " : std::string("node ")) +
                                 std::to_string(centre - body.node_begin) + " of body '" + body.name + "' has " +
                                 std::to_string(patch.size() - 1) + " neighbours; smoothing supports up to " +
                                 std::to_string(kMaxPatch - 1) + " (a degenerate mesh?)");
@@ -139,7 +135,8 @@ std::vector<int32_t> partition_element_patches(const FemModel& m, int32_t elemen
           for (int32_t a : ep.node)
             for (int32_t b : m.elements[f].node) shared += a == b;
           const int32_t p = patch[f - element_begin];
-          if (shared > best_shared || (shared == best_shared && size[p] < size[best])) best = p, best_shared = shared;
+          if (best < 0 || shared > best_shared || (shared == best_shared && size[p] < size[best]))
+            best = p, best_shared = shared;
         }
       if (best < 0) {
         left = true;
@@ -186,16 +183,7 @@ void build_nodal_smoothing(FemModel& m) {
       for (const std::vector<int32_t>& p : members) {
         wt.clear();
         for (int32_t e : p) wt.push_back(m.elements[e].volume);
-        int32_t centre = m.elements[p[0]].node[0];  // the node the patch was taken around
-        for (int32_t a : m.elements[p[0]].node) {
-          bool all = true;
-          for (int32_t e : p) {
-            const auto& nd = m.elements[e].node;
-            all = all && std::find(nd.begin(), nd.end(), a) != nd.end();
-          }
-          if (all) centre = a;
-        }
-        add_domain(s, m, *body, r, centre, p, wt, patch, g);
+        add_domain(s, m, *body, r, m.elements[p[0]].node[0], p, wt, patch, g);
       }
       continue;
     }

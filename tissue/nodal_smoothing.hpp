@@ -63,7 +63,7 @@ struct ExtraOperator;
 /// row: (0,0), (0,1) … (0,n−1), (1,1) …, each the slot of block (node a, node b), a ≤ b.
 /// volume > 0; mu ≥ 0; lambda + ⅔mu ≥ 0.
 struct NodalSmoothing {
-  std::vector<int32_t> centre;      ///< the domain's node (a patch: the node all its elements share, else its first element's first node)
+  std::vector<int32_t> centre;      ///< the domain's node (an element patch: its first element's first node)
   std::vector<int32_t> ptr;         ///< CSR offsets into patch_node / grad
   std::vector<int32_t> patch_node;  ///< global node ids of each patch, ascending
   std::vector<double> grad;         ///< 3 per patch entry: smoothed shape gradient (1/m)
