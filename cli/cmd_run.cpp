@@ -11,6 +11,8 @@
 #include "engine/headless_runner.hpp"
 #include "engine/output_dir.hpp"
 #include "engine/sofa_scene.hpp"
+#include "engine/solver_comparison.hpp"
+#include "engine/solver_report.hpp"
 #include "engine/state_io.hpp"
 #include "tissue/input_error.hpp"
 
@@ -18,24 +20,44 @@ namespace fs = std::filesystem;
 
 namespace stroma::cli {
 
-CompiledScenario load(const std::string& path) {
+CompiledScenario load(const std::string& path, const CompileOptions& options) {
   spdlog::debug("loading scenario {}", path);
-  CompiledScenario sc = compile_scenario(load_scenario(path));
+  CompiledScenario sc = compile_scenario(load_scenario(path), options);
   for (const auto& n : sc.notes) spdlog::warn("{}", n);
   spdlog::info("scenario '{}': {} bodies, {} nodes, {} tetrahedra, dt {} s", sc.spec.name, sc.spec.bodies.size(),
                sc.model->fem.num_nodes, sc.model->fem.elements.size(), sc.spec.time_step);
+  spdlog::info("{}", solver_summary(sc));
   return sc;
 }
 
-int explain_scenario(const std::string& path) {
-  if (!is_sofa_scene_path(path)) {
-    fmt::print("{} is a Stroma scenario already (--explain translates SOFA scenes, .scn)\n", path);
-    return 0;
+int explain_scenario(const std::string& path, long ticks) {
+  if (is_sofa_scene_path(path)) {
+    const SofaTranslation t = translate_sofa_scene_file(path);
+    for (const auto& n : t.notes) fmt::print("# note: {}\n", n);
+    fmt::print("{}", t.yaml);
+  } else {
+    fmt::print("# {} is a Stroma scenario already (--explain translates SOFA scenes, .scn)\n", path);
   }
-  const SofaTranslation t = translate_sofa_scene_file(path);
-  for (const auto& n : t.notes) fmt::print("# note: {}\n", n);
-  fmt::print("{}", t.yaml);
-  load(path);  // the translation also loads and compiles (else the same error as `run`)
+  const CompiledScenario sc = load(path);  // also loads and compiles (else the same error as `run`)
+  fmt::print("# {}\n", solver_summary(sc));
+  if (sc.model->stepper.integrator != Integrator::ImplicitEuler) return 0;
+  // What converging would cost and gain on this scene: both ticked alternately, same inputs.
+  spdlog::info("comparing the solve as written with a converged one over {} ticks ...", ticks);
+  const SolverComparison c = compare_with_converged(sc.spec, ticks);
+  auto line = [&](const char* what, const SolverRun& r) {
+    fmt::print("#   {:10s} {}: tick p50 {:.3f} ms, p99 {:.3f} ms; {:.1f} CG iterations; {} of {} ticks reached the "
+               "tolerance\n",
+               what, r.solver, r.tick_ms.p50, r.tick_ms.p99, r.iterations_mean, r.ticks_converged, c.ticks);
+  };
+  fmt::print("# What converging would cost and gain ({} ticks of each from rest, alternated; --explain-ticks N):\n",
+             c.ticks);
+  line("as written", c.as_written);
+  line("converged", c.converged);
+  fmt::print("#   the solve as written is off by up to {:.3g} m: {:.2f} % of the converged run's largest displacement "
+             "({:.3g} m)\n",
+             c.difference_max, 100.0 * c.difference_relative, c.converged.max_displacement);
+  fmt::print("#   converged costs {:.2f}x the tick (p50); run it so: stroma run {} --converge\n",
+             c.as_written.tick_ms.p50 > 0 ? c.converged.tick_ms.p50 / c.as_written.tick_ms.p50 : 0.0, path);
   return 0;
 }
 
@@ -74,7 +96,8 @@ void add_run(CLI::App& app, std::vector<Command>& out) {
     long steps = -1;
     double duration = -1;
     int vtu_every = 0;
-    bool quiet = false, no_metrics = false, explain = false;
+    bool quiet = false, no_metrics = false, explain = false, converge = false;
+    long explain_ticks = 500;
   };
   auto a = std::make_shared<Args>();
   auto* run = app.add_subcommand("run", "Run a scenario headless as fast as possible and write results");
@@ -82,7 +105,14 @@ void add_run(CLI::App& app, std::vector<Command>& out) {
       ->required()
       ->check(CLI::ExistingFile);
   run->add_flag("--explain", a->explain,
-                "Print the Stroma scenario a SOFA scene translates to (and what the translation decided), then exit");
+                "Print the Stroma scenario a SOFA scene translates to (and what the translation decided), the solver "
+                "it runs, and what converging its solves would cost and gain (measured: --explain-ticks), then exit");
+  run->add_option("--explain-ticks", a->explain_ticks, "Ticks --explain runs the scene as written and converged")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  run->add_flag("--converge", a->converge,
+                "Leave the solver to the engine at the scenario's tolerance (preconditioner, refresh and cap policy "
+                "auto, cap >= 1000): for SOFA scenes, which reproduce SOFA's capped unpreconditioned CG otherwise");
   auto* o_steps = run->add_option("--steps", a->steps, "Number of ticks (static: further equilibria after t = 0, "
                                                         "following the tool scripts; overrides run: in the scenario)")
                       ->check(CLI::PositiveNumber);
@@ -100,8 +130,13 @@ void add_run(CLI::App& app, std::vector<Command>& out) {
               "A failed run (a tick that cannot advance, a static solve that does not converge) writes\n"
               "summary.json with \"status\": \"failed\" and no final state. Exit status: 0 ok, 1 failed, 2 bad input.");
   out.push_back({run, [a] {
-                   if (a->explain) return explain_scenario(a->scenario);
-                   const CompiledScenario sc = load(a->scenario);
+                   if (a->explain) return explain_scenario(a->scenario, a->explain_ticks);
+                   // A served session ran every tick under a time budget: its replay compiles the
+                   // scenario as serve did (the same solver choice; --converge as it was served).
+                   CompileOptions co;
+                   co.budgeted = !a->replay.empty();
+                   co.converge = a->converge;
+                   const CompiledScenario sc = load(a->scenario, co);
                    RunOptions o;
                    if (a->steps > 0) o.steps = a->steps;
                    if (a->duration > 0) o.duration = a->duration;
@@ -125,7 +160,7 @@ void add_run(CLI::App& app, std::vector<Command>& out) {
 void add_check(CLI::App& app, std::vector<Command>& out) {
   struct Args {
     std::string scenario, reference, out;
-    bool update = false;
+    bool update = false, converge = false;
   };
   auto a = std::make_shared<Args>();
   auto* check = app.add_subcommand("check", "Run a scenario and compare its final state to a reference state");
@@ -134,10 +169,13 @@ void add_check(CLI::App& app, std::vector<Command>& out) {
       ->required();
   check->add_option("--out", a->out, "Also write the run's outputs here");
   check->add_flag("--update", a->update, "Write the reference from this run instead of comparing");
+  check->add_flag("--converge", a->converge, "Leave the solver to the engine at the scenario's tolerance (as run --converge)");
   check->footer("Tolerances come from the scenario's check: section (max_error, mean_error, metres).\n"
                 "Exit status: 0 within tolerance, 1 outside (or the run failed), 2 bad input.");
   out.push_back({check, [a] {
-                   const CompiledScenario sc = load(a->scenario);
+                   CompileOptions co;
+                   co.converge = a->converge;
+                   const CompiledScenario sc = load(a->scenario, co);
                    const Model& model = *sc.model;
                    std::vector<double> ref;
                    if (!a->update) ref = read_state_csv(a->reference);  // fail before running

@@ -27,6 +27,9 @@ void add_serve(CLI::App& app, std::vector<Command>& out) {
   serve->add_option("--stats", srv->stats_file, "Write timing statistics (JSON) here at exit");
   serve->add_option("--publish-hz", srv->publish_hz, "TissueState rate")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
   serve->add_flag("--paused", srv->start_paused, "Start paused (resume or step with stroma_Control)");
+  serve->add_flag("--converge", srv->converge,
+                  "Leave the solver to the engine at the scenario's tolerance (preconditioner, refresh and cap policy "
+                  "auto, cap >= 1000): for SOFA scenes, which reproduce SOFA's capped unpreconditioned CG otherwise");
   serve->add_option("--spin-us", srv->spin_us, "Wake this many microseconds early and spin to each deadline (0: sleep only)")
       ->capture_default_str()
       ->check(CLI::Range(0, 900));

@@ -24,8 +24,8 @@ struct Command {
 /// The command line this process was started with (for reports that record how they were made).
 const std::string& invocation();
 
-/// Loads and compiles a scenario, logging its notes and size.
-CompiledScenario load(const std::string& path);
+/// Loads and compiles a scenario, logging its notes, its size and the solver it runs.
+CompiledScenario load(const std::string& path, const CompileOptions& options = {});
 
 void add_run(CLI::App& app, std::vector<Command>& out);     ///< stroma run
 void add_check(CLI::App& app, std::vector<Command>& out);   ///< stroma check

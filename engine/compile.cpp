@@ -10,8 +10,10 @@
 #include "engine/compiled_scenario.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/model.hpp"
+#include "engine/solver_comparison.hpp"
 #include "engine/state.hpp"
 #include "tissue/bounding_box.hpp"
+#include "tissue/cholmod_solver.hpp"
 #include "tissue/fem_build.hpp"
 #include "tissue/input_error.hpp"
 #include "tissue/mat3.hpp"
@@ -612,9 +614,11 @@ void check_cutting(const ScenarioSpec& spec) {
 
 }  // namespace
 
-CompiledScenario compile_scenario(const ScenarioSpec& spec) {
+CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOptions& options) {
   CompiledScenario out;
-  out.spec = spec;
+  out.spec = spec_in;
+  if (options.converge) converge_solver(out.spec.solver);
+  const ScenarioSpec& spec = out.spec;
   auto model = std::make_shared<Model>();
   model->name = spec.name;
   model->time_step = spec.time_step;
@@ -624,12 +628,11 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
   model->fem_every = s.fem_every;
   model->fem_step = spec.time_step * s.fem_every;
   model->haptic_secant = s.haptic_secant;
-  model->stepper = StepperSettings{s.integrator,   s.linear_solver, s.preconditioner,
+  model->stepper = StepperSettings{s.integrator,   s.linear_solver, s.preconditioner.value_or(Preconditioner::Jacobi),
                                    s.max_iterations, s.tolerance,   s.warm_start,
                                    s.static_tolerance, s.static_max_newton,
                                    resolved_newton_iterations(s.newton_iterations, model->fem_step),
                                    s.newton_tolerance, s.preconditioner_refresh};
-  model->substep_on_cg_cap = s.substep_on_cg_cap;
   model->time_budget = s.time_budget;
 
   const std::vector<PreparedMesh> meshes = load_meshes(spec, out.notes);
@@ -651,6 +654,29 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec) {
                      "material.locking_free", e.what());
   }
   model->max_step_displacement = 0.5 * bounding_box(model->fem.rest.data(), model->fem.rest.size() / 3).diagonal();
+  model->substep_on_cg_cap = resolved_substep_on_cg_cap(s.on_cg_cap, s.integrator, energy_guard_applies(model->fem));
+  if (!s.preconditioner) {  // `auto`: trial steps of this scene decide (tissue/solver_choice.hpp)
+    ChoiceOptions co;
+    co.budgeted = options.budgeted || s.time_budget > 0;
+    out.solver_choice = choose_preconditioner(model->fem, model->stepper, model->fem_step, co);
+    model->stepper.preconditioner = out.solver_choice->preconditioner;
+  }
+  // `preconditioner_refresh: auto` resolved here (TimeStepper::prepare would resolve it the
+  // same way), so the model, the log line and the reports say the period the tick uses.
+  if (model->stepper.preconditioner == Preconditioner::WarpedCholesky && s.integrator == Integrator::ImplicitEuler &&
+      s.linear_solver == LinearSolverKind::CG && model->stepper.preconditioner_refresh < 0) {
+    const double entries = out.solver_choice && out.solver_choice->factor_entries > 0
+                               ? out.solver_choice->factor_entries
+                               : CholmodSolver(model->fem.pattern).factor_entries();
+    // A refreshed factor is of the assembled system, which lacks matrix-free node domains; small
+    // systems keep the rest factor (kRefreshMinDofs).
+    const double iterations = out.solver_choice ? warped_trial_iterations(*out.solver_choice) : kTypicalWarpedIterations;
+    model->stepper.preconditioner_refresh =
+        (model->fem.smoothing.matrix_free && !model->fem.smoothing.empty()) || model->fem.dofs() < kRefreshMinDofs
+            ? 0
+            : auto_refresh_period(model->fem, entries, iterations);
+    model->stepper.refresh_follows_pace = model->stepper.preconditioner_refresh > 0;
+  }
   out.visuals = compile_visuals(spec, meshes, *model, out.notes);
   compile_damage(spec, meshes, *model);
   model->body_tets.resize(meshes.size());

@@ -13,6 +13,7 @@
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/trajectory.hpp"
+#include "tissue/solver_choice.hpp"
 #include "tissue/visual_mapping.hpp"
 
 namespace stroma {
@@ -36,11 +37,26 @@ struct CompiledScenario {
   std::vector<Trajectory> tool_scripts;    ///< per tool: headless inputs (may be empty)
   std::vector<std::optional<VisualModel>> visuals;  ///< per body
   std::vector<std::string> notes;          ///< load-time observations (reoriented, unused nodes)
+  /// `preconditioner: auto`: what the engine chose and why (the model's stepper has it);
+  /// empty when the scenario named its preconditioner.
+  std::optional<PreconditionerChoice> solver_choice;
+};
+
+/// How the scenario will be run, where that changes what compile resolves.
+struct CompileOptions {
+  /// Every tick runs under a time budget (`stroma serve`, the replay of a served session): the
+  /// preconditioner choice charges each candidate the iteration a budget cut may overshoot by
+  /// (tissue/solver_choice.hpp). A scenario's own `time_budget` implies it.
+  bool budgeted = false;
+  /// `--converge`: the solver left to the engine at the scenario's tolerance
+  /// (engine/solver_comparison.hpp, converge_solver) — for SOFA scenes, which reproduce SOFA's
+  /// capped, unpreconditioned CG by default. The compiled spec is the converged one.
+  bool converge = false;
 };
 
 /// Loads every mesh, surface and tool script, validates materials and selections against the
 /// meshes, and compiles. Throws InputError with the scenario file, line and field on any
 /// problem; nothing is half-built.
-CompiledScenario compile_scenario(const ScenarioSpec& spec);
+CompiledScenario compile_scenario(const ScenarioSpec& spec, const CompileOptions& options = {});
 
 }  // namespace stroma

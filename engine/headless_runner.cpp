@@ -15,6 +15,7 @@
 
 #include "engine/cut_swap.hpp"
 #include "engine/session_log.hpp"
+#include "engine/solver_report.hpp"
 #include "engine/state_io.hpp"
 #include "engine/static_run.hpp"
 #include "engine/vtu_writer.hpp"
@@ -33,10 +34,6 @@ long resolve_steps(const CompiledScenario& sc, const RunOptions& o) {
   return m.stepper.integrator == Integrator::Static ? 0 : 1000;
 }
 
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
 TimingSummary summarize(std::vector<double> v) {
   TimingSummary t;
   if (v.empty()) return t;
@@ -53,6 +50,11 @@ TimingSummary summarize(std::vector<double> v) {
   t.max = *std::max_element(v.begin(), v.end());
   return t;
 }
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
 
 /// Streams metrics.csv rows; buffered, flushed in large chunks.
 class MetricsWriter {
@@ -199,6 +201,12 @@ void RunOutputs::finish(RunResult& res) {
   j["elements"] = m.fem.elements.size();
   j["step_ms"] = {{"p50", res.step_ms.p50}, {"p99", res.step_ms.p99}, {"max", res.step_ms.max}, {"mean", res.step_ms.mean}};
   j["cg_iterations"] = {{"mean", res.cg_iterations_mean}, {"max", res.cg_iterations_max}};
+  j["solver"] = solver_json(sc_);
+  if (m.stepper.integrator == Integrator::ImplicitEuler && m.stepper.linear_solver == LinearSolverKind::CG)
+    // The requested accuracy, and where it was not reached (capped or budget-cut solves).
+    j["solver"]["tolerance_reached"] = {{"ticks", res.steps - res.ticks_not_converged},
+                                        {"of", res.steps},
+                                        {"residual_max", res.residual_max}};
   j["ticks_not_converged"] = res.ticks_not_converged;
   j["ticks_non_finite"] = res.ticks_non_finite;
   j["ticks_recovered"] = res.ticks_recovered;
@@ -213,6 +221,8 @@ void RunOutputs::finish(RunResult& res) {
     // never waits): the ticks' times without those waits are what serve would see.
     if (res.preconditioner_refreshes > 0) {
       const TimingSummary& t = res.step_ms_without_refresh_waits;
+      j["warped_preconditioner"]["refresh_factor_ms"] = {{"mean", res.refresh_factor_ms_mean},
+                                                         {"max", res.refresh_factor_ms_max}};
       j["warped_preconditioner"]["refresh_waits"] = {
           {"ticks", res.refresh_wait_ticks}, {"total_ms", res.refresh_wait_ms_total}, {"max_ms", res.refresh_wait_ms_max}};
       j["warped_preconditioner"]["step_ms_without_refresh_waits"] = {{"p50", t.p50}, {"p99", t.p99}, {"max", t.max}, {"mean", t.mean}};
@@ -508,6 +518,10 @@ RunResult run_headless(const CompiledScenario& sc, const RunOptions& o) {
   for (int st = 0; st < kStageCount; ++st)
     res.stage_ms_total[std::string(stage_name(static_cast<Stage>(st)))] = log.stage_total[st];
   res.preconditioner_refreshes += w.stepper().preconditioner_refreshes();  // (+ the retired workspaces')
+  if (const int64_t k = w.stepper().preconditioner_refreshes(); k > 0) {
+    res.refresh_factor_ms_mean = 1e-6 * static_cast<double>(w.stepper().preconditioner_refresh_ns_total()) / static_cast<double>(k);
+    res.refresh_factor_ms_max = 1e-6 * static_cast<double>(w.stepper().preconditioner_refresh_ns_max());
+  }
   // The last tick's tool outputs: its workspace's, unless the tick that ended the run swapped
   // the model (then they were kept before the swap).
   if (!log.last_tick_swapped) res.final_tools = w.report.tools;

@@ -36,6 +36,9 @@ struct TimingSummary {
   double p50 = 0, p99 = 0, max = 0, mean = 0;
 };
 
+/// p50, p99, max and mean of a sample (ms).
+TimingSummary summarize(std::vector<double> ms);
+
 /// What a headless run produced (also written to summary.json).
 struct RunResult {
   State final_state;
@@ -63,6 +66,8 @@ struct RunResult {
   /// refreshed factors swapped in (`preconditioner_refresh`).
   long preconditioner_fallbacks = 0;
   int64_t preconditioner_refreshes = 0;
+  /// The refresh worker's time per factor of the last model's workspace (ms): mean and longest.
+  double refresh_factor_ms_mean = 0, refresh_factor_ms_max = 0;
   double residual_max = 0;     ///< worst relative residual of a tick's linear solve
   double error_energy_max = 0;   ///< J: worst energy-norm error bound of a tick's solve
   double error_position_max = 0; ///< m: worst mass-weighted RMS position error bound

@@ -54,10 +54,11 @@ const Choices<Integrator> kIntegrators = {{"implicit_euler", Integrator::Implici
                                           {"static", Integrator::Static}};
 const Choices<LinearSolverKind> kLinearSolvers = {{"cg", LinearSolverKind::CG},
                                                   {"cholmod", LinearSolverKind::Cholmod}};
-const Choices<Preconditioner> kPreconditioners = {{"jacobi", Preconditioner::Jacobi},
-                                                  {"block_jacobi", Preconditioner::BlockJacobi},
-                                                  {"none", Preconditioner::None},
-                                                  {"warped_cholesky", Preconditioner::WarpedCholesky}};
+const Choices<std::optional<Preconditioner>> kPreconditioners = {{"auto", std::nullopt},
+                                                                 {"jacobi", Preconditioner::Jacobi},
+                                                                 {"block_jacobi", Preconditioner::BlockJacobi},
+                                                                 {"none", Preconditioner::None},
+                                                                 {"warped_cholesky", Preconditioner::WarpedCholesky}};
 // true/false kept as aliases: true = the best guess (extrapolate), false = off.
 const Choices<WarmStart> kWarmStarts = {{"extrapolate", WarmStart::Extrapolate},
                                         {"previous", WarmStart::Previous},
@@ -99,7 +100,8 @@ SourceLocation location_of(const MapReader& m) { return {m.file(), m.line()}; }
 
 // Each parser takes the Field of its section and declares the section's allowed keys.
 
-const Choices<bool> kCapPolicies = {{"substep", true}, {"continue", false}};
+const Choices<CapPolicy> kCapPolicies = {
+    {"auto", CapPolicy::Auto}, {"substep", CapPolicy::Substep}, {"continue", CapPolicy::Continue}};
 const Choices<bool> kHapticModels = {{"secant", true}, {"hold", false}};
 
 /// An optional key holding a whole number >= 1 or one of `words` (each stored as its value);
@@ -135,7 +137,7 @@ SolverSpec parse_solver(const Field& f) {
   m.read("warm_start", s.warm_start, kWarmStarts);
   m.read("static_tolerance", s.static_tolerance, greater_than(0));
   m.read("static_max_newton", s.static_max_newton, greater_than(0));
-  m.read("on_cg_cap", s.substep_on_cg_cap, kCapPolicies);
+  m.read("on_cg_cap", s.on_cg_cap, kCapPolicies);
   read_count_or_words(m, "newton_iterations", {{"auto", 0}}, "a whole number >= 1 or auto", s.newton_iterations);
   m.read("newton_tolerance", s.newton_tolerance, open_interval(0, 1));
   read_count_or_words(m, "preconditioner_refresh", {{"auto", -1}, {"off", 0}},

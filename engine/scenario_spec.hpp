@@ -24,26 +24,36 @@ struct SourceLocation {
 };
 
 
+/// `solver.on_cg_cap:` what a tick whose CG stopped at its iteration cap does.
+enum class CapPolicy {
+  /// The default: `continue` where the energy guard applies (every model without QR-rotation
+  /// bodies, implicit Euler), `substep` otherwise (resolved_cap_policy).
+  Auto,
+  Substep,  ///< redo the tick in sub-steps (2, 4, … 16; the last level keeps its capped solve)
+  Continue  ///< keep the capped step; the energy guard takes out any energy it gained
+};
+
 /// `solver:` section.
 struct SolverSpec {
   Integrator integrator = Integrator::ImplicitEuler;
   LinearSolverKind linear_solver = LinearSolverKind::CG;
-  Preconditioner preconditioner = Preconditioner::Jacobi;
+  /// Empty: `auto` (the default) — the engine chooses at load from trial steps of the scene
+  /// (tissue/solver_choice.hpp); a value: the scenario's choice, never overridden.
+  std::optional<Preconditioner> preconditioner;
   int max_iterations = 200;       ///< CG iteration cap per solve (also Newton cap for static)
   double tolerance = 1.0e-6;      ///< CG relative residual ‖r‖/‖b‖
   WarmStart warm_start = WarmStart::Extrapolate;  ///< CG initial guess (off | previous | extrapolate)
   double static_tolerance = 1.0e-8;   ///< static: Newton stops when ‖residual‖ ≤ this·‖f_ext‖
   int static_max_newton = 50;     ///< static: Newton iteration cap
-  /// `on_cg_cap: substep` (the default): a tick whose CG hits its cap is redone in sub-steps (2,
-  /// 4, … 16; the last level keeps its capped solve), whose systems are better conditioned:
-  /// more accurate on badly conditioned steps (ν → 0.5, slivers, large dt), at up to 16× the
-  /// cost. `continue` keeps the capped step — the cap bounds the tick's cost — and the energy
-  /// guard takes out any energy that step gained (TimeStepper::energy_guard; not for a model with
-  /// QR-rotation bodies, TimeStepper::energy_guard_applies). Why substep stays
-  /// the default: with `continue` the stability suite passes 269 of 373 cases instead of 270,
-  /// and three inverted-mesh cases regress (docs/STABILITY.md). Served ticks are budgeted either
-  /// way: the ladder stops at the deadline.
-  bool substep_on_cg_cap = true;
+  /// `on_cg_cap:` (CapPolicy). `auto` (the default) keeps a capped step wherever the energy
+  /// guard checks it (a capped iterate is stable: the guard takes out any energy it gained), so
+  /// a stable capped step is never redone in sub-steps; sub-steps still run for steps that are
+  /// unstable (non-finite, or a node moving more than max_step_displacement) and, for models with
+  /// QR-rotation bodies (no guard), for capped steps. `substep` redoes every capped tick in 2,
+  /// 4, … 16 sub-steps (better conditioned, up to 16× the cost: it un-inverts elements faster on
+  /// inverted meshes, docs/STABILITY.md); `continue` keeps every capped step. Served ticks are
+  /// budgeted either way: the ladder stops at the deadline.
+  CapPolicy on_cg_cap = CapPolicy::Auto;
   /// Implicit Euler: Newton iterations per tick (1: the linearised step alone). More
   /// re-linearise at the iterate, with a backtracking line search on the step's incremental
   /// potential, until ‖residual‖ ≤ newton_tolerance × the step's scale: for large steps on
@@ -58,9 +68,10 @@ struct SolverSpec {
   /// with the period minus --budget-margin-ms, or with this when it is smaller.
   double time_budget = 0;
   /// `preconditioner_refresh:` (warped_cholesky with implicit Euler): refresh the factor from a
-  /// recent step's system on a worker thread every N steps. -1 = `auto` (the default): on for
-  /// systems of at least kRefreshMinDofs unknowns, every auto_refresh_period() steps (both in
-  /// tissue/time_stepper.hpp); 0 = `off`.
+  /// recent step's system on a worker thread every N steps, and sooner when a solve shows the
+  /// factor no longer fits (TimeStepper::solve). -1 = `auto` (the default): every
+  /// auto_refresh_period() steps (tissue/solver_costs.hpp: re-evaluated as the ticks go) for
+  /// systems of at least kRefreshMinDofs unknowns; 0 = `off` (the rest-pose factor).
   int preconditioner_refresh = -1;
   /// `fem_every: N` (multirate, issue 14 §7): the tissue is stepped every N ticks with a step of
   /// N·time_step; the ticks in between (the haptic rate, 1/time_step) render each tool's force
@@ -76,6 +87,13 @@ struct SolverSpec {
   SourceLocation where;             ///< the `solver:` section (file only when absent)
   SourceLocation integrator_where;  ///< the `integrator:` key (file only when absent)
 };
+
+/// `on_cg_cap: auto` resolved for a model: substep unless the energy guard checks capped steps
+/// (implicit Euler on a model without QR-rotation bodies: `guard_applies`).
+inline bool resolved_substep_on_cg_cap(CapPolicy p, Integrator integrator, bool guard_applies) {
+  if (p != CapPolicy::Auto) return p == CapPolicy::Substep;
+  return !(integrator == Integrator::ImplicitEuler && guard_applies);
+}
 
 /// Newton iterations `newton_iterations: auto` gives steps longer than 1 ms. In the stability
 /// suite (docs/STABILITY.md) 4 iterations at 5–33 ms pass 48 cases the single linearised step

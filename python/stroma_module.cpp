@@ -27,6 +27,7 @@
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
+#include "engine/solver_report.hpp"
 #include "engine/state_bytes.hpp"
 #include "engine/tick.hpp"
 #include "engine/vtu_writer.hpp"
@@ -144,6 +145,10 @@ class Simulation {
     d["stage_ms"] = stages;
     return d;
   }
+
+  /// The solver the scenario runs and who chose it (engine/solver_report.hpp: the object
+  /// summary.json's "solver" holds).
+  py::object solver() const { return py::module_::import("json").attr("loads")(solver_json(sc_).dump()); }
 
   Snapshot snapshot() const { return {model_, s_, fingerprint_}; }
 
@@ -264,6 +269,9 @@ PYBIND11_MODULE(_stroma, mod) {
            "Commands tool `tool` to this pose (m; unit quaternion w, x, y, z; jaw rad) from the next tick on")
       .def("feedback", &Simulation::feedback, py::arg("tool"), "Force, torque, stiffness and contacts of the last tick")
       .def_property_readonly("metrics", &Simulation::metrics, "Status, CG iterations and residual of the last tick")
+      .def_property_readonly("solver", &Simulation::solver,
+                             "The linear solver, its preconditioner and cap policy, and who chose each (auto: the "
+                             "engine, at load; summary.json's \"solver\")")
       .def("write_vtu", &Simulation::write_vtu_file, py::arg("path"), "Writes the current state as VTU")
       .def_property_readonly("time", &Simulation::time, "Simulated time (s)")
       .def_property_readonly("steps", &Simulation::steps, "Ticks done")

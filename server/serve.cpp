@@ -18,6 +18,7 @@
 #include <spdlog/spdlog.h>
 
 #include "engine/compiled_scenario.hpp"
+#include "engine/solver_report.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/damage.hpp"
@@ -168,7 +169,8 @@ double percentile(std::vector<float> v, int n, double q) {
 /// Publisher thread: state frames (per body: surface positions, stress and damage per vertex;
 /// per tool: where it is drawn) and status. Runs until the physics loop has finished.
 void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& surfaces,
-                      const InputCounters& in, std::atomic<uint64_t>& status_sent, uint64_t session) {
+                      const InputCounters& in, std::atomic<uint64_t>& status_sent, uint64_t session,
+                      const std::string& solver) {
   const Model& m = loop.model();
   std::vector<float> capsules;
   capsules.reserve(7 * kMaxCapsules);
@@ -264,6 +266,7 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
       msg.nodes_created = static_cast<uint32_t>(st.cut.nodes_created);
       msg.faces_created = static_cast<uint32_t>(st.cut.faces_created);
       msg.cut_area = st.cut.cut_area;
+      std::snprintf(msg.solver, sizeof(msg.solver), "%s", solver.c_str());
       if (dds_write(ep.status_writer, &msg) >= 0) status_sent.fetch_add(1);
     }
   }
@@ -463,7 +466,10 @@ CompiledScenario load_servable(const ServeOptions& o) {
     throw InputError("", 0, "--phase-lead-us",
                      fmt::format("{:g} us: the lead must be >= 0 (0: no phase lock) and below the period ({:g} us)",
                                  o.phase_lead_us, spec.time_step * 1e6));
-  CompiledScenario sc = compile_scenario(spec);
+  CompileOptions co;
+  co.budgeted = true;  // every served tick has a deadline (tissue/solver_choice.hpp)
+  co.converge = o.converge;
+  CompiledScenario sc = compile_scenario(spec, co);
   for (const auto& n : sc.notes) spdlog::warn("{}", n);
   if (sc.model->tools.size() > static_cast<size_t>(kMaxTools))
     throw std::runtime_error(fmt::format("at most {} tools are supported", kMaxTools));
@@ -603,6 +609,8 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
 int run_serve(const ServeOptions& o) {
   const CompiledScenario scenario = load_servable(o);
   const std::shared_ptr<const Model>& model = scenario.model;
+  spdlog::info("{}", solver_summary(scenario));
+  const std::string solver = solver_short(scenario);  // SimStatus.solver
   const RealtimeMode rt_mode = o.realtime == "fifo" ? RealtimeMode::Fifo
                                : o.realtime == "off" ? RealtimeMode::Off
                                                      : RealtimeMode::Auto;
@@ -665,7 +673,7 @@ int run_serve(const ServeOptions& o) {
       if (rt_mode == RealtimeMode::Fifo) spdlog::error("--realtime fifo: {}", rt.problems);
       else if (rt_mode == RealtimeMode::Auto) spdlog::warn("real time not fully available, running best effort: {}", rt.problems);
     }
-    std::thread publisher([&] { publisher_thread(loop, ep, surfaces, counters, status_sent, session); });
+    std::thread publisher([&] { publisher_thread(loop, ep, surfaces, counters, status_sent, session, solver); });
     // The command and feedback paths are latency-critical too: real-time priority below the
     // physics thread (so a busy machine delays them less), best effort if denied.
     const RealtimeMode io_mode = rt_mode == RealtimeMode::Off ? RealtimeMode::Off : RealtimeMode::Auto;
@@ -709,6 +717,7 @@ int run_serve(const ServeOptions& o) {
     if (!o.stats_file.empty()) {
       std::ofstream f(o.stats_file);
       nlohmann::ordered_json j = stats_json(o, *model, loop, rt, pp, counters, status_sent.load(), record_status);
+      j["solver"] = solver_json(scenario);
       if (crtk) j["crtk"] = crtk->stats_json();
       f << j.dump(2) << '\n';
       if (!f) {

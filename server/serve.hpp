@@ -11,6 +11,7 @@ struct ServeOptions {
   std::string scenario;
   std::string dds_config;      ///< Cyclone XML file; empty: CYCLONEDDS_URI or built-in loopback
   std::string security_dir;    ///< --security: a `stroma security init` directory (protected domain)
+  bool converge = false;       ///< --converge: the solver left to the engine (engine/solver_comparison.hpp)
   int domain = 0;
   std::string realtime = "auto";  ///< auto | fifo | off
   int cpu = -1;                ///< pin the physics thread to this CPU (−1: no pinning)

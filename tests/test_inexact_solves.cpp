@@ -36,7 +36,7 @@ class InexactSolve : public testing::TestWithParam<InexactCase> {};
 TEST_P(InexactSolve, NeverGainsEnergyAndNeverDiverges) {
   const InexactCase& c = GetParam();
   ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/physical/" + c.scene);
-  spec.solver.substep_on_cg_cap = false;  // keep capped steps: what is under test
+  spec.solver.on_cg_cap = CapPolicy::Continue;  // keep capped steps: what is under test
   spec.solver.tolerance = 1e-10;
   spec.solver.max_iterations = c.cap > 0 ? c.cap : 2000;
   spec.solver.time_budget = c.budget_ms * 1e-3;

@@ -181,7 +181,7 @@ TEST(RotationReuse, TicksWithAndWithoutReuseFollowTheSameTrajectory) {
   spec.probes.clear();
   spec.solver.max_iterations = 3;
   spec.solver.tolerance = 1e-8;
-  spec.solver.substep_on_cg_cap = true;
+  spec.solver.on_cg_cap = CapPolicy::Substep;
   auto m = compile_model(spec);
   ASSERT_EQ(m->fem.ranges.size(), 2u);
 

@@ -246,7 +246,7 @@ TEST(ScenarioLoader, DefaultsWhenOmitted) {
   EXPECT_EQ(s.gravity, (Vec3{0, -9.81, 0}));
   EXPECT_EQ(s.solver.integrator, Integrator::ImplicitEuler);
   EXPECT_EQ(s.solver.linear_solver, LinearSolverKind::CG);
-  EXPECT_EQ(s.solver.preconditioner, Preconditioner::Jacobi);
+  EXPECT_FALSE(s.solver.preconditioner.has_value()) << "auto: the engine chooses (tissue/solver_choice.hpp)";
   EXPECT_EQ(s.solver.max_iterations, d.solver.max_iterations);
   EXPECT_DOUBLE_EQ(s.solver.tolerance, d.solver.tolerance);
   EXPECT_EQ(s.solver.warm_start, WarmStart::Extrapolate);
@@ -270,10 +270,14 @@ TEST(ScenarioLoader, DefaultsWhenOmitted) {
   EXPECT_EQ(p.solver.integrator, Integrator::Static);
   EXPECT_EQ(p.solver.max_iterations, d.solver.max_iterations);
   EXPECT_EQ(p.solver.warm_start, WarmStart::Extrapolate);
-  // A capped CG redoes the tick in sub-steps by default; continue keeps the guarded step.
-  EXPECT_TRUE(s.solver.substep_on_cg_cap);
-  EXPECT_TRUE(parse(kMinimal + "solver:\n  on_cg_cap: substep\n").solver.substep_on_cg_cap);
-  EXPECT_FALSE(parse(kMinimal + "solver:\n  on_cg_cap: continue\n").solver.substep_on_cg_cap);
+  // The cap policy is auto by default (compile resolves it); substep and continue are kept.
+  EXPECT_EQ(s.solver.on_cg_cap, CapPolicy::Auto);
+  EXPECT_EQ(parse(kMinimal + "solver:\n  on_cg_cap: auto\n").solver.on_cg_cap, CapPolicy::Auto);
+  EXPECT_EQ(parse(kMinimal + "solver:\n  on_cg_cap: substep\n").solver.on_cg_cap, CapPolicy::Substep);
+  EXPECT_EQ(parse(kMinimal + "solver:\n  on_cg_cap: continue\n").solver.on_cg_cap, CapPolicy::Continue);
+  // `preconditioner: auto` is the default spelled out; a named one is kept.
+  EXPECT_FALSE(parse(kMinimal + "solver:\n  preconditioner: auto\n").solver.preconditioner.has_value());
+  EXPECT_EQ(parse(kMinimal + "solver:\n  preconditioner: jacobi\n").solver.preconditioner, Preconditioner::Jacobi);
 }
 
 // solver.newton_iterations: a count, or auto (the default): Newton iterations only for steps

@@ -106,7 +106,7 @@ TEST(SofaScene, TheLiverDemoTranslatesToTheLiverScenarioWithSofasRotation) {
   EXPECT_EQ(scn.solver.max_iterations, 25);
   EXPECT_EQ(scn.solver.tolerance, 1e-9);
   EXPECT_EQ(scn.solver.warm_start, WarmStart::Off);
-  EXPECT_FALSE(scn.solver.substep_on_cg_cap);
+  EXPECT_EQ(scn.solver.on_cg_cap, CapPolicy::Continue);
 }
 
 TEST(SofaScene, TheLiverDemoRunsAsTheLiverScenario) {

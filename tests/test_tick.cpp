@@ -159,7 +159,7 @@ TEST(Tick, CappedSolveIsRedoneInSubstepsWhenTold) {
   spec.solver.tolerance = 1e-8;
   spec.time_step = 0.004;
   auto run = [&](bool substep) {
-    spec.solver.substep_on_cg_cap = substep;
+    spec.solver.on_cg_cap = substep ? CapPolicy::Substep : CapPolicy::Continue;
     auto m = compile_model(spec);
     State s = State::initial(*m);
     TickWorkspace w(*m);

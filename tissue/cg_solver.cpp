@@ -64,7 +64,7 @@ void CgSolver::apply_preconditioner(Preconditioner prec, const double* r, double
 SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double* b, double* x,
                            Preconditioner prec, int max_iterations, double tolerance,
                            const ExternalPreconditioner* external, Deadline* deadline, bool safe_start,
-                           const ExtraOperator* extra) {
+                           const ExtraOperator* extra, int progress_from, int progress_limit) {
   external_ = external;
   const int32_t m = 3 * n_;
   SolveStats st;
@@ -102,6 +102,7 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
   for (int32_t i = 0; i < m; ++i) p[i] = z[i];
   double rz = dotn(r, z, m);
   double rnorm = std::sqrt(dotn(r, r, m));
+  const double rnorm0 = rnorm;
   const double target = tolerance * bnorm;
   st.converged = false;
   int k = 0;
@@ -130,6 +131,15 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
     if (deadline && deadline->past()) {
       st.budget_stopped = true;
       break;
+    }
+    // Progress: at the mean rate ρ = (‖r_k‖/‖r_0‖)^(1/k) the target is log(target/‖r_k‖)/log ρ
+    // iterations away; past progress_limit, this preconditioner is not converging here.
+    if (progress_from > 0 && k >= progress_from) {
+      const double log_rate = std::log(rnorm / rnorm0) / k;
+      if (!(log_rate < 0.0) || k + std::log(target / rnorm) / log_rate > progress_limit) {
+        st.stalled = true;
+        break;
+      }
     }
     apply_preconditioner(prec, r, z);
     const double rz_new = dotn(r, z, m);

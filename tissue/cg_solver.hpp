@@ -25,6 +25,9 @@ struct SolveStats {
   /// Warped Cholesky: the solve spent its warped share (TimeStepper) without converging and
   /// Jacobi-PCG continued from its iterate (`iterations` counts both).
   bool preconditioner_fallback = false;
+  /// Stopped by the progress test (CgSolver::solve's `progress_from`): at its mean rate since
+  /// the start it would not have converged within its cap.
+  bool stalled = false;
   /// Bound on the solve's error in the system's energy norm: ½‖x − x*‖²_A ≤ ½ rᵀM⁻¹r with M
   /// the mass part of A (A ≥ M: stiffness, damping and contact terms are PSD). It is exactly
   /// how far the step's quadratic incremental potential is above its minimum (J). Filled by
@@ -62,10 +65,16 @@ class CgSolver {
   /// passed (the iterate is kept: CG's iterates lower the quadratic ½xᵀAx − bᵀx monotonically). `safe_start`: if the
   /// initial guess is worse than zero in that quadratic (−½x₀ᵀ(b + r₀) > 0, free from r₀), start
   /// from zero instead — so a truncated solve is never worse than no correction at all.
+  /// `progress_from` (0: off): from that iteration on, the solve stops (SolveStats::stalled)
+  /// once the iterations it would need at its mean residual reduction per iteration so far,
+  /// (‖r_k‖/‖r_0‖)^(1/k), exceed `progress_limit` (≤ max_iterations) — a preconditioner that
+  /// fits this system badly is given up, one that is about to converge runs on
+  /// (TimeStepper::solve's fallback).
   SolveStats solve(const BsrPattern& p, const double* A, const double* b, double* x,
                    Preconditioner prec, int max_iterations, double tolerance,
                    const ExternalPreconditioner* external = nullptr, Deadline* deadline = nullptr,
-                   bool safe_start = false, const ExtraOperator* extra = nullptr);
+                   bool safe_start = false, const ExtraOperator* extra = nullptr, int progress_from = 0,
+                   int progress_limit = 0);
   /// The residual b − A x of the last solve (3n).
   const double* residual() const { return r_.data(); }
 

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 
+#include "tissue/clock.hpp"
+
 namespace stroma {
 
 CholeskyRefresher::CholeskyRefresher(const BsrPattern& pattern, int32_t num_nodes)
@@ -56,6 +58,8 @@ bool CholeskyRefresher::take(std::unique_ptr<CholmodSolver>& factor, std::vector
     node_rot.swap(rot_);
     key = key_;
     ++refreshes_;
+    factor_ns_total_ += worker_ns_;
+    factor_ns_max_ = std::max(factor_ns_max_, worker_ns_);
   } else if (s == kFailed) {
     ++failures_;
   } else {
@@ -75,7 +79,9 @@ void CholeskyRefresher::run() {
     const int s = state_.load(std::memory_order_acquire);
     if (s == kStop) return;
     if (s == kRequested) {
+      const int64_t t0 = steady_now_ns();
       const bool ok = spare_->factor(vals_.data());
+      worker_ns_ = steady_now_ns() - t0;  // published with the state below
       state_.store(ok ? kDone : kFailed, std::memory_order_release);
       state_.notify_all();
     } else {

@@ -52,6 +52,10 @@ class CholeskyRefresher {
 
   int64_t refreshes() const { return refreshes_; }  ///< factors taken
   int64_t failures() const { return failures_; }     ///< matrices not positive definite
+  /// The worker's time per factor taken (its factorisation and single-precision copy), summed
+  /// and the longest (ns): what a refresh costs the second core.
+  int64_t factor_ns_total() const { return factor_ns_total_; }
+  int64_t factor_ns_max() const { return factor_ns_max_; }
 
  private:
   enum : int { kIdle = 0, kRequested = 1, kDone = 2, kFailed = 3, kStop = 4 };
@@ -61,6 +65,8 @@ class CholeskyRefresher {
   double key_ = 0;
   std::atomic<int> state_{kIdle};
   int64_t refreshes_ = 0, failures_ = 0;
+  int64_t worker_ns_ = 0;  ///< the last factorisation's time (written by the worker before its state)
+  int64_t factor_ns_total_ = 0, factor_ns_max_ = 0;
   std::thread worker_;
 };
 

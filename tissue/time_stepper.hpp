@@ -9,6 +9,7 @@
 /// Symplectic Euler: v ← v + h M⁻¹ (f_ext + f(x) − C v),   x ← x + h v.
 /// Static: Newton on f_ext + f(x) = 0 with the tangent R·Ke·Rᵀ.
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -19,6 +20,7 @@
 #include "tissue/contact_spring.hpp"
 #include "tissue/fem_model.hpp"
 #include "tissue/options.hpp"
+#include "tissue/solver_costs.hpp"
 #include "tissue/tissue_state.hpp"
 #include "tissue/warped_preconditioner.hpp"
 
@@ -43,24 +45,19 @@ struct StepperSettings {
   double newton_tolerance = 1e-3;
   /// Warped Cholesky with implicit Euler: refresh its factor from the system of a recent step
   /// on a worker thread every this many steps (0: never, the rest-pose factor throughout;
-  /// −1: auto — kRefreshMinDofs and auto_refresh_period() decide, at prepare()).
+  /// −1: auto — auto_refresh_period(), at prepare()).
   int preconditioner_refresh = 0;
+  /// `preconditioner_refresh: auto` resolved (compile): the period above is the first, and the
+  /// stepper re-evaluates it from the running mean of its warped iterations (auto_refresh_period).
+  bool refresh_follows_pace = false;
 };
 
-/// `preconditioner_refresh: auto` leaves smaller systems on the rest-pose factor: there a
-/// factorisation is cheap, but so is the CG it would save (the 596-tet liver converges in a
-/// few iterations) and a worker thread is not worth its core.
+/// `preconditioner_refresh: auto` leaves smaller systems on the rest-pose factor: a refreshed
+/// factor is history the state does not hold, so a restored snapshot would replay to the
+/// solver's tolerance instead of bit for bit (docs/PYTHON.md) — and there a factorisation is
+/// cheap, but so is the CG it would save. Larger ones are refreshed every auto_refresh_period()
+/// steps (tissue/solver_costs.hpp), re-evaluated as the ticks go.
 inline constexpr int kRefreshMinDofs = 1500;
-
-/// The steps between refreshes `auto` chooses: 1.5 × the factorisation's expected time, at
-/// least 16 steps. The time is modelled as 40 ns per stored factor entry — what CHOLMOD takes
-/// here in wall time across factors of 3·10⁴–10⁶ entries (docs/PERFORMANCE.md; flop counts
-/// predict it worse: small supernodes run far below peak). A worker on a free core then keeps
-/// up, and a headless run (which waits for it) rarely waits.
-inline int auto_refresh_period(double factor_entries, double time_step) {
-  const double steps = 1.5 * 40e-9 * factor_entries / time_step;
-  return steps < 16 ? 16 : steps > 1.0e6 ? 1000000 : static_cast<int>(steps + 0.999);
-}
 
 /// What the Newton iterations after the linearised step did (TimeStepper::newton).
 struct NewtonStats {
@@ -121,9 +118,14 @@ class TimeStepper {
   void set_realtime(bool realtime);
   /// Refreshed preconditioner factors swapped in so far (0 without a refresh).
   int64_t preconditioner_refreshes() const { return warped_ ? warped_->refreshes() : 0; }
+  /// The refresh worker's time for those factors (ns): summed, and the longest.
+  int64_t preconditioner_refresh_ns_total() const { return warped_ ? warped_->refresh_factor_ns_total() : 0; }
+  int64_t preconditioner_refresh_ns_max() const { return warped_ ? warped_->refresh_factor_ns_max() : 0; }
   /// Time the last assemble() waited for a late preconditioner refresh (headless, whose swap
   /// is deterministic; 0 in real time, which never waits).
   int64_t last_refresh_wait_ns() const { return warped_ ? warped_->last_wait_ns() : 0; }
+  /// The steps between refreshes in use now (0: no refresh); `auto` re-evaluates it as it goes.
+  int preconditioner_refresh_period() const { return warped_ && warped_->refreshing() ? warped_->period() : 0; }
   /// Rest-pose factorisations of the warped preconditioner so far (1 after prepare()).
   int64_t preconditioner_rest_factorizations() const { return warped_ ? warped_->rest_factorizations() : 0; }
 
@@ -268,6 +270,14 @@ class TimeStepper {
   CgSolver cg_;
   std::unique_ptr<CholmodSolver> cholmod_;
   std::unique_ptr<WarpedPreconditioner> warped_;  ///< only when selected
+  /// Converged warped solves so far and the running mean of their iterations (1/16, the first
+  /// ones averaged): a solve needing more than 2× that + 2 asks for a refresh (solve()).
+  int64_t warped_solves_ = 0;
+  double warped_typical_ = 0;
+  /// refresh_follows_pace: the running mean (1/16) of every warped solve's iterations, the
+  /// factor's stored entries and the step size the period is re-evaluated with.
+  double pace_iterations_ = kTypicalWarpedIterations;
+  double refresh_entries_ = 0;
   const ExternalPreconditioner* external() const { return warped_ ? warped_->op() : nullptr; }
   /// Locking-free bodies under CG: the node domains' matrix-free part of A_ (nodal_smoothing.hpp).
   std::unique_ptr<NodalSystem> nodal_;

@@ -71,6 +71,7 @@ void WarpedPreconditioner::update_rotations(const double* rot) {
 
 void WarpedPreconditioner::enable_refresh(int period, bool deterministic) {
   period_ = std::max(1, period);
+  lag_ = period_;
   deterministic_ = deterministic;
   if (!refresh_) refresh_ = std::make_unique<CholeskyRefresher>(m_.pattern, m_.num_nodes);
 }
@@ -86,15 +87,26 @@ void WarpedPreconditioner::adopt(bool wait) {
 void WarpedPreconditioner::begin_step(std::vector<double>& last_system, double h_last) {
   last_wait_ns_ = 0;
   if (!refresh_ || h_last <= 0 || h_last != key_[0]) return;
-  if (++steps_since_offer_ < period_) return;
-  // Deterministic: the factor handed over `period` steps ago is swapped in now, whatever the
+  ++steps_since_offer_;
+  // Deterministic: the factor handed over `lag` steps ago is swapped in now, whatever the
   // worker's speed. Real time: poll() swapped it in as soon as it was ready.
-  if (deterministic_ && refresh_->pending()) {
+  if (deterministic_ && refresh_->pending() && steps_since_offer_ >= lag_) {
     const int64_t t0 = steady_now_ns();
     adopt(true);
     last_wait_ns_ = steady_now_ns() - t0;
   }
-  if (refresh_->offer(last_system, node_abs_.data(), h_last)) steps_since_offer_ = 0;
+  // Due every period, or now when the factor was found not to fit (request_refresh()) and the
+  // worker is free. A demand made while a refresh is under way is met by that refresh.
+  if (refresh_->pending()) {
+    demand_ = false;
+    return;
+  }
+  if (steps_since_offer_ < period_ && !demand_) return;
+  if (refresh_->offer(last_system, node_abs_.data(), h_last)) {
+    steps_since_offer_ = 0;
+    demand_ = false;
+    lag_ = period_;  // swapped in this many steps from now (deterministic mode)
+  }
 }
 
 void WarpedPreconditioner::poll() {

@@ -23,6 +23,13 @@
 
 namespace stroma {
 
+/// Steps of length h that 1.5 × a factorisation of `factor_entries` stored entries takes, at
+/// 40 ns per entry (what CHOLMOD takes here in wall time, docs/PERFORMANCE.md); 1 … 10⁶.
+inline int refresh_steps_for(double factor_entries, double h) {
+  const double steps = 1.5 * 40e-9 * factor_entries / h;
+  return steps < 1 ? 1 : steps > 1.0e6 ? 1000000 : static_cast<int>(steps + 0.999);
+}
+
 /// Invariant: after factor(), op() applies R_Δ A_f⁻¹ R_Δᵀ with the rotations of the last
 /// update_rotations() (identity before the first one). factor_key() is the step h A_f was
 /// assembled for (h_mass of the rest factor).
@@ -41,12 +48,24 @@ class WarpedPreconditioner {
   const ExternalPreconditioner* op() const { return &op_; }
 
   /// Starts asynchronous refreshes (a worker thread; implicit Euler only): every `period`
-  /// steps the last step's system goes to the worker. `deterministic`: the factor is swapped in
-  /// exactly `period` steps after its matrix was handed over, waiting for the worker if it is
-  /// late — results then depend on nothing but the inputs (headless runs, replays). Otherwise
-  /// (real time) a finished factor is swapped in at the next step and the physics thread never
-  /// waits; a late worker only means the older factor stays in use.
+  /// steps the last step's system goes to the worker, and at the next step after
+  /// request_refresh() when the worker is idle. `deterministic`: the factor is swapped in
+  /// exactly refresh_lag() steps after its matrix was handed over, waiting for the worker if it
+  /// is late — results then depend on nothing but the inputs (headless runs, replays).
+  /// Otherwise (real time) a finished factor is swapped in at the next step and the physics
+  /// thread never waits; a late worker only means the older factor stays in use.
   void enable_refresh(int period, bool deterministic);
+  /// Asks for a refresh at the next step (the factor fits this system badly: TimeStepper::solve
+  /// saw a solve far above its usual iterations, or gave up on it). No effect without
+  /// enable_refresh() or while a refresh is under way.
+  void request_refresh() { demand_ = true; }
+  /// A new refresh period (≥ 1) from the next hand-over on (`auto` re-evaluates it as the ticks
+  /// go: TimeStepper). A hand-over already made keeps the period it was made with.
+  void set_period(int period) { period_ = period < 1 ? 1 : period; }
+  int period() const { return period_; }
+  /// Steps between the last hand-over and its swap in deterministic mode: the period at the
+  /// hand-over.
+  int refresh_lag() const { return lag_; }
   /// Start of a step's assembly: `last_system` holds the previous step's projected system
   /// matrix, assembled for step `h_last` (0: none) in the frame of the last update_rotations().
   /// When a refresh is due it is handed to the worker by swapping buffers (no copy) — the
@@ -72,6 +91,9 @@ class WarpedPreconditioner {
   /// Stored entries of the factor (after factor()).
   double factor_entries() const { return factor_ ? factor_->factor_entries() : 0.0; }
   int64_t refreshes() const { return refreshes_; }  ///< refreshed factors swapped in
+  /// The worker's time for the factors swapped in (CholeskyRefresher::factor_ns_total/max).
+  int64_t refresh_factor_ns_total() const { return refresh_ ? refresh_->factor_ns_total() : 0; }
+  int64_t refresh_factor_ns_max() const { return refresh_ ? refresh_->factor_ns_max() : 0; }
   /// Time the last begin_step() waited for a late worker (deterministic swap only; 0 in real
   /// time, which never waits). A served tick would not have spent it.
   int64_t last_wait_ns() const { return last_wait_ns_; }
@@ -91,6 +113,8 @@ class WarpedPreconditioner {
   ExternalPreconditioner op_;
   std::unique_ptr<CholeskyRefresher> refresh_;
   int period_ = 0;
+  int lag_ = 0;
+  bool demand_ = false;
   bool deterministic_ = true;
   int steps_since_offer_ = 0;
   int64_t refreshes_ = 0;

@@ -319,7 +319,7 @@ ScenarioSpec dynamic_spec(const std::string& src, const DynamicConfig& c) {
   spec.solver.integrator = c.symplectic ? Integrator::SymplecticEuler : Integrator::ImplicitEuler;
   spec.solver.tolerance = c.tolerance;
   spec.solver.max_iterations = c.cap;
-  spec.solver.substep_on_cg_cap = c.substep_on_cap;
+  spec.solver.on_cg_cap = c.substep_on_cap ? CapPolicy::Substep : CapPolicy::Continue;
   spec.solver.preconditioner = c.pc;
   spec.solver.warm_start = c.warm;
   return spec;

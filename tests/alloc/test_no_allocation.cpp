@@ -168,8 +168,9 @@ TEST(NoAllocation, MultirateTicksWithContact) {
 }
 
 TEST(NoAllocation, WarpedCholeskyPreconditionerWithCholmodSolves) {
-  const Watched w = run(load_scenario(kDir + "cantilever_dynamic.yaml"), 5, 100,
-                        [](const CompiledScenario&, const State&, int) { return ToolPose{}; });
+  ScenarioSpec s = load_scenario(kDir + "cantilever_dynamic.yaml");
+  s.solver.preconditioner_refresh = 0;  // the rest factor alone: no worker (next test)
+  const Watched w = run(s, 5, 100, [](const CompiledScenario&, const State&, int) { return ToolPose{}; });
   EXPECT_EQ(w.allocations, 0);
   EXPECT_GT(w.cg_iterations, 0) << "each CG iteration applies the CHOLMOD factor";
 }
@@ -201,13 +202,14 @@ TEST(NoAllocation, BlockJacobiQrRotationSymplectic) {
 }
 
 // The damage scenario's own press: the counted ticks are those in which elements rupture (the
-// tear exposes faces, masses move) while the probe is in contact.
+// tear exposes faces, masses move) while the probe is in contact. (Its solver is the engine's
+// choice, whose refresh worker allocates off the ticking thread: only that thread is counted.)
 TEST(NoAllocation, ContactDamageAndRuptureStages) {
   const ScenarioSpec s = load_scenario(kDir + "regression/liver_probe_damage.yaml");
   const Watched w = run(s, 1600, 400, [](const CompiledScenario& c, const State& st, int) {
     return c.tool_scripts[0].sample(st.time);
   });
-  EXPECT_EQ(w.allocations, 0);
+  EXPECT_EQ(w.thread_allocations, 0);
   EXPECT_GT(w.ruptures, 0) << "the counted ticks must include ruptures";
   EXPECT_GT(w.contact_ticks, 100);
 }
@@ -216,7 +218,7 @@ TEST(NoAllocation, BodyContactStage) {
   ScenarioSpec s = load_scenario(kDir + "drop_on_block.yaml");
   s.time_step = 0.004;  // lands after ~8 ticks: most of the counted ticks are in contact
   const Watched w = run(s, 5, 100, [](const CompiledScenario&, const State&, int) { return ToolPose{}; });
-  EXPECT_EQ(w.allocations, 0);
+  EXPECT_EQ(w.thread_allocations, 0);  // (the engine's solver choice may refresh on a worker)
   EXPECT_GT(w.body_contact_ticks, 50);
 }
 

@@ -8,6 +8,7 @@ the liver feels it push back, and set_pose lifts it off; bad tool indices raise 
 Run by ctest (test `python.pytest`) with PYTHONPATH=build/python and STROMA_BUILD_DIR set.
 """
 import csv
+import json
 import os
 import pathlib
 import pickle
@@ -44,6 +45,24 @@ def test_a_python_step_is_a_step_of_stroma_run_bit_for_bit(scenario, tmp_path):
     moved = np.abs(expected - stroma.Simulation(str(SCENARIOS / scenario)).positions).max()
     assert moved > 0, "the run moved the body (else the comparison shows nothing)"
     assert np.array_equal(sim.positions, expected)
+
+
+def test_the_solver_says_what_runs_and_who_chose_it(tmp_path):
+    """`.solver` is summary.json's object: an untuned scene's preconditioner chosen by the
+    engine (with the trial behind it), a shipped scene's as written."""
+    untuned = stroma.Simulation(str(SCENARIOS / "untuned" / "plate_2mm_50kpa.yaml"))
+    s = untuned.solver
+    assert s["preconditioner_chosen_by"] == "auto" and s["on_cg_cap_chosen_by"] == "auto"
+    assert s["preconditioner"] == "warped_cholesky", s["choice"]["reason"]
+    assert {t["preconditioner"] for t in s["choice"]["trials"]} == {"jacobi", "block_jacobi", "warped_cholesky"}
+    shipped = stroma.Simulation(str(SCENARIOS / "liver.yaml")).solver
+    assert shipped["preconditioner"] == "jacobi" and shipped["preconditioner_chosen_by"] == "scenario"
+    assert "choice" not in shipped
+    subprocess.run([str(BUILD / "stroma"), "run", str(SCENARIOS / "untuned" / "plate_2mm_50kpa.yaml"), "--steps", "1",
+                    "--out", str(tmp_path), "--quiet", "--no-metrics"], check=True)
+    run_solver = json.load(open(tmp_path / "summary.json"))["solver"]
+    for key in ("preconditioner", "preconditioner_refresh", "on_cg_cap", "tolerance", "max_iterations"):
+        assert run_solver[key] == s[key], key
 
 
 def test_positions_and_velocities_are_read_only_views_of_the_engine():

@@ -147,6 +147,7 @@ TEST(Serve, StatusPublishedAndControlPauseStepResumeShutdown) {
   EXPECT_GT(s.residual_max, 0.0) << "the solve's accuracy is published live";
   EXPECT_GT(s.error_energy_max, 0.0);
   EXPECT_GE(s.ticks_over_budget, s.ticks_over_budget_window);
+  EXPECT_STREQ(s.solver, "jacobi (scenario)") << "SimStatus names the solver and who chose it";
 
   client.control(stroma_PAUSE);
   ASSERT_TRUE(client.wait_status(5, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }, &s));
@@ -181,6 +182,11 @@ TEST(Serve, StatusPublishedAndControlPauseStepResumeShutdown) {
   EXPECT_GE(j["tick_time"]["p99_us"].get<double>(), j["tick_time"]["p50_us"].get<double>());
   EXPECT_DOUBLE_EQ(j["budget_ms"].get<double>(), 0.85);
   EXPECT_TRUE(j.contains("ticks_over_budget") && j.contains("ticks_degraded"));
+  // The solver in --stats: the scenario's preconditioner, the cap policy resolved from auto.
+  EXPECT_EQ(j["solver"]["preconditioner"], "jacobi");
+  EXPECT_EQ(j["solver"]["preconditioner_chosen_by"], "scenario");
+  EXPECT_EQ(j["solver"]["on_cg_cap"], "continue");
+  EXPECT_EQ(j["solver"]["on_cg_cap_chosen_by"], "auto");
 }
 
 TEST(Serve, LateJoiningSubscriberReceivesTheMesh) {
