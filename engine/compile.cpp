@@ -668,13 +668,11 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
     const double entries = out.solver_choice && out.solver_choice->factor_entries > 0
                                ? out.solver_choice->factor_entries
                                : CholmodSolver(model->fem.pattern).factor_entries();
-    // A refreshed factor is of the assembled system, which lacks matrix-free node domains; small
-    // systems keep the rest factor (kRefreshMinDofs).
+    // A refreshed factor is of the assembled system, which lacks matrix-free node domains.
     const double iterations = out.solver_choice ? warped_trial_iterations(*out.solver_choice) : kTypicalWarpedIterations;
-    model->stepper.preconditioner_refresh =
-        (model->fem.smoothing.matrix_free && !model->fem.smoothing.empty()) || model->fem.dofs() < kRefreshMinDofs
-            ? 0
-            : auto_refresh_period(model->fem, entries, iterations);
+    model->stepper.preconditioner_refresh = model->fem.smoothing.matrix_free && !model->fem.smoothing.empty()
+                                                ? 0
+                                                : auto_refresh_period(model->fem, entries, iterations);
     model->stepper.refresh_follows_pace = model->stepper.preconditioner_refresh > 0;
   }
   out.visuals = compile_visuals(spec, meshes, *model, out.notes);

@@ -70,8 +70,8 @@ struct SolverSpec {
   /// `preconditioner_refresh:` (warped_cholesky with implicit Euler): refresh the factor from a
   /// recent step's system on a worker thread every N steps, and sooner when a solve shows the
   /// factor no longer fits (TimeStepper::solve). -1 = `auto` (the default): every
-  /// auto_refresh_period() steps (tissue/solver_costs.hpp: re-evaluated as the ticks go) for
-  /// systems of at least kRefreshMinDofs unknowns; 0 = `off` (the rest-pose factor).
+  /// auto_refresh_period() steps (tissue/solver_costs.hpp: re-evaluated as the ticks go);
+  /// 0 = `off` (the rest-pose factor).
   int preconditioner_refresh = -1;
   /// `fem_every: N` (multirate, issue 14 §7): the tissue is stepped every N ticks with a step of
   /// N·time_step; the ticks in between (the haptic rate, 1/time_step) render each tool's force

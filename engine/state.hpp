@@ -40,6 +40,17 @@ struct State {
   static State initial(const Model& m) {
     State s;
     s.tissue = TissueState::at_rest(m.fem);
+    // A refreshed warped factor keeps its systems in the state (SolverHistory): sized here, so
+    // the tick that hands one over copies into room it has.
+    if (m.stepper.preconditioner == Preconditioner::WarpedCholesky && m.stepper.preconditioner_refresh > 0 &&
+        m.stepper.integrator == Integrator::ImplicitEuler && m.stepper.linear_solver == LinearSolverKind::CG) {
+      SolverHistory& h = s.tissue.solver;
+      const size_t values = 9 * static_cast<size_t>(m.fem.pattern.nnzb()), rot = 9 * static_cast<size_t>(m.fem.num_nodes);
+      h.factor_matrix.assign(values, 0.0);
+      h.pending_matrix.assign(values, 0.0);
+      h.factor_rot.assign(rot, 0.0);
+      h.pending_rot.assign(rot, 0.0);
+    }
     s.tools.assign(m.tools.size(), ToolState{});
     if (m.cutting) s.edge_cut.assign(m.cut_edge_dofs.size(), kEdgeUncut);
     if (m.has_damage) {

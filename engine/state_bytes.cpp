@@ -4,13 +4,15 @@
 #include <type_traits>
 
 #include "tissue/input_error.hpp"
+#include "tissue/warped_preconditioner.hpp"
 
 namespace stroma {
 
 namespace {
 
 constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
-constexpr uint32_t kVersion = 1;
+/// 2: the solver's history (SolverHistory) after the step counter.
+constexpr uint32_t kVersion = 2;
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
@@ -120,6 +122,23 @@ std::string encode_state(const State& s, uint64_t fingerprint) {
   w.array(s.edge_cut);
   w.value(s.time);
   w.value(s.step);
+  const SolverHistory& h = s.tissue.solver;
+  w.value(h.converged_in_a_row);
+  w.value(h.factor_id);
+  w.value(h.factor_key);
+  w.array(h.factor_matrix);
+  w.array(h.factor_rot);
+  w.value(h.pending_id);
+  w.value(h.pending_key);
+  w.array(h.pending_matrix);
+  w.array(h.pending_rot);
+  w.value(h.steps_since_offer);
+  w.value(h.period);
+  w.value(h.lag);
+  w.value(static_cast<uint8_t>(h.demand));
+  w.value(h.pace_iterations);
+  w.value(h.typical_iterations);
+  w.value(h.warped_solves);
   return w.take();
 }
 
@@ -159,7 +178,30 @@ State decode_state(const std::string& bytes, uint64_t* fingerprint) {
   r.array(s.edge_cut, "edge_cut");
   r.value(s.time, "time");
   r.value(s.step, "step");
+  SolverHistory& h = s.tissue.solver;
+  r.value(h.converged_in_a_row, "solver.converged_in_a_row");
+  r.value(h.factor_id, "solver.factor_id");
+  r.value(h.factor_key, "solver.factor_key");
+  r.array(h.factor_matrix, "solver.factor_matrix");
+  r.array(h.factor_rot, "solver.factor_rot");
+  r.value(h.pending_id, "solver.pending_id");
+  r.value(h.pending_key, "solver.pending_key");
+  r.array(h.pending_matrix, "solver.pending_matrix");
+  r.array(h.pending_rot, "solver.pending_rot");
+  r.value(h.steps_since_offer, "solver.steps_since_offer");
+  r.value(h.period, "solver.period");
+  r.value(h.lag, "solver.lag");
+  uint8_t demand = 0;
+  r.value(demand, "solver.demand");
+  h.demand = demand != 0;
+  r.value(h.pace_iterations, "solver.pace_iterations");
+  r.value(h.typical_iterations, "solver.typical_iterations");
+  r.value(h.warped_solves, "solver.warped_solves");
   r.finish();
+  // Refresh ids name factors within one process: a state from elsewhere gets fresh ones, so no
+  // stepper here mistakes them for a factor it holds (it remakes them from the systems kept).
+  if (h.factor_id != 0) h.factor_id = new_refresh_id();
+  if (h.pending_id != 0) h.pending_id = new_refresh_id();
   if (fingerprint) *fingerprint = fp;
   return s;
 }
@@ -181,7 +223,11 @@ bool state_fits_model(const State& s, const Model& m, std::string* why) {
          check(s.damage_level.size(), ref.damage_level.size(), "damage levels") &&
          check(s.node_mass.size(), ref.node_mass.size(), "node masses") &&
          check(s.face_active.size(), ref.face_active.size(), "collision faces") &&
-         check(s.edge_cut.size(), ref.edge_cut.size(), "edge cuts");
+         check(s.edge_cut.size(), ref.edge_cut.size(), "edge cuts") &&
+         check(s.tissue.solver.factor_matrix.size(), ref.tissue.solver.factor_matrix.size(), "the solver's history") &&
+         check(s.tissue.solver.pending_matrix.size(), ref.tissue.solver.pending_matrix.size(), "the solver's history") &&
+         check(s.tissue.solver.factor_rot.size(), ref.tissue.solver.factor_rot.size(), "the solver's history") &&
+         check(s.tissue.solver.pending_rot.size(), ref.tissue.solver.pending_rot.size(), "the solver's history");
 }
 
 }  // namespace stroma

@@ -64,7 +64,7 @@ void CgSolver::apply_preconditioner(Preconditioner prec, const double* r, double
 SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double* b, double* x,
                            Preconditioner prec, int max_iterations, double tolerance,
                            const ExternalPreconditioner* external, Deadline* deadline, bool safe_start,
-                           const ExtraOperator* extra, int progress_from, int progress_limit) {
+                           const ExtraOperator* extra, int progress_from, int progress_limit, bool look_ahead) {
   external_ = external;
   const int32_t m = 3 * n_;
   SolveStats st;
@@ -112,6 +112,9 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
     st.relative_residual = rnorm / bnorm;
     return st;
   }
+  // Look-ahead: the duration of the last iteration (the next one will be about as long).
+  const bool timed = look_ahead && deadline && deadline->at_ns > 0;
+  int64_t iteration_start = timed ? steady_now_ns() : 0, last_iteration_ns = 0;
   while (k < max_iterations) {
     bsr_spmv(pat, A, p, q);
     if (extra) extra->apply(extra->context, p, q);
@@ -128,7 +131,12 @@ SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double*
       st.converged = true;
       break;
     }
-    if (deadline && deadline->past()) {
+    if (timed) {
+      const int64_t now = steady_now_ns();
+      last_iteration_ns = now - iteration_start;
+      iteration_start = now;
+    }
+    if (deadline && deadline->past_in(last_iteration_ns)) {
       st.budget_stopped = true;
       break;
     }

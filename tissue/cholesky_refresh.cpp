@@ -69,6 +69,15 @@ bool CholeskyRefresher::take(std::unique_ptr<CholmodSolver>& factor, std::vector
   return s == kDone;
 }
 
+void CholeskyRefresher::discard() {
+  int s = state_.load(std::memory_order_acquire);
+  while (s == kRequested) {
+    state_.wait(kRequested, std::memory_order_acquire);
+    s = state_.load(std::memory_order_acquire);
+  }
+  if (s == kDone || s == kFailed) state_.store(kIdle, std::memory_order_release);
+}
+
 void CholeskyRefresher::run() {
   pthread_setname_np(pthread_self(), "chol-refresh");
   // Below the renderer and the tool client in the demo: a late factor costs CG iterations, a

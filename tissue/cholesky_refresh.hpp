@@ -49,6 +49,10 @@ class CholeskyRefresher {
   bool take(std::unique_ptr<CholmodSolver>& factor, std::vector<double>& node_rot, double& key, bool wait);
   /// True from a successful offer() until its result has been taken (or dropped).
   bool pending() const { return state_.load(std::memory_order_acquire) != kIdle; }
+  /// Drops the job offered, waiting for its factorisation to end if it is under way (its
+  /// result is not taken; the worker is idle again). For a history that no longer wants it
+  /// (a restored state: WarpedPreconditioner::sync). Not for the real-time path.
+  void discard();
 
   int64_t refreshes() const { return refreshes_; }  ///< factors taken
   int64_t failures() const { return failures_; }     ///< matrices not positive definite

@@ -21,11 +21,15 @@ struct Deadline {
 
   bool active() const { return at_ns > 0 || expire_at_check >= 0; }
   /// One check point: true if the deadline has passed (counting this check).
-  bool past() {
+  bool past() { return past_in(0); }
+  /// One check point before work expected to take `ahead_ns`: true if the deadline will have
+  /// passed by its end (live), or at the recorded check (replay) — counted like past(), so a
+  /// replay expires at the same check whatever each check looked ahead by.
+  bool past_in(int64_t ahead_ns) {
     if (!active()) return false;
     const int64_t k = checks++;
     if (expired_at >= 0) return true;
-    const bool expired = expire_at_check >= 0 ? k >= expire_at_check : steady_now_ns() > at_ns;
+    const bool expired = expire_at_check >= 0 ? k >= expire_at_check : steady_now_ns() + ahead_ns > at_ns;
     if (expired) expired_at = k;
     return expired;
   }

@@ -46,7 +46,7 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
 
 void TimeStepper::set_realtime(bool realtime) {
   realtime_ = realtime;
-  if (warped_ && warped_->refreshing()) warped_->enable_refresh(cfg_.preconditioner_refresh, !realtime);
+  if (warped_ && warped_->refreshing()) warped_->enable_refresh(!realtime);
 }
 
 void TimeStepper::prepare(double h) {
@@ -61,10 +61,10 @@ void TimeStepper::prepare(double h) {
   // keeps up with real time (engine/compile.cpp resolves it with the run's own pace).
   if (period < 0) {
     cfg_.refresh_follows_pace = true;
-    period = m_.dofs() >= kRefreshMinDofs ? auto_refresh_period(m_, warped_->factor_entries(), pace_iterations_) : 0;
+    period = auto_refresh_period(m_, warped_->factor_entries(), kTypicalWarpedIterations);
   }
   refresh_entries_ = warped_->factor_entries();
-  if (period > 0) warped_->enable_refresh(period, !realtime_);
+  if (period > 0) warped_->enable_refresh(!realtime_);
 }
 
 TimeStepper::~TimeStepper() = default;
@@ -100,15 +100,17 @@ void TimeStepper::scatter_springs(double* force, double* A, double k_scale, doub
   }
 }
 
-double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& inputs) {
+double TimeStepper::assemble(TissueState& s, double h, const StepInputs& inputs) {
   const bool implicit = cfg_.integrator == Integrator::ImplicitEuler;
   // The last step's system, before it is overwritten: a refresh may take it (buffer swap).
   // `auto` re-evaluates the period from the warped iterations so far: stale factors make slow
   // ticks, which leave the worker time to refresh more often (tissue/solver_costs.hpp).
-  if (warped_ && implicit) {
-    if (cfg_.refresh_follows_pace && warped_->refreshing() && h > 0)
-      warped_->set_period(auto_refresh_period(m_, refresh_entries_, pace_iterations_, realtime_ ? h : 0.0));
-    warped_->begin_step(A_, h_);
+  if (warped_ && implicit && warped_->refreshing()) {
+    SolverHistory& hist = s.solver;
+    hist.period = cfg_.refresh_follows_pace
+                      ? auto_refresh_period(m_, refresh_entries_, hist.pace_iterations, realtime_ ? h : 0.0)
+                      : cfg_.preconditioner_refresh;
+    warped_->begin_step(A_, h_, h, hist);
   }
   in_ = inputs;
   h_ = h;
@@ -180,8 +182,8 @@ double TimeStepper::assemble(const TissueState& s, double h, const StepInputs& i
       // refactoring the rest pose for h/2 and back would cost two factorisations (20–40 ms
       // at 4k nodes) on the physics thread.
       if (!warped_->factored()) warped_->factor(h, h, h * h);
-      warped_->poll();
       warped_->update_rotations(rot_.data());
+      warped_->end_assembly(A_, h, s.solver);  // deterministic: this step's system to the worker, when due
     }
   } else {
     for (int32_t i = 0; i < n; ++i) {
@@ -224,7 +226,8 @@ SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
   double* prev = s.dv_prev.data();
   // After a capped or truncated solve its increment is no trend to extrapolate: start from it
   // (CG then drops it if it is worse than zero).
-  const WarmStart warm = converged_in_a_row_ >= 2 || cfg_.warm_start != WarmStart::Extrapolate ? cfg_.warm_start
+  SolverHistory& hist = s.solver;
+  const WarmStart warm = hist.converged_in_a_row >= 2 || cfg_.warm_start != WarmStart::Extrapolate ? cfg_.warm_start
                                                                                            : WarmStart::Previous;
   switch (warm) {
     case WarmStart::Off:
@@ -269,19 +272,23 @@ SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
     // finish did not (stability suite, `dt 1 ms, E 1kPa, nu 0.499, inverted, fibres`).
     const int share = std::max(3, static_cast<int>(cfg_.max_iterations / warped_->relative_cost()));
     const int limit = std::min(cfg_.max_iterations, std::max(2 * share, share + 10));
+    // Under a budget its coarse iterations look ahead: one that would end past the deadline is
+    // not started (a served tick would otherwise overrun by up to a triangular solve pair).
     st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, limit, cfg_.tolerance, external(),
-                   deadline, converged_in_a_row_ == 0, extra(), share < limit ? share : 0, limit);
+                   deadline, hist.converged_in_a_row == 0, extra(), share < limit ? share : 0, limit, true);
     if (!st.converged && !st.budget_stopped && limit < cfg_.max_iterations) st.stalled = true;  // at the limit
     // A solve far above the usual iterations (contact stiffness entered, damage, a large
     // strain: the factor no longer fits) asks for a refresh now rather than at the next period.
     // The usual: a running mean (1/16) of the converged solves' iterations.
-    if (st.stalled || (st.converged && warped_solves_ >= 4 && st.iterations > 2.0 * warped_typical_ + 2.0))
-      warped_->request_refresh();
+    if (st.stalled ||
+        (st.converged && hist.warped_solves >= 4 && st.iterations > 2.0 * hist.typical_iterations + 2.0))
+      hist.demand = true;
     if (st.converged) {
-      warped_typical_ += (st.iterations - warped_typical_) / (warped_solves_ < 16 ? warped_solves_ + 1 : 16);
-      ++warped_solves_;
+      hist.typical_iterations += (st.iterations - hist.typical_iterations) /
+                                 static_cast<double>(hist.warped_solves < 16 ? hist.warped_solves + 1 : 16);
+      ++hist.warped_solves;
     }
-    pace_iterations_ += (st.iterations - pace_iterations_) / 16.0;
+    hist.pace_iterations += (st.iterations - hist.pace_iterations) / 16.0;
     if (st.stalled) {
       const int warped_iterations = st.iterations;
       st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, Preconditioner::Jacobi, cfg_.max_iterations,
@@ -291,9 +298,9 @@ SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
     }
   } else {
     st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, cfg_.preconditioner, cfg_.max_iterations, cfg_.tolerance,
-                   nullptr, deadline, converged_in_a_row_ == 0, extra());
+                   nullptr, deadline, hist.converged_in_a_row == 0, extra());
   }
-  converged_in_a_row_ = st.converged ? converged_in_a_row_ + 1 : 0;
+  hist.converged_in_a_row = st.converged ? hist.converged_in_a_row + 1 : 0;
   error_bounds(cg_.residual(), h_, st);
   return st;
 }

@@ -52,12 +52,6 @@ struct StepperSettings {
   bool refresh_follows_pace = false;
 };
 
-/// `preconditioner_refresh: auto` leaves smaller systems on the rest-pose factor: a refreshed
-/// factor is history the state does not hold, so a restored snapshot would replay to the
-/// solver's tolerance instead of bit for bit (docs/PYTHON.md) — and there a factorisation is
-/// cheap, but so is the CG it would save. Larger ones are refreshed every auto_refresh_period()
-/// steps (tissue/solver_costs.hpp), re-evaluated as the ticks go.
-inline constexpr int kRefreshMinDofs = 1500;
 
 /// What the Newton iterations after the linearised step did (TimeStepper::newton).
 struct NewtonStats {
@@ -125,13 +119,19 @@ class TimeStepper {
   /// is deterministic; 0 in real time, which never waits).
   int64_t last_refresh_wait_ns() const { return warped_ ? warped_->last_wait_ns() : 0; }
   /// The steps between refreshes in use now (0: no refresh); `auto` re-evaluates it as it goes.
-  int preconditioner_refresh_period() const { return warped_ && warped_->refreshing() ? warped_->period() : 0; }
+  int preconditioner_refresh_period(const TissueState& s) const {
+    return warped_ && warped_->refreshing() ? s.solver.period : 0;
+  }
+  /// Refreshed factors remade from a restored state's history (WarpedPreconditioner::sync).
+  int64_t preconditioner_factors_remade() const { return warped_ ? warped_->remade() : 0; }
   /// Rest-pose factorisations of the warped preconditioner so far (1 after prepare()).
   int64_t preconditioner_rest_factorizations() const { return warped_ ? warped_->rest_factorizations() : 0; }
 
   /// Stage "assemble": element pass at the current state and the step's right-hand side, with
   /// this step's inputs (kept for the rest of the step). Returns the elastic energy at s.x.
-  double assemble(const TissueState& s, double h, const StepInputs& inputs);
+  /// Moves the warped factor's refresh schedule on in s.solver (the state's SolverHistory), and
+  /// first makes the factor in use the one that history names (after a restore).
+  double assemble(TissueState& s, double h, const StepInputs& inputs);
   /// Stage "solve": Δv (implicit Euler) into s.dv. No-op for symplectic Euler. CG stops at
   /// `deadline` (null: none). The warm start extrapolates the last two increments
   /// only when the last solve converged; after a capped or truncated one it starts from that
@@ -232,9 +232,6 @@ class TimeStepper {
   StepperSettings cfg_;  ///< preconditioner_refresh resolved by prepare()
   bool realtime_ = false;
   StepInputs in_;  ///< the inputs of the last assemble()
-  /// Solves converged in a row (the initial rest state counts as two): the warm start
-  /// extrapolates only from two converged increments, and CG guards its start after a failure.
-  int converged_in_a_row_ = 2;
   double h_ = 0;  ///< the step of the last assemble()
   double u_start_ = 0;  ///< elastic energy at the last assemble()'s positions
   /// The visco-elastic state at the last assemble() (integrate() moves the state's on): the
@@ -270,13 +267,8 @@ class TimeStepper {
   CgSolver cg_;
   std::unique_ptr<CholmodSolver> cholmod_;
   std::unique_ptr<WarpedPreconditioner> warped_;  ///< only when selected
-  /// Converged warped solves so far and the running mean of their iterations (1/16, the first
-  /// ones averaged): a solve needing more than 2× that + 2 asks for a refresh (solve()).
-  int64_t warped_solves_ = 0;
-  double warped_typical_ = 0;
-  /// refresh_follows_pace: the running mean (1/16) of every warped solve's iterations, the
-  /// factor's stored entries and the step size the period is re-evaluated with.
-  double pace_iterations_ = kTypicalWarpedIterations;
+  /// The factor's stored entries, with which `auto` re-evaluates the refresh period from the
+  /// history's running mean of warped iterations (SolverHistory::pace_iterations).
   double refresh_entries_ = 0;
   const ExternalPreconditioner* external() const { return warped_ ? warped_->op() : nullptr; }
   /// Locking-free bodies under CG: the node domains' matrix-free part of A_ (nodal_smoothing.hpp).

@@ -1,6 +1,7 @@
 #include "tissue/warped_preconditioner.hpp"
 
 #include <algorithm>
+#include <atomic>
 
 #include "tissue/clock.hpp"
 #include "tissue/constraints.hpp"
@@ -14,7 +15,13 @@ void set_identities(std::vector<double>& r) {
   std::fill(r.begin(), r.end(), 0.0);
   for (size_t i = 0; i + 8 < r.size(); i += 9) r[i] = r[i + 4] = r[i + 8] = 1.0;
 }
+
 }  // namespace
+
+uint64_t new_refresh_id() {
+  static std::atomic<uint64_t> next{1};
+  return next.fetch_add(1, std::memory_order_relaxed);
+}
 
 WarpedPreconditioner::WarpedPreconditioner(const FemModel& model) : m_(model) {
   const size_t n3 = 3 * static_cast<size_t>(m_.num_nodes);
@@ -29,7 +36,7 @@ WarpedPreconditioner::WarpedPreconditioner(const FemModel& model) : m_(model) {
 }
 
 void WarpedPreconditioner::factor(double h_mass, double k_beta, double k_const) {
-  if (factor_ && key_[0] == h_mass && key_[1] == k_beta && key_[2] == k_const) return;
+  if (rest_ && key_[0] == h_mass && key_[1] == k_beta && key_[2] == k_const) return;
   std::vector<double> A0(9 * static_cast<size_t>(m_.pattern.nnzb()), 0.0);
   ElasticPass p;
   p.x = m_.rest.data();
@@ -42,15 +49,17 @@ void WarpedPreconditioner::factor(double h_mass, double k_beta, double k_const) 
   elastic_pass(m_, p);
   if (h_mass >= 0) add_mass_diagonal(m_, A0.data(), h_mass, m_.mass.data());
   project_constraints(m_, A0.data(), 1.0, false);
-  if (!factor_) {
-    factor_ = std::make_unique<CholmodSolver>(m_.pattern);
-    factor_->use_float_solves();  // a preconditioner: half the memory traffic per application
+  if (!rest_) {
+    rest_ = std::make_unique<CholmodSolver>(m_.pattern);
+    rest_->use_float_solves();  // a preconditioner: half the memory traffic per application
   }
-  factor_->factor(A0.data());
+  rest_->factor(A0.data());
   ++rest_factorizations_;
   key_[0] = h_mass;
   key_[1] = k_beta;
   key_[2] = k_const;
+  active_ = rest_.get();
+  refreshed_id_ = 0;
   set_identities(factor_rot_);  // assembled at rest
 }
 
@@ -69,48 +78,149 @@ void WarpedPreconditioner::update_rotations(const double* rot) {
   }
 }
 
-void WarpedPreconditioner::enable_refresh(int period, bool deterministic) {
-  period_ = std::max(1, period);
-  lag_ = period_;
+void WarpedPreconditioner::enable_refresh(bool deterministic) {
   deterministic_ = deterministic;
-  if (!refresh_) refresh_ = std::make_unique<CholeskyRefresher>(m_.pattern, m_.num_nodes);
+  if (!refresh_) {
+    refresh_ = std::make_unique<CholeskyRefresher>(m_.pattern, m_.num_nodes);
+    refreshed_ = std::make_unique<CholmodSolver>(m_.pattern);  // the slot refreshes swap into
+    refreshed_->use_float_solves();
+    offer_.assign(9 * static_cast<size_t>(m_.pattern.nnzb()), 0.0);
+  }
 }
 
-void WarpedPreconditioner::adopt(bool wait) {
+bool WarpedPreconditioner::hand_over(std::vector<double>& system, const double* node_rot, double key, uint64_t id,
+                                     bool copy) {
+  if (copy) {
+    std::copy(system.begin(), system.end(), offer_.begin());
+    if (!refresh_->offer(offer_, node_rot, key)) return false;
+  } else if (!refresh_->offer(system, node_rot, key)) {
+    return false;
+  }
+  job_id_ = id;
+  return true;
+}
+
+void WarpedPreconditioner::adopt(SolverHistory& h, bool wait) {
   double key = 0;
-  if (!refresh_->take(factor_, factor_rot_, key, wait)) return;
-  key_[0] = key_[1] = key;
-  key_[2] = key * key;
+  const bool ok = refresh_->take(refreshed_, factor_rot_, key, wait);
+  if (!ok && refresh_->pending()) return;  // not finished yet (real time)
+  job_id_ = 0;
+  if (!ok) {  // not positive definite: dropped, the factor in use stays
+    h.pending_id = 0;
+    return;
+  }
+  active_ = refreshed_.get();
+  refreshed_id_ = h.pending_id;
+  h.factor_id = h.pending_id;
+  h.factor_key = key;
+  h.factor_matrix.swap(h.pending_matrix);  // (empty in real time: nothing to keep)
+  h.factor_rot.swap(h.pending_rot);
+  h.pending_id = 0;
   ++refreshes_;
 }
 
-void WarpedPreconditioner::begin_step(std::vector<double>& last_system, double h_last) {
-  last_wait_ns_ = 0;
-  if (!refresh_ || h_last <= 0 || h_last != key_[0]) return;
-  ++steps_since_offer_;
-  // Deterministic: the factor handed over `lag` steps ago is swapped in now, whatever the
-  // worker's speed. Real time: poll() swapped it in as soon as it was ready.
-  if (deterministic_ && refresh_->pending() && steps_since_offer_ >= lag_) {
-    const int64_t t0 = steady_now_ns();
-    adopt(true);
-    last_wait_ns_ = steady_now_ns() - t0;
+void WarpedPreconditioner::sync(SolverHistory& h, std::vector<double>& carrier) {
+  // The factor in use.
+  if (h.factor_id == 0) {
+    if (active_ != rest_.get()) {
+      active_ = rest_.get();
+      set_identities(factor_rot_);
+    }
+  } else if (h.factor_id != refreshed_id_) {
+    if (h.factor_matrix.size() != offer_.size() || !refreshed_) {  // nothing to remake it from
+      h.factor_id = 0;
+      active_ = rest_.get();
+      set_identities(factor_rot_);
+    } else {
+      // A restored history: remake its factor from the system it keeps (the same arithmetic
+      // as the worker's, so the same factor bit for bit).
+      if (refresh_->pending()) {  // (its result belongs to another history)
+        refresh_->discard();
+        job_id_ = 0;
+      }
+      if (refreshed_->factor(h.factor_matrix.data())) {
+        refreshed_id_ = h.factor_id;
+        active_ = refreshed_.get();
+        std::copy(h.factor_rot.begin(), h.factor_rot.end(), factor_rot_.begin());
+        ++remade_;
+      } else {
+        h.factor_id = 0;
+        active_ = rest_.get();
+        set_identities(factor_rot_);
+      }
+    }
+  } else {
+    active_ = refreshed_.get();
   }
-  // Due every period, or now when the factor was found not to fit (request_refresh()) and the
-  // worker is free. A demand made while a refresh is under way is met by that refresh.
-  if (refresh_->pending()) {
-    demand_ = false;
-    return;
-  }
-  if (steps_since_offer_ < period_ && !demand_) return;
-  if (refresh_->offer(last_system, node_abs_.data(), h_last)) {
-    steps_since_offer_ = 0;
-    demand_ = false;
-    lag_ = period_;  // swapped in this many steps from now (deterministic mode)
+  // The refresh being made.
+  if (h.pending_id != job_id_) {
+    if (job_id_ != 0 || refresh_->pending()) refresh_->discard();
+    job_id_ = 0;
+    if (h.pending_id != 0) {
+      if (h.pending_matrix.size() != carrier.size() || !deterministic_) {
+        h.pending_id = 0;  // nothing to hand over again
+      } else {
+        std::copy(h.pending_matrix.begin(), h.pending_matrix.end(), carrier.begin());
+        if (!hand_over(carrier, h.pending_rot.data(), h.pending_key, h.pending_id, false)) h.pending_id = 0;
+      }
+    }
   }
 }
 
-void WarpedPreconditioner::poll() {
-  if (refresh_ && !deterministic_) adopt(false);  // take() returns at once unless a factor is done
+void WarpedPreconditioner::begin_step(std::vector<double>& last_system, double h_last, double h_now, SolverHistory& h) {
+  last_wait_ns_ = 0;
+  if (!refresh_) return;
+  sync(h, last_system);
+  // The schedule counts full steps (a sub-step's h differs), from the state alone: a stepper
+  // that has not stepped yet (a fresh one given a restored state) counts as the original did.
+  if (h_now != key_[0]) return;
+  ++h.steps_since_offer;
+  if (deterministic_) {
+    // The factor handed over `lag` steps ago is swapped in now, whatever the worker's speed.
+    if (h.pending_id != 0 && h.steps_since_offer >= h.lag) {
+      const int64_t t0 = steady_now_ns();
+      adopt(h, true);
+      last_wait_ns_ = steady_now_ns() - t0;
+    }
+    return;  // this step's own system is handed over at end_assembly()
+  }
+  if (h.pending_id != 0) adopt(h, false);  // real time: as soon as it is ready
+  if (h_last != key_[0]) return;  // no step yet, or a sub-step's system: nothing to hand over
+  // Due every period, or now when the factor was found not to fit (a demand) and the worker is
+  // free. A demand made while a refresh is under way is met by that refresh.
+  if (h.pending_id != 0) {
+    h.demand = false;
+    return;
+  }
+  if (h.steps_since_offer < h.period && !h.demand) return;
+  const uint64_t id = new_refresh_id();
+  if (hand_over(last_system, node_abs_.data(), h_last, id, false)) {
+    h.pending_id = id;
+    h.pending_key = h_last;
+    h.steps_since_offer = 0;
+    h.demand = false;
+  }
+}
+
+void WarpedPreconditioner::end_assembly(const std::vector<double>& system, double h_step, SolverHistory& h) {
+  if (!refresh_ || !deterministic_ || h_step != key_[0]) return;
+  if (h.pending_id != 0) {
+    h.demand = false;  // met by the refresh under way
+    return;
+  }
+  if (h.steps_since_offer < h.period && !h.demand) return;
+  if (h.pending_matrix.size() != system.size() || h.pending_rot.size() != node_abs_.size()) return;  // not sized
+  const uint64_t id = new_refresh_id();
+  std::copy(system.begin(), system.end(), h.pending_matrix.begin());  // the state keeps it
+  std::copy(node_abs_.begin(), node_abs_.end(), h.pending_rot.begin());
+  std::vector<double>& copy = h.pending_matrix;  // (hand_over copies it into offer_)
+  if (hand_over(copy, node_abs_.data(), h_step, id, true)) {
+    h.pending_id = id;
+    h.pending_key = h_step;
+    h.lag = h.period;
+    h.steps_since_offer = 0;
+    h.demand = false;
+  }
 }
 
 void WarpedPreconditioner::apply(void* self, const double* r, double* z) {
@@ -118,7 +228,7 @@ void WarpedPreconditioner::apply(void* self, const double* r, double* z) {
   const int32_t n = w->m_.num_nodes;
   const double* R = w->node_rot_.data();
   for (int32_t i = 0; i < n; ++i) m3::mulv_t(R + 9 * i, r + 3 * i, w->a_.data() + 3 * i);
-  w->factor_->solve(w->a_.data(), w->b_.data());
+  const_cast<CholmodSolver*>(w->active_)->solve(w->a_.data(), w->b_.data());
   for (int32_t i = 0; i < n; ++i) m3::mulv(R + 9 * i, w->b_.data() + 3 * i, z + 3 * i);
 }
 

@@ -20,6 +20,7 @@
 #include "tissue/cholesky_refresh.hpp"
 #include "tissue/cholmod_solver.hpp"
 #include "tissue/fem_model.hpp"
+#include "tissue/tissue_state.hpp"
 
 namespace stroma {
 
@@ -30,16 +31,19 @@ inline int refresh_steps_for(double factor_entries, double h) {
   return steps < 1 ? 1 : steps > 1.0e6 ? 1000000 : static_cast<int>(steps + 0.999);
 }
 
+/// A refresh id not used before in this process (SolverHistory names its factors by them).
+uint64_t new_refresh_id();
+
 /// Invariant: after factor(), op() applies R_Δ A_f⁻¹ R_Δᵀ with the rotations of the last
-/// update_rotations() (identity before the first one). factor_key() is the step h A_f was
-/// assembled for (h_mass of the rest factor).
+/// update_rotations() (identity before the first one), A_f the rest-pose system or — with a
+/// refresh — the system of the refresh the state's SolverHistory names (factor_id). The schedule
+/// of the refreshes lives in that history, not here: a copy of the state is a copy of it.
 class WarpedPreconditioner {
  public:
   explicit WarpedPreconditioner(const FemModel& model);
-  /// Factors A₀ with these coefficients (h_mass < 0: no mass term, for static solves). Does
-  /// nothing when the current factor already has them — the rest factor with the same ones, or
-  /// a refreshed factor of a step with h_mass = k_beta = h, k_const = h² (allocates only when
-  /// it refactors).
+  /// Factors the rest-pose system A₀ with these coefficients (h_mass < 0: no mass term, for
+  /// static solves). Does nothing when the rest factor already has them (allocates only when it
+  /// factors).
   void factor(double h_mass, double k_beta, double k_const);
   /// Per-node rotations from the element rotations `rot` (9 per element) of the last element
   /// pass: each node takes its first element's; fixed and unused nodes keep the identity.
@@ -47,36 +51,31 @@ class WarpedPreconditioner {
   /// The preconditioner as CG takes it (valid while this object lives).
   const ExternalPreconditioner* op() const { return &op_; }
 
-  /// Starts asynchronous refreshes (a worker thread; implicit Euler only): every `period`
-  /// steps the last step's system goes to the worker, and at the next step after
-  /// request_refresh() when the worker is idle. `deterministic`: the factor is swapped in
-  /// exactly refresh_lag() steps after its matrix was handed over, waiting for the worker if it
-  /// is late — results then depend on nothing but the inputs (headless runs, replays).
-  /// Otherwise (real time) a finished factor is swapped in at the next step and the physics
-  /// thread never waits; a late worker only means the older factor stays in use.
-  void enable_refresh(int period, bool deterministic);
-  /// Asks for a refresh at the next step (the factor fits this system badly: TimeStepper::solve
-  /// saw a solve far above its usual iterations, or gave up on it). No effect without
-  /// enable_refresh() or while a refresh is under way.
-  void request_refresh() { demand_ = true; }
-  /// A new refresh period (≥ 1) from the next hand-over on (`auto` re-evaluates it as the ticks
-  /// go: TimeStepper). A hand-over already made keeps the period it was made with.
-  void set_period(int period) { period_ = period < 1 ? 1 : period; }
-  int period() const { return period_; }
-  /// Steps between the last hand-over and its swap in deterministic mode: the period at the
-  /// hand-over.
-  int refresh_lag() const { return lag_; }
-  /// Start of a step's assembly: `last_system` holds the previous step's projected system
-  /// matrix, assembled for step `h_last` (0: none) in the frame of the last update_rotations().
-  /// When a refresh is due it is handed to the worker by swapping buffers (no copy) — the
-  /// caller refills `last_system` anyway. Only systems of the current factor's step are handed
-  /// over (a sub-step's is not).
-  void begin_step(std::vector<double>& last_system, double h_last);
-  /// After this step's element pass, before update_rotations(): in real-time mode swaps in a
-  /// factor the worker has finished.
-  void poll();
-  /// True once a factor exists (factor() or a refresh).
-  bool factored() const { return factor_ != nullptr && key_[0] != -1; }
+  /// Starts asynchronous refreshes (a worker thread; implicit Euler only): every history period
+  /// steps a step's system goes to the worker, and at the next step after request_refresh()
+  /// when the worker is idle. `deterministic`: the step's own system is handed over (a copy of it
+  /// kept in the state's history) and its factor is swapped in exactly `lag` steps later,
+  /// waiting for the worker if it is late — results then depend on nothing but the inputs and
+  /// the state (headless runs, replays, restored snapshots). Otherwise (real time) the last
+  /// step's system goes over by swapping buffers (no copy), a finished factor is swapped in at
+  /// the next step and the physics thread never waits; a late worker only means the older factor
+  /// stays in use.
+  void enable_refresh(bool deterministic);
+  /// Start of a step's assembly. First aligns the factors with the state's history `h` (after a
+  /// restore the history may name a refresh this object does not hold: its factor is remade
+  /// from the system stored in `h`, synchronously, and a pending one is handed over again —
+  /// `carrier`, a buffer of the system's size the caller refills anyway, takes it). Then, in
+  /// real time: swaps in a finished factor, and hands `last_system` (the previous step's
+  /// projected system, assembled for step `h_last`, by buffer swap) to the worker when due.
+  /// Deterministic: swaps in the pending factor when its lag has passed. `h_now`: this step's
+  /// h; only full steps (the rest factor's h) count in the schedule, and only their systems are
+  /// handed over (a sub-step's is not).
+  void begin_step(std::vector<double>& last_system, double h_last, double h_now, SolverHistory& h);
+  /// End of a step's assembly, deterministic mode: hands this step's `system` over (a copy)
+  /// when due, with a copy in `h`.
+  void end_assembly(const std::vector<double>& system, double h_step, SolverHistory& h);
+  /// True once a factor exists (factor()).
+  bool factored() const { return rest_ != nullptr && key_[0] != -1; }
 
   /// What one application costs against one Jacobi-PCG iteration, from the memory each streams:
   /// the factor twice (forward and backward) in float, 8 bytes per stored entry, against the
@@ -86,11 +85,13 @@ class WarpedPreconditioner {
   /// ~4.3 (5.3). (Before them it streamed at half that rate and the estimate's constant was 16.)
   /// Deterministic, so the fallback it sets (TimeStepper::solve) is too.
   double relative_cost() const {
-    return factor_ ? 1.0 + 8.0 * factor_->factor_entries() / (72.0 * m_.pattern.nnzb()) : 1.0;
+    return rest_ ? 1.0 + 8.0 * rest_->factor_entries() / (72.0 * m_.pattern.nnzb()) : 1.0;
   }
   /// Stored entries of the factor (after factor()).
-  double factor_entries() const { return factor_ ? factor_->factor_entries() : 0.0; }
+  double factor_entries() const { return rest_ ? rest_->factor_entries() : 0.0; }
   int64_t refreshes() const { return refreshes_; }  ///< refreshed factors swapped in
+  /// Factors remade synchronously from a restored history (sync).
+  int64_t remade() const { return remade_; }
   /// The worker's time for the factors swapped in (CholeskyRefresher::factor_ns_total/max).
   int64_t refresh_factor_ns_total() const { return refresh_ ? refresh_->factor_ns_total() : 0; }
   int64_t refresh_factor_ns_max() const { return refresh_ ? refresh_->factor_ns_max() : 0; }
@@ -99,25 +100,31 @@ class WarpedPreconditioner {
   int64_t last_wait_ns() const { return last_wait_ns_; }
   int64_t rest_factorizations() const { return rest_factorizations_; }  ///< factor() calls that factored
   bool refreshing() const { return refresh_ != nullptr; }
+  bool deterministic() const { return deterministic_; }
 
  private:
   static void apply(void* self, const double* r, double* z);
-  void adopt(bool wait);
+  /// Makes the factors agree with `h` (see begin_step).
+  void sync(SolverHistory& h, std::vector<double>& carrier);
+  /// Takes the worker's finished factor (waiting for it with `wait`) into `h`.
+  void adopt(SolverHistory& h, bool wait);
+  /// Hands `system` to the worker as refresh `id` (copied with `copy`, else by buffer swap).
+  bool hand_over(std::vector<double>& system, const double* node_rot, double key, uint64_t id, bool copy);
   const FemModel& m_;
-  std::unique_ptr<CholmodSolver> factor_;
-  double key_[3] = {-1, -1, -1};  // coefficients the current factor was built with
+  std::unique_ptr<CholmodSolver> rest_;       ///< the rest-pose factor (factor())
+  std::unique_ptr<CholmodSolver> refreshed_;  ///< the refreshed factor in use, if any
+  const CholmodSolver* active_ = nullptr;     ///< rest_ or refreshed_
+  uint64_t refreshed_id_ = 0;                 ///< the refresh refreshed_ holds (0: none)
+  uint64_t job_id_ = 0;                       ///< the refresh handed to the worker (0: none)
+  double key_[3] = {-1, -1, -1};  // coefficients the rest factor was built with
   std::vector<double> node_abs_;   // per-node rotation from the last update (9 per node)
   std::vector<double> factor_rot_; // per-node rotation when A_f was assembled (identity: rest)
   std::vector<double> node_rot_;   // R_Δ = R·R_fᵀ, what apply() uses
-  std::vector<double> a_, b_;
+  std::vector<double> a_, b_, offer_;  // offer_: the worker's copy, deterministic mode
   ExternalPreconditioner op_;
   std::unique_ptr<CholeskyRefresher> refresh_;
-  int period_ = 0;
-  int lag_ = 0;
-  bool demand_ = false;
   bool deterministic_ = true;
-  int steps_since_offer_ = 0;
-  int64_t refreshes_ = 0;
+  int64_t refreshes_ = 0, remade_ = 0;
   int64_t rest_factorizations_ = 0;
   int64_t last_wait_ns_ = 0;
 };
