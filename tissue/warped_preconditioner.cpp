@@ -217,6 +217,8 @@ void WarpedPreconditioner::end_assembly(const std::vector<double>& system, doubl
   if (hand_over(copy, node_abs_.data(), h_step, id, true)) {
     h.pending_id = id;
     h.pending_key = h_step;
+    // Swapped in at the start of the step a period from now, when the next one goes over: a
+    // refresh every `period` steps, each factor `period` steps old when it comes in.
     h.lag = h.period;
     h.steps_since_offer = 0;
     h.demand = false;

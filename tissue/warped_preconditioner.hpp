@@ -54,7 +54,7 @@ class WarpedPreconditioner {
   /// Starts asynchronous refreshes (a worker thread; implicit Euler only): every history period
   /// steps a step's system goes to the worker, and at the next step after request_refresh()
   /// when the worker is idle. `deterministic`: the step's own system is handed over (a copy of it
-  /// kept in the state's history) and its factor is swapped in exactly `lag` steps later,
+  /// kept in the state's history) and its factor is swapped in exactly `lag` (= the period) steps later,
   /// waiting for the worker if it is late — results then depend on nothing but the inputs and
   /// the state (headless runs, replays, restored snapshots). Otherwise (real time) the last
   /// step's system goes over by swapping buffers (no copy), a finished factor is swapped in at
