@@ -230,6 +230,10 @@ class Field {
   /// Stores choice(choices).
   template <class E>
   void get(E& out, const Choices<E>& choices) const { out = choice(choices); }
+  /// Stores choice(choices) for a table whose entries may disengage `out` ("auto" → nullopt).
+  /// Declared so clang does not find the two templates around it equally good.
+  template <class T>
+  void get(std::optional<T>& out, const Choices<std::optional<T>>& choices) const { out = choice(choices); }
   /// Converts as for a plain T and engages `out`.
   template <class T, class... A>
   void get(std::optional<T>& out, const A&... args) const {
