@@ -10,6 +10,7 @@
 #include "cli/commands.hpp"
 #include "engine/headless_runner.hpp"
 #include "engine/output_dir.hpp"
+#include "engine/session_log.hpp"
 #include "engine/sofa_scene.hpp"
 #include "engine/solver_comparison.hpp"
 #include "engine/solver_report.hpp"
@@ -136,6 +137,10 @@ void add_run(CLI::App& app, std::vector<Command>& out) {
                    CompileOptions co;
                    co.budgeted = !a->replay.empty();
                    co.converge = a->converge;
+                   if (!a->replay.empty() && !a->converge && session_log_converged(a->replay)) {
+                     co.converge = true;
+                     spdlog::info("--replay: the session was served with --converge: replayed with it");
+                   }
                    const CompiledScenario sc = load(a->scenario, co);
                    RunOptions o;
                    if (a->steps > 0) o.steps = a->steps;

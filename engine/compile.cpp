@@ -662,7 +662,9 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
     model->stepper.preconditioner = out.solver_choice->preconditioner;
   }
   // `preconditioner_refresh: auto` resolved here (TimeStepper::prepare would resolve it the
-  // same way), so the model, the log line and the reports say the period the tick uses.
+  // same way), so the model, the log line and the reports say the period the ticks start from:
+  // from the trial's warped iterations and, compiled for serve, the real-time step. The tick
+  // then re-evaluates it from its own warped iterations (SolverHistory::pace_iterations).
   if (model->stepper.preconditioner == Preconditioner::WarpedCholesky && s.integrator == Integrator::ImplicitEuler &&
       s.linear_solver == LinearSolverKind::CG && model->stepper.preconditioner_refresh < 0) {
     const double entries = out.solver_choice && out.solver_choice->factor_entries > 0
@@ -672,9 +674,16 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
     const double iterations = out.solver_choice ? warped_trial_iterations(*out.solver_choice) : kTypicalWarpedIterations;
     model->stepper.preconditioner_refresh = model->fem.smoothing.matrix_free && !model->fem.smoothing.empty()
                                                 ? 0
-                                                : auto_refresh_period(model->fem, entries, iterations);
+                                                : auto_refresh_period(model->fem, entries, iterations,
+                                                                      options.budgeted ? model->fem_step : 0.0);
     model->stepper.refresh_follows_pace = model->stepper.preconditioner_refresh > 0;
   }
+  // A refresh period the scenario gave that nothing uses is said, not silently dropped.
+  if (s.preconditioner_refresh > 0 && model->stepper.preconditioner != Preconditioner::WarpedCholesky)
+    out.notes.push_back(fmt::format("solver.preconditioner_refresh has no effect: the preconditioner is {} ({})",
+                                    preconditioner_name(model->stepper.preconditioner),
+                                    s.preconditioner ? "scenario" : "chosen by the engine: set `preconditioner: "
+                                                                    "warped_cholesky` to use the refresh"));
   out.visuals = compile_visuals(spec, meshes, *model, out.notes);
   compile_damage(spec, meshes, *model);
   model->body_tets.resize(meshes.size());

@@ -15,6 +15,20 @@ const char* const kSessionLogHeader =
     "# stroma session log v4 (v3 + cut_snapshot, topology: when a cut model was built from and swapped in)\n"
     "tick,event,tool,seq,client_time_ns,x,y,z,qw,qx,qy,qz,jaw,buttons,steps\n";
 
+const char* const kSessionLogConvergeLine = "# compiled: --converge";
+
+bool session_log_converged(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, 0, "", "cannot open session log");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line == kSessionLogConvergeLine) return true;
+    if (!line.empty() && line[0] != '#' && line.rfind("tick,", 0) != 0) return false;  // the events began
+  }
+  return false;
+}
+
 namespace {
 const char* const kNames[] = {"tool", "pause",    "resume", "reset",        "step",    "shutdown",
                               "end",  "deadline", "mark",   "cut_snapshot", "topology"};

@@ -50,4 +50,13 @@ std::string format_session_event(const SessionEvent& e);
 /// `*interrupted` set; without any Mark it is an error. Marks are not returned.
 std::vector<SessionEvent> read_session_log(const std::string& path, int tool_count, bool* interrupted = nullptr);
 
+/// The comment line a server writes into its log when it compiled the scenario with
+/// `--converge` (the engine's converging solver in place of a SOFA scene's settings): a replay
+/// compiles the same way, or it would not reach the same states.
+extern const char* const kSessionLogConvergeLine;
+
+/// Whether the log at `path` was recorded by a server that compiled with `--converge` (its
+/// comment lines hold kSessionLogConvergeLine). Throws InputError if it cannot be opened.
+bool session_log_converged(const std::string& path);
+
 }  // namespace stroma

@@ -41,8 +41,9 @@ struct State {
     State s;
     s.tissue = TissueState::at_rest(m.fem);
     // A refreshed warped factor keeps its systems in the state (SolverHistory): sized here, so
-    // the tick that hands one over copies into room it has.
-    if (m.stepper.preconditioner == Preconditioner::WarpedCholesky && m.stepper.preconditioner_refresh > 0 &&
+    // the tick that hands one over copies into room it has. (-1: `auto` not resolved yet — a
+    // model not made by compile_scenario; TimeStepper::prepare resolves it to a period.)
+    if (m.stepper.preconditioner == Preconditioner::WarpedCholesky && m.stepper.preconditioner_refresh != 0 &&
         m.stepper.integrator == Integrator::ImplicitEuler && m.stepper.linear_solver == LinearSolverKind::CG) {
       SolverHistory& h = s.tissue.solver;
       const size_t values = 9 * static_cast<size_t>(m.fem.pattern.nnzb()), rot = 9 * static_cast<size_t>(m.fem.num_nodes);

@@ -483,6 +483,7 @@ std::FILE* open_record(const ServeOptions& o) {
   if (!record) throw std::runtime_error(fmt::format("--record: cannot write '{}'", o.record_file));
   std::fputs(kSessionLogHeader, record);
   std::fprintf(record, "# scenario: %s\n", o.scenario.c_str());
+  if (o.converge) std::fprintf(record, "%s\n", kSessionLogConvergeLine);
   return record;
 }
 

@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -16,6 +17,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "engine/compiled_scenario.hpp"
@@ -450,6 +452,60 @@ TEST(PreconditionerRefresh, ARestoredSnapshotReplaysBitForBit) {
   State u = decode_state(bytes, nullptr);
   for (int k = 0; k < 25; ++k) tick(m, u, other);
   EXPECT_EQ(u.tissue.x, continued) << "through the state's bytes";
+}
+
+// A state from before a refresh, then one that uses it: restoring the earlier state sends the
+// stepper back to the rest factor, and the later one must get its refreshed factor back with
+// the rotations it was made in (not the rest factor's identities), bit for bit as a fresh
+// stepper continues it.
+TEST(PreconditionerRefresh, RestoringAnEarlierStateThenALaterOneKeepsTheFactorsRotations) {
+  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+  spec.bodies[0].material.young_modulus = 3e5;  // swings: the refreshed factor's frame matters
+  spec.solver.preconditioner_refresh = 6;
+  spec.solver.tolerance = 1e-6;
+  const CompiledScenario sc = compile_scenario(spec);
+  const Model& m = *sc.model;
+  TickWorkspace w(m);
+  State s = State::initial(m);
+  const State s0 = s;
+  for (int k = 0; k < 16; ++k) tick(m, s, w);
+  const State later = s;
+  ASSERT_NE(later.tissue.solver.factor_id, 0u);
+  TickWorkspace fresh(m);
+  State r = later;
+  for (int k = 0; k < 25; ++k) tick(m, r, fresh);
+  s = s0;
+  tick(m, s, w);  // the rest factor again, in the stepper that made `later`'s factor
+  s = later;
+  for (int k = 0; k < 25; ++k) tick(m, s, w);
+  EXPECT_EQ(s.tissue.x, r.tissue.x);
+}
+
+// Served (real time), a reset while the worker factors a refresh: the physics thread drops
+// that job instead of waiting for it, and refreshes resume once the worker is free.
+TEST(PreconditionerRefresh, RealTimeResetDropsTheJobUnderWayAndRefreshesResume) {
+  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+  spec.bodies[0].material.young_modulus = 3e5;
+  spec.solver.preconditioner_refresh = 6;
+  spec.solver.tolerance = 1e-6;
+  const CompiledScenario sc = compile_scenario(spec);
+  const Model& m = *sc.model;
+  TickWorkspace w(m);
+  w.stepper().set_realtime(true);
+  const State initial = State::initial(m);
+  State s = initial;
+  int64_t before = 0;
+  for (int round = 0; round < 20; ++round) {
+    for (int k = 0; k < 8; ++k) ASSERT_EQ(tick(m, s, w).status, TickStatus::Ok);
+    if (round == 9) before = w.stepper().preconditioner_refreshes();
+    s = initial;  // a reset, likely while a refresh is under way
+  }
+  for (int k = 0; k < 200 && w.stepper().preconditioner_refreshes() <= before + 2; ++k) {
+    ASSERT_EQ(tick(m, s, w).status, TickStatus::Ok);
+    std::this_thread::sleep_for(std::chrono::microseconds(200));  // (the worker's turn)
+  }
+  EXPECT_GT(w.stepper().preconditioner_refreshes(), before + 2);
+  for (double v : s.tissue.x) ASSERT_TRUE(std::isfinite(v));
 }
 
 // `auto` re-evaluates the period as it goes: the soft 0.15 m Armadillo folding over its feet

@@ -647,6 +647,10 @@ TEST(ScenarioLoaderErrors, UnknownIntegrator) {
                "bodies[0].material.model", {"unknown model 'neohookean'", "corotational, linear"});
   expect_error(kMinimal + "solver:\n  preconditioner: ilu\n", 10, "solver.preconditioner",
                {"jacobi, block_jacobi, none"});
+  expect_error(kMinimal + "solver:\n  preconditioner: atuo\n", 10, "solver.preconditioner",
+               {"did you mean 'auto'?"});
+  expect_error(kMinimal + "solver:\n  on_cg_cap: sometimes\n", 10, "solver.on_cg_cap",
+               {"'sometimes'", "auto", "substep", "continue"});
 }
 
 TEST(ScenarioLoaderErrors, BothStepsAndDuration) {

@@ -128,6 +128,22 @@ TEST(SessionLog, WindowsLineEndingsAreRead) {
 
 // A server killed outright (SIGKILL) leaves no 'end' line, and maybe half a line: the log replays
 // to its last checkpoint (mark), events at or after it dropped; without a mark it is an error.
+// A server that compiled with --converge says so in its log's comments, so a replay compiles
+// the same way; the line counts only among the header comments.
+TEST(SessionLog, ItSaysWhetherTheServerCompiledWithConverge) {
+  SessionEvent end;
+  end.kind = SessionEvent::End;
+  end.tick = 3;
+  const std::string plain = std::string(kSessionLogHeader) + "# scenario: s.yaml\n" + format_session_event(end);
+  const std::string conv = std::string(kSessionLogHeader) + "# scenario: s.yaml\n" + kSessionLogConvergeLine +
+                           "\n" + format_session_event(end);
+  EXPECT_FALSE(session_log_converged(write_temp("stroma_session_plain.log", plain)));
+  EXPECT_TRUE(session_log_converged(write_temp("stroma_session_conv.log", conv)));
+  EXPECT_FALSE(session_log_converged(write_temp("stroma_session_late.log",
+                                                plain + kSessionLogConvergeLine + "\n")));
+  EXPECT_THROW(session_log_converged("/nonexistent/stroma.log"), InputError);
+}
+
 TEST(SessionLog, AKilledServersLogEndsAtItsLastCheckpoint) {
   const std::string body = std::string(kSessionLogHeader) +
                            "3,tool,0,1,5,0.1,0.2,0.3,1,0,0,0,0.5,0,0\n"

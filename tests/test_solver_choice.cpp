@@ -137,6 +137,17 @@ TEST(SolverChoice, ExplicitSettingsAreKept) {
   EXPECT_EQ(compile_scenario(s).model->stepper.preconditioner_refresh, 7);
   s.solver.preconditioner_refresh = 0;
   EXPECT_EQ(compile_scenario(s).model->stepper.preconditioner_refresh, 0);
+  // A refresh period with a preconditioner that has no factor is said, not silently dropped.
+  const auto said = [](const CompiledScenario& c) {
+    for (const std::string& n : c.notes)
+      if (n.find("preconditioner_refresh has no effect") != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_FALSE(said(compile_scenario(s)));
+  s.solver.preconditioner_refresh = 7;
+  EXPECT_FALSE(said(compile_scenario(s)));
+  s.solver.preconditioner = Preconditioner::BlockJacobi;
+  EXPECT_TRUE(said(compile_scenario(s)));
 }
 
 // A scene with no gravity and no load would give the trial nothing to solve: it is tried under

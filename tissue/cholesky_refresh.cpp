@@ -78,6 +78,13 @@ void CholeskyRefresher::discard() {
   if (s == kDone || s == kFailed) state_.store(kIdle, std::memory_order_release);
 }
 
+bool CholeskyRefresher::drop_if_finished() {
+  const int s = state_.load(std::memory_order_acquire);
+  if (s == kRequested) return false;
+  if (s == kDone || s == kFailed) state_.store(kIdle, std::memory_order_release);
+  return true;
+}
+
 void CholeskyRefresher::run() {
   pthread_setname_np(pthread_self(), "chol-refresh");
   // Below the renderer and the tool client in the demo: a late factor costs CG iterations, a

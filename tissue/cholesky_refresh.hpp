@@ -53,6 +53,10 @@ class CholeskyRefresher {
   /// result is not taken; the worker is idle again). For a history that no longer wants it
   /// (a restored state: WarpedPreconditioner::sync). Not for the real-time path.
   void discard();
+  /// Physics thread, never blocks: drops a finished job's result (the worker is idle again) and
+  /// returns true, or returns false while a factorisation is under way (call again later); true
+  /// when nothing was pending. The real-time form of discard().
+  bool drop_if_finished();
 
   int64_t refreshes() const { return refreshes_; }  ///< factors taken
   int64_t failures() const { return failures_; }     ///< matrices not positive definite

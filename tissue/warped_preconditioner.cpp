@@ -120,16 +120,22 @@ void WarpedPreconditioner::adopt(SolverHistory& h, bool wait) {
 }
 
 void WarpedPreconditioner::sync(SolverHistory& h, std::vector<double>& carrier) {
-  // The factor in use.
+  // The factor in use. factor_rot_ holds the rotations of the factor in use, so refreshed_id_
+  // names refreshed_ only while it is in use with its own rotations: going back to the rest
+  // factor forgets it (a state naming it again remakes it).
   if (h.factor_id == 0) {
     if (active_ != rest_.get()) {
       active_ = rest_.get();
+      refreshed_id_ = 0;
       set_identities(factor_rot_);
     }
   } else if (h.factor_id != refreshed_id_) {
-    if (h.factor_matrix.size() != offer_.size() || !refreshed_) {  // nothing to remake it from
+    // Real time keeps no systems in the state (a copied history has nothing to remake from) and
+    // never waits for the worker: the rest factor until the next refresh.
+    if (!deterministic_ || h.factor_matrix.size() != offer_.size() || !refreshed_) {
       h.factor_id = 0;
       active_ = rest_.get();
+      refreshed_id_ = 0;
       set_identities(factor_rot_);
     } else {
       // A restored history: remake its factor from the system it keeps (the same arithmetic
@@ -138,6 +144,7 @@ void WarpedPreconditioner::sync(SolverHistory& h, std::vector<double>& carrier) 
         refresh_->discard();
         job_id_ = 0;
       }
+      refreshed_id_ = 0;  // refreshed_ is overwritten: it names no refresh unless this succeeds
       if (refreshed_->factor(h.factor_matrix.data())) {
         refreshed_id_ = h.factor_id;
         active_ = refreshed_.get();
@@ -153,8 +160,18 @@ void WarpedPreconditioner::sync(SolverHistory& h, std::vector<double>& carrier) 
     active_ = refreshed_.get();
   }
   // The refresh being made.
+  if (orphan_job_ && refresh_->drop_if_finished()) orphan_job_ = false;
   if (h.pending_id != job_id_) {
+    if (!deterministic_) {
+      // Real time (a reset, a restored state): the worker's job belongs to no history now. It
+      // is dropped when it finishes; the physics thread never waits for it.
+      if ((job_id_ != 0 || refresh_->pending()) && !refresh_->drop_if_finished()) orphan_job_ = true;
+      job_id_ = 0;
+      h.pending_id = 0;  // (a real-time history keeps no system to hand over again)
+      return;
+    }
     if (job_id_ != 0 || refresh_->pending()) refresh_->discard();
+    orphan_job_ = false;
     job_id_ = 0;
     if (h.pending_id != 0) {
       if (h.pending_matrix.size() != carrier.size() || !deterministic_) {

@@ -116,6 +116,9 @@ class WarpedPreconditioner {
   const CholmodSolver* active_ = nullptr;     ///< rest_ or refreshed_
   uint64_t refreshed_id_ = 0;                 ///< the refresh refreshed_ holds (0: none)
   uint64_t job_id_ = 0;                       ///< the refresh handed to the worker (0: none)
+  /// Real time: the worker is factoring a job no history wants (a reset or restored state
+  /// dropped it); its result is dropped once it is finished, never waited for.
+  bool orphan_job_ = false;
   double key_[3] = {-1, -1, -1};  // coefficients the rest factor was built with
   std::vector<double> node_abs_;   // per-node rotation from the last update (9 per node)
   std::vector<double> factor_rot_; // per-node rotation when A_f was assembled (identity: rest)
