@@ -418,17 +418,23 @@ TEST(PreconditionerRefresh, AutoRefreshesLargeSystems) {
   EXPECT_LE(r.mean_iterations, 1.5);
 }
 
+/// The dynamic cantilever softened to 300 kPa so it swings (the refreshed factors matter),
+/// the warped factor refreshed every 6 steps, CG to 1e-6.
+CompiledScenario swinging_cantilever() {
+  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+  spec.bodies[0].material.young_modulus = 3e5;
+  spec.solver.preconditioner_refresh = 6;
+  spec.solver.tolerance = 1e-6;
+  return compile_scenario(spec);
+}
+
 // The factor's history is the state's (SolverHistory): a snapshot taken mid-run — a refresh in
 // use, another under way — restored into the same stepper after it ran on, or into a fresh one,
 // replays the original continuation bit for bit (the stepper remakes the factor from the
 // system the history keeps, and hands the pending one over again). And a state through its
 // bytes (pickled snapshots) too.
 TEST(PreconditionerRefresh, ARestoredSnapshotReplaysBitForBit) {
-  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
-  spec.bodies[0].material.young_modulus = 3e5;  // swings: the refreshes matter
-  spec.solver.preconditioner_refresh = 6;
-  spec.solver.tolerance = 1e-6;
-  const CompiledScenario sc = compile_scenario(spec);
+  const CompiledScenario sc = swinging_cantilever();
   const Model& m = *sc.model;
   TickWorkspace w(m);
   State s = State::initial(m);
@@ -459,11 +465,7 @@ TEST(PreconditionerRefresh, ARestoredSnapshotReplaysBitForBit) {
 // the rotations it was made in (not the rest factor's identities), bit for bit as a fresh
 // stepper continues it.
 TEST(PreconditionerRefresh, RestoringAnEarlierStateThenALaterOneKeepsTheFactorsRotations) {
-  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
-  spec.bodies[0].material.young_modulus = 3e5;  // swings: the refreshed factor's frame matters
-  spec.solver.preconditioner_refresh = 6;
-  spec.solver.tolerance = 1e-6;
-  const CompiledScenario sc = compile_scenario(spec);
+  const CompiledScenario sc = swinging_cantilever();
   const Model& m = *sc.model;
   TickWorkspace w(m);
   State s = State::initial(m);
@@ -484,11 +486,7 @@ TEST(PreconditionerRefresh, RestoringAnEarlierStateThenALaterOneKeepsTheFactorsR
 // Served (real time), a reset while the worker factors a refresh: the physics thread drops
 // that job instead of waiting for it, and refreshes resume once the worker is free.
 TEST(PreconditionerRefresh, RealTimeResetDropsTheJobUnderWayAndRefreshesResume) {
-  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
-  spec.bodies[0].material.young_modulus = 3e5;
-  spec.solver.preconditioner_refresh = 6;
-  spec.solver.tolerance = 1e-6;
-  const CompiledScenario sc = compile_scenario(spec);
+  const CompiledScenario sc = swinging_cantilever();
   const Model& m = *sc.model;
   TickWorkspace w(m);
   w.stepper().set_realtime(true);
