@@ -24,6 +24,7 @@
 #include "bench/bench_stats.hpp"
 #include "engine/compiled_scenario.hpp"
 #include "engine/cut_worker.hpp"
+#include "engine/simulation.hpp"
 #include "engine/tick.hpp"
 #include "tissue/clock.hpp"
 
@@ -47,30 +48,27 @@ struct RunFigures {
 };
 
 RunFigures run_once(const CompiledScenario& sc, long ticks, bool cutting) {
-  std::shared_ptr<const Model> m = sc.model;
-  auto w = std::make_unique<TickWorkspace>(*m);
-  w->stepper().set_realtime(true);  // as served: never wait for the preconditioner's worker
-  State s = State::initial(*m);
-  CutWorker worker(m, m->cut_edge_dofs.size());
-  std::vector<ToolInput> inputs(m->tools.size());
+  // As served: the engine's Simulation with cut models built on its worker, ticks that never
+  // wait for the preconditioner's worker.
+  SimulationOptions so;
+  so.cut_builds = CutBuilds::OnWorker;
+  so.realtime = true;
+  Simulation sim(sc.model, so);
   std::vector<double> ms;
   ms.reserve(static_cast<size_t>(ticks));
-  const int64_t period = static_cast<int64_t>(m->time_step * 1e9);
+  const int64_t period = static_cast<int64_t>(sc.model->time_step * 1e9);
   int64_t deadline = steady_now_ns();
   for (long k = 0; k < ticks; ++k) {
     deadline += period;
     sleep_until_ns(deadline);
-    for (size_t t = 0; t < inputs.size(); ++t) {
-      inputs[t].tool = static_cast<int32_t>(t);
-      inputs[t].seq = static_cast<uint64_t>(k + 1);
-      inputs[t].pose = sc.tool_scripts[t].keys.empty() ? s.tools[t].pose : sc.tool_scripts[t].sample(s.time);
-    }
+    if (cutting) sim.submit_scripts(sc.tool_scripts);
     const auto t0 = std::chrono::steady_clock::now();
-    const TickReport& r = tick(*m, s, *w, inputs.data(), cutting ? static_cast<int>(inputs.size()) : 0);
-    const int cut = r.cut_edges;
-    if (m->cutting) worker.service(m, w, s, cut, k);  // the swap counts in the tick's time
+    const TickReport& r = sim.step();
+    sim.cut(r.cut_edges);  // the swap counts in the tick's time
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
+  const Model* m = &sim.model();
+  const CutWorker& worker = *sim.cutter();
   RunFigures f;
   f.p50 = percentile(ms, 0.5);
   f.p99 = percentile(ms, 0.99);

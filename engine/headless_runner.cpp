@@ -15,6 +15,7 @@
 
 #include "engine/cut_swap.hpp"
 #include "engine/session_log.hpp"
+#include "engine/simulation.hpp"
 #include "engine/solver_report.hpp"
 #include "engine/state_io.hpp"
 #include "engine/static_run.hpp"
@@ -228,6 +229,9 @@ void RunOutputs::finish(RunResult& res) {
       j["warped_preconditioner"]["step_ms_without_refresh_waits"] = {{"p50", t.p50}, {"p99", t.p99}, {"max", t.max}, {"mean", t.mean}};
     }
   }
+  if (!m.tools.empty())  // every scripted command, checked as a client's (engine/tool_commands.hpp)
+    j["commands"] = {{"accepted", res.commands_accepted}, {"clamped", res.commands_clamped},
+                     {"rejected", res.commands_rejected}};
   j["energy_guard"] = {{"ticks_limited", res.ticks_energy_limited}, {"energy_removed", res.energy_removed}};
   j["solve_error"] = {{"residual_max", res.residual_max},
                       {"energy_max", res.error_energy_max},
@@ -350,11 +354,13 @@ void run_static(const CompiledScenario& sc, const RunOptions& o, long steps, Sta
   res.steps = s.step;
 }
 
-/// Dynamic run: ticks with the tools' scripted (or replayed) commands.
-void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, State& s,
-                 std::shared_ptr<const Model>& model, std::unique_ptr<TickWorkspace>& wp, RunOutputs& out, RunLog& log,
-                 RunResult& res) {
+/// Dynamic run: ticks with the tools' scripted (or replayed) commands, through the one
+/// Simulation every front end drives (engine/simulation.hpp): scripted poses are submitted as a
+/// client's would be (checked and counted), a replayed session's are applied as recorded.
+void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, Simulation& sim, RunOutputs& out,
+                 RunLog& log, RunResult& res) {
   const Model& m = *sc.model;  // the scenario's (cut models keep its tools and time step)
+  State& s = sim.state();
   // Tool inputs: a replayed session, else each scripted tool sampled at the tick's start time.
   std::vector<SessionEvent> replay;
   if (!o.replay.empty()) {
@@ -367,28 +373,25 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
   }
   size_t next_event = 0;
   std::vector<double> cut_snapshot;  // replay: the edge cuts of the last recorded snapshot
-  std::vector<ToolInput> inputs;
-  inputs.reserve(m.tools.size() + 16);
+  std::vector<ToolInput> recorded;   // replay: this tick's commands as the server applied them
+  recorded.reserve(m.tools.size() + 16);
   const auto wall0 = Clock::now();
   auto last_progress = wall0;
   out.frame(s, 0);
   for (long k = 0; k < steps; ++k) {
-    inputs.clear();
+    recorded.clear();
     Deadline deadline;  // none given: the scenario's time_budget, if any
     if (!o.replay.empty()) {
       deadline.expire_at_check = std::numeric_limits<int64_t>::max();  // the live ticks' cuts only
       for (; next_event < replay.size() && replay[next_event].tick == k; ++next_event) {
         const SessionEvent& e = replay[next_event];
         if (e.kind == SessionEvent::Reset) {
-          if (model != sc.model) {  // back to the uncut scenario
-            model = sc.model;
-            wp = std::make_unique<TickWorkspace>(*model);
-            out.set_model(*model);
-          }
-          s = State::initial(m);
-          inputs.clear();  // commands before a reset in the same tick were overwritten
+          const bool was_cut = sim.model_ptr() != sim.scenario_model();
+          sim.reset();  // back to the uncut scenario
+          if (was_cut) out.set_model(sim.model());
+          recorded.clear();  // commands before a reset in the same tick were overwritten
         } else if (e.kind == SessionEvent::Tool) {
-          inputs.push_back(e.input);
+          recorded.push_back(e.input);
         } else if (e.kind == SessionEvent::Deadline) {
           deadline.expire_at_check = e.deadline_check;
         } else if (e.kind == SessionEvent::CutSnapshot) {
@@ -396,14 +399,8 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
         } else if (e.kind == SessionEvent::Topology) {
           // The live server swapped in the model built from the last snapshot here: so does the
           // replay (built now, synchronously — the same pure function of the same edge cuts).
-          CutBuild b = build_cut(*model, cut_snapshot);
-          res.cut_build_ms_total += b.build_ms;
-          res.cut_build_ms_max = std::max(res.cut_build_ms_max, b.build_ms);
-          const int64_t refreshes = wp->stepper().preconditioner_refreshes();
-          if (apply_cut(b, model, wp, s)) {
-            res.preconditioner_refreshes += refreshes;
-            ++res.topology_swaps;
-            out.set_model(*model);
+          if (sim.swap_recorded(cut_snapshot)) {
+            out.set_model(sim.model());
           } else {
             spdlog::warn("{}: line {}: the recorded topology swap changed nothing here (was the session recorded "
                          "with this scenario?)",
@@ -412,14 +409,11 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
         }
       }
     } else {
-      for (size_t t = 0; t < m.tools.size(); ++t)
-        if (!sc.tool_scripts[t].keys.empty())
-          inputs.push_back(ToolInput{static_cast<int32_t>(t), static_cast<uint64_t>(k + 1), 0,
-                                     sc.tool_scripts[t].sample(s.time)});
+      sim.submit_scripts(sc.tool_scripts);
     }
-    TickWorkspace& w = *wp;
     log.last_tick_swapped = false;
-    const TickReport& r = tick(*model, s, w, inputs.data(), static_cast<int>(inputs.size()), deadline);
+    const TickReport& r = sim.step(deadline, recorded.data(), static_cast<int>(recorded.size()));
+    TickWorkspace& w = sim.workspace();
     const double ms = static_cast<double>(r.total_ns) * 1e-6;
     log.step_ms.push_back(ms);
     const double waited_ms = static_cast<double>(r.refresh_wait_ns) * 1e-6;
@@ -458,24 +452,18 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
       log.io_ms += ms_since(t0);
     }
     if (r.cut_edges > 0 && o.replay.empty()) {
-      // The blade cut edges: the topology follows before the next tick (headless: built here,
-      // synchronously, so a run is a function of its inputs; `serve` builds off the thread, and
-      // its recorded swaps are replayed where they happened, above).
-      CutBuild b = build_cut(*model, s.edge_cut);
-      res.cut_build_ms_total += b.build_ms;
-      res.cut_build_ms_max = std::max(res.cut_build_ms_max, b.build_ms);
-      const int64_t refreshes = wp->stepper().preconditioner_refreshes();
-      const std::vector<ToolOutput> tools = r.tools;  // (r is the workspace the swap retires)
-      if (apply_cut(b, model, wp, s)) {
-        res.preconditioner_refreshes += refreshes;  // the retired workspace's
-        res.final_tools = tools;
+      // The blade cut edges: the cut stage swaps the topology in before the next tick (headless:
+      // built synchronously, so a run is a function of its inputs; `serve` builds off the thread,
+      // and its recorded swaps are replayed where they happened, above).
+      const CutStageResult c = sim.cut(r.cut_edges);
+      if (c.swapped) {
+        res.final_tools = r.tools;  // (r stays readable until the next step)
         log.last_tick_swapped = true;
-        ++res.topology_swaps;
-        out.set_model(*model);
+        out.set_model(sim.model());
         spdlog::debug("tick {}: topology {} swapped in ({} elements split, {} nodes created, cut area {:.3g} m^2; "
                       "built in {:.2f} ms)",
-                      k, model->topology_version, model->cut_stats.elements_split, model->cut_stats.nodes_created,
-                      model->cut_stats.cut_area, b.build_ms);
+                      k, sim.model().topology_version, sim.model().cut_stats.elements_split,
+                      sim.model().cut_stats.nodes_created, sim.model().cut_stats.cut_area, c.build_ms);
       }
     }
     out.frame(s, k + 1);
@@ -488,6 +476,14 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
                    100.0 * (k + 1) / steps, s.time, el * 1e3 / (k + 1), eta);
     }
   }
+  res.preconditioner_refreshes += sim.retired_refreshes();
+  res.topology_swaps = sim.topology_swaps();
+  res.cut_build_ms_total = sim.cut_build_ms_total();
+  res.cut_build_ms_max = sim.cut_build_ms_max();
+  const CommandCounters& c = sim.commands().counters();
+  res.commands_accepted = c.accepted.load();
+  res.commands_clamped = c.clamped.load();
+  res.commands_rejected = c.rejected.load();
   res.steps = s.step;
 }
 
@@ -496,19 +492,18 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, St
 RunResult run_headless(const CompiledScenario& sc, const RunOptions& o) {
   const Model& m = *sc.model;
   RunResult res;
-  State s = State::initial(m);
-  std::shared_ptr<const Model> model = sc.model;  // the model the run is on (cut models swap in)
-  auto wp = std::make_unique<TickWorkspace>(m);
+  Simulation sim(sc.model);  // the model the run is on (cut models swap in), its state and workspace
+  State& s = sim.state();
   const long steps = resolve_steps(sc, o);
   RunLog log;
   log.step_ms.reserve(static_cast<size_t>(std::max(0L, steps)) + 1);
   log.step_ms_without_refresh_waits.reserve(log.step_ms.capacity());
   RunOutputs out(sc, o, log);
   const auto wall0 = Clock::now();
-  if (m.stepper.integrator == Integrator::Static) run_static(sc, o, steps, s, *wp, out, log, res);
-  else run_dynamic(sc, o, steps, s, model, wp, out, log, res);
-  TickWorkspace& w = *wp;
-  res.final_model = model;
+  if (m.stepper.integrator == Integrator::Static) run_static(sc, o, steps, s, sim.workspace(), out, log, res);
+  else run_dynamic(sc, o, steps, sim, out, log, res);
+  TickWorkspace& w = sim.workspace();
+  res.final_model = sim.model_ptr();
   res.wall_seconds = std::chrono::duration<double>(Clock::now() - wall0).count();
   res.sim_time = s.time;
   res.step_ms = summarize(log.step_ms);

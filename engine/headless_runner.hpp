@@ -68,6 +68,9 @@ struct RunResult {
   int64_t preconditioner_refreshes = 0;
   /// The refresh worker's time per factor of the last model's workspace (ms): mean and longest.
   double refresh_factor_ms_mean = 0, refresh_factor_ms_max = 0;
+  /// Tool commands of the scripts (checked as a client's: engine/tool_commands.hpp) — a
+  /// replayed session's were checked when recorded and are not counted again.
+  uint64_t commands_accepted = 0, commands_clamped = 0, commands_rejected = 0;
   double residual_max = 0;     ///< worst relative residual of a tick's linear solve
   double error_energy_max = 0;   ///< J: worst energy-norm error bound of a tick's solve
   double error_position_max = 0; ///< m: worst mass-weighted RMS position error bound

@@ -44,23 +44,16 @@ StateFrame frame_for(const Model& m) {
 
 PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions options)
     : state_out(frame_for(*model)),
-      model_(std::move(model)),
-      original_(model_),
       opt_(options),
-      state_(State::initial(*model_)),
-      initial_(state_),
-      work_(std::make_unique<TickWorkspace>(*model_)) {
-  // Served ticks never wait for the preconditioner's worker (TimeStepper::set_realtime).
-  work_->stepper().set_realtime(true);
-  if (model_->cutting && model_->fem_every == 1)  // (compile refuses cutting with multirate)
-    cutter_ = std::make_unique<CutWorker>(model_, model_->cut_edge_dofs.size(), &cut_models);
-  for (size_t t = 0; t < model_->tools.size(); ++t)
-    tool_in.push_back(std::make_unique<TripleBuffer<ToolInput>>());
-  multirate_ = model_->fem_every > 1;
+      // Served ticks never wait for the preconditioner's worker (TimeStepper::set_realtime); cut
+      // models are built on a worker (compile refuses cutting with multirate).
+      sim_(std::move(model), SimulationOptions{CutBuilds::OnWorker, ToolHold::Timeout, true, &cut_models, true}),
+      initial_(sim_.state()) {
+  multirate_ = sim_.model().fem_every > 1;
   if (multirate_) {
-    fem_state_ = state_;
-    haptic_report_.tools.resize(model_->tools.size());
-    ticks_since_post_ = model_->fem_every;  // the first tick starts the first step
+    fem_state_ = sim_.state();
+    haptic_report_.tools.resize(sim_.model().tools.size());
+    ticks_since_post_ = sim_.model().fem_every;  // the first tick starts the first step
   }
 }
 
@@ -77,13 +70,12 @@ void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& s
       case ControlEvent::Pause: rs = RunState::Paused; break;
       case ControlEvent::Resume: rs = RunState::Running; steps_pending = 0; break;
       case ControlEvent::Reset: {
-        const int32_t version = model_->topology_version;
-        if (cutter_ && !cutter_->reset(original_, model_, work_)) {
+        const int32_t version = sim_.model().topology_version;
+        if (!sim_.reset()) {  // (a copy of the initial state into the state's arrays: no allocation)
           reset_pending_ = true;  // the uncut workspace is still being made: at the next tick
           break;
         }
-        state_ = initial_;  // a copy into arrays at least as large: no allocation
-        if (version != model_->topology_version) publish_topology_event();
+        if (version != sim_.model().topology_version) publish_topology_event();
         tissue_reset_ = multirate_;  // the worker's state when it is idle
         log(se);
         break;
@@ -100,8 +92,8 @@ void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& s
 void PhysicsLoop::publish_feedback(const TickReport& r) {
   FeedbackBatch& fb = feedback_out.write_slot();
   fb.count = 0;
-  for (size_t t = 0; t < state_.tools.size() && fb.count < kMaxTools; ++t) {
-    const ToolState& ts = state_.tools[t];
+  for (size_t t = 0; t < sim_.state().tools.size() && fb.count < kMaxTools; ++t) {
+    const ToolState& ts = sim_.state().tools[t];
     const ToolOutput& out = r.tools[t];
     ToolFeedbackFrame& f = fb.frames[fb.count++];
     f = ToolFeedbackFrame{};
@@ -109,7 +101,7 @@ void PhysicsLoop::publish_feedback(const TickReport& r) {
     f.seq = ts.seq;
     f.client_time_ns = ts.client_time_ns;
     f.server_time_ns = steady_now_ns();
-    f.sim_time = state_.time;
+    f.sim_time = sim_.state().time;
     f.active = ts.active;
     f.force = out.feedback.force;  // computed once, by the tick's hand_off (haptics/feedback.hpp)
     f.torque = out.feedback.torque;
@@ -135,12 +127,12 @@ void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, 
   std::copy_n(tissue.damage.begin(), nd, f.damage.begin());
   f.dofs = nx / 3;
   f.elements = nd;
-  f.cut_serial = model_->cut_serial;
-  f.topology_version = model_->topology_version;
-  f.tool_count = static_cast<int>(std::min<size_t>(state_.tools.size(), kMaxTools));
+  f.cut_serial = sim_.model().cut_serial;
+  f.topology_version = sim_.model().topology_version;
+  f.tool_count = static_cast<int>(std::min<size_t>(sim_.state().tools.size(), kMaxTools));
   for (int t = 0; t < f.tool_count; ++t) {
-    const ToolState& ts = state_.tools[t];
-    f.tools[t] = ToolSnapshot{ts.pose, tool_center(model_->tools[t], ts), r.tools[t].feedback.force, ts.active,
+    const ToolState& ts = sim_.state().tools[t];
+    f.tools[t] = ToolSnapshot{ts.pose, tool_center(sim_.model().tools[t], ts), r.tools[t].feedback.force, ts.active,
                               ts.last_command_time >= 0, r.tools[t].contacts, ts.grasped};
   }
   state_out.publish();
@@ -151,7 +143,7 @@ void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, 
 void PhysicsLoop::publish_damage_events(const TickReport& r) {
   for (DamageEventRecord ev : r.damage_records) {
     // Events name the scenario's tetrahedra (file order): a cut model's element is a copy.
-    if (model_->topology_version > 0) ev.element = model_->topology->copies[ev.element].tet;
+    if (sim_.model().topology_version > 0) ev.element = sim_.model().topology->copies[ev.element].tet;
     if (!damage_out.push(ev)) damage_dropped.fetch_add(1, std::memory_order_relaxed);
   }
   outputs_published.fetch_add(1, std::memory_order_release);
@@ -160,10 +152,10 @@ void PhysicsLoop::publish_damage_events(const TickReport& r) {
 
 void PhysicsLoop::publish_topology_event() {
   TopologyEventRecord ev;
-  ev.topology_version = model_->topology_version;
-  ev.sim_time = state_.time;
+  ev.topology_version = sim_.model().topology_version;
+  ev.sim_time = sim_.state().time;
   ev.tick = stats_.ticks;
-  ev.cut = model_->cut_stats;
+  ev.cut = sim_.model().cut_stats;
   if (!topology_out.push(ev)) topology_dropped.fetch_add(1, std::memory_order_relaxed);
   outputs_published.fetch_add(1, std::memory_order_release);
   outputs_published.notify_one();
@@ -211,15 +203,15 @@ void PhysicsLoop::account_tick(const TickReport& r, RunState& rs, StatusWindow& 
 void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow& win, double wall, double running_wall,
                                  uint64_t controls_seen) {
   status->state = rs;
-  status->sim_time = state_.time;
+  status->sim_time = sim_.state().time;
   status->wall_time = wall;
-  status->lag = running_wall - state_.time;
+  status->lag = running_wall - sim_.state().time;
   status->ticks = stats_.ticks;
   status->missed_deadlines = stats_.missed_deadlines;
   status->controls = controls_seen;
   status->cg_iterations_mean = win.ticks ? static_cast<double>(win.cg_iterations) / static_cast<double>(win.ticks) : 0.0;
   // (multirate: the worker's last finished step; its state may be in use)
-  status->kinetic_energy = multirate_ ? tissue_kinetic_ : work_->stepper().kinetic_energy(state_.tissue);
+  status->kinetic_energy = multirate_ ? tissue_kinetic_ : sim_.workspace().stepper().kinetic_energy(sim_.state().tissue);
   for (int st = 0; st < kStageCount; ++st)
     status->stage_ms[st] = win.ticks ? static_cast<double>(win.stage_ns[st]) * 1e-6 / static_cast<double>(win.ticks) : 0.0;
   status->missed_window = stats_.missed_deadlines - win.missed_at_start;
@@ -233,8 +225,8 @@ void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow
   status->residual_max = win.residual_max;
   status->error_energy_max = win.error_energy_max;
   status->error_position_max = win.error_position_max;
-  status->topology_version = model_->topology_version;
-  status->cut = model_->cut_stats;
+  status->topology_version = sim_.model().topology_version;
+  status->cut = sim_.model().cut_stats;
   status_out.publish();
   outputs_published.fetch_add(1, std::memory_order_release);
   outputs_published.notify_one();
@@ -245,26 +237,20 @@ void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow
   win.missed_at_start = stats_.missed_deadlines;
 }
 
-int PhysicsLoop::take_inputs(std::array<ToolInput, kMaxTools>& inputs) {
-  int n_in = 0;
-  for (size_t t = 0; t < tool_in.size() && n_in < kMaxTools; ++t)
-    if (tool_in[t]->update()) {
-      inputs[n_in] = tool_in[t]->read_slot();
-      SessionEvent se;
-      se.tick = static_cast<int64_t>(stats_.ticks);
-      se.kind = SessionEvent::Tool;
-      se.input = inputs[n_in];
-      log(se);
-      ++n_in;
-    }
-  return n_in;
+void PhysicsLoop::log_inputs() {
+  for (const ToolInput& in : sim_.inputs()) {
+    SessionEvent se;
+    se.tick = static_cast<int64_t>(stats_.ticks);
+    se.kind = SessionEvent::Tool;
+    se.input = in;
+    log(se);
+  }
 }
 
-int64_t PhysicsLoop::follow_commands(PhaseLock& lock, const std::array<ToolInput, kMaxTools>& inputs,
-                                     int n_in, int64_t tick_start) {
+int64_t PhysicsLoop::follow_commands(PhaseLock& lock, const std::vector<ToolInput>& inputs, int64_t tick_start) {
   // The latest-arriving command of this tick is the one the schedule must wait for.
   int64_t latest = 0;
-  for (int i = 0; i < n_in; ++i) {
+  for (size_t i = 0; i < inputs.size(); ++i) {
     if (inputs[i].arrival_ns <= 0) continue;
     stats_.command_wait.record(tick_start - inputs[i].arrival_ns);
     latest = std::max(latest, inputs[i].arrival_ns);
@@ -281,34 +267,34 @@ void PhysicsLoop::tissue_worker() {
   // the DDS threads (60), above everything else: a busy machine must not halve the tissue's
   // rate. Off the physics thread's CPU: sharing it slowed the steps 2–3×.
   setup_worker_thread(kTissueWorkerPriority, opt_.physics_cpu);
-  const Model& m = *model_;
+  const Model& m = sim_.model();
   uint64_t seen = 0;
   for (;;) {
     tissue_posted_.wait(seen, std::memory_order_acquire);
     seen = tissue_posted_.load(std::memory_order_acquire);
     if (tissue_stop_.load()) return;
-    TickReport& r = work_->report;
+    TickReport& r = sim_.workspace().report;
     begin_report(r);
     const int64_t t0 = steady_now_ns();
     Deadline d;
     d.at_ns = tissue_deadline_;
     r.budget_ns = d.at_ns > 0 ? d.at_ns - t0 : 0;
-    step_tissue(m, fem_state_, *work_, d, m.fem_every);
+    step_tissue(m, fem_state_, sim_.workspace(), d, m.fem_every);
     r.total_ns = steady_now_ns() - t0;
     r.over_budget = tissue_deadline_ > 0 && t0 + r.total_ns > tissue_deadline_;
-    step_kinetic_ = work_->stepper().kinetic_energy(fem_state_.tissue);  // O(n): here, not in a tick
+    step_kinetic_ = sim_.workspace().stepper().kinetic_energy(fem_state_.tissue);  // O(n): here, not in a tick
     tissue_done_.store(seen, std::memory_order_release);
   }
 }
 
 const TickReport& PhysicsLoop::multirate_tick(const ToolInput* inputs, int n_in, int64_t tick_start, RunState& rs,
                                               StatusWindow& win, uint64_t& frame) {
-  const Model& m = *model_;
+  const Model& m = sim_.model();
   TickReport& r = haptic_report_;
   const int64_t t0 = steady_now_ns();
   begin_report(r);
   r.budget_ns = 0;
-  apply_tool_inputs(m, state_, r, inputs, n_in);
+  apply_tool_inputs(m, sim_.state(), r, inputs, n_in);
   ++ticks_since_post_;
   const uint64_t posted = tissue_posted_.load(std::memory_order_relaxed);
   const bool idle = tissue_done_.load(std::memory_order_acquire) == posted;
@@ -317,9 +303,9 @@ const TickReport& PhysicsLoop::multirate_tick(const ToolInput* inputs, int n_in,
     // The worker's step is done: its models take over (as in a headless multirate run, at the
     // tick fem_every after the step started), its outputs are handed off, the next one starts.
     if (posted > 0 && !tissue_reset_) {
-      const TickReport& fr = work_->report;
+      const TickReport& fr = sim_.workspace().report;
       for (size_t k = 0; k < m.tools.size(); ++k) {
-        state_.tools[k].haptic = fem_state_.tools[k].haptic_next;
+        sim_.state().tools[k].haptic = fem_state_.tools[k].haptic_next;
         r.tools[k].contacts = fr.tools[k].contacts;
       }
       ++stats_.tissue_steps;
@@ -338,7 +324,7 @@ const TickReport& PhysicsLoop::multirate_tick(const ToolInput* inputs, int n_in,
     }
     for (size_t k = 0; k < m.tools.size(); ++k) {  // the step is solved with the tools as they are now
       ToolState& to = fem_state_.tools[k];
-      const ToolState& from = state_.tools[k];
+      const ToolState& from = sim_.state().tools[k];
       to.pose = from.pose;
       to.seq = from.seq;
       to.client_time_ns = from.client_time_ns;
@@ -350,20 +336,19 @@ const TickReport& PhysicsLoop::multirate_tick(const ToolInput* inputs, int n_in,
     tissue_posted_.fetch_add(1, std::memory_order_release);
     tissue_posted_.notify_one();
   }
-  state_.time = static_cast<double>(state_.step + 1) * m.time_step;
-  ++state_.step;
+  sim_.state().time = static_cast<double>(sim_.state().step + 1) * m.time_step;
+  ++sim_.state().step;
   if (!m.tools.empty()) {
     StageTimer t(r, Stage::HandOff);
-    render_haptic_models(m, state_, r.tools);
+    render_haptic_models(m, sim_.state(), r.tools);
   }
   r.total_ns = steady_now_ns() - t0;
   return r;
 }
 
 void PhysicsLoop::service_cuts(int cut_edges) {
-  if (reset_pending_ && cutter_->reset(original_, model_, work_)) {
+  if (reset_pending_ && sim_.reset()) {
     reset_pending_ = false;
-    state_ = initial_;
     publish_topology_event();  // (pending only when a cut model was ticking)
     SessionEvent se;  // the Reset takes effect now: the log says so at this tick
     se.kind = SessionEvent::Reset;
@@ -372,15 +357,15 @@ void PhysicsLoop::service_cuts(int cut_edges) {
   }
   if (reset_pending_) return;  // no cut model while a Reset waits for the uncut workspace
   const int64_t ticks = static_cast<int64_t>(stats_.ticks);
-  if (cutter_->service(model_, work_, state_, cut_edges, ticks)) {
+  const CutStageResult c = sim_.cut(cut_edges);
+  if (c.swapped) {
     publish_topology_event();
     SessionEvent se;
     se.kind = SessionEvent::Topology;
     se.tick = ticks;
     log(se);
   }
-  if (cutter_->stats().posted != cuts_posted_) {
-    cuts_posted_ = cutter_->stats().posted;
+  if (c.posted) {
     SessionEvent se;
     se.kind = SessionEvent::CutSnapshot;
     se.tick = ticks;
@@ -389,7 +374,7 @@ void PhysicsLoop::service_cuts(int cut_edges) {
 }
 
 void PhysicsLoop::run(const std::atomic<bool>& stop) {
-  const Model& m = *model_;
+  const Model& m = sim_.model();
   const int64_t period = static_cast<int64_t>(m.time_step * 1e9 + 0.5);
   // The tissue step's budget: its period (a tick's, or fem_every ticks' on the multirate worker)
   // minus the margin, or the scenario's time_budget if smaller.
@@ -403,7 +388,6 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
   double running_wall = 0;  // wall time spent in the Running state (for the lag)
   StatusWindow win;
   StatusFrame* status = &status_out.write_slot();
-  std::array<ToolInput, kMaxTools> inputs;
 
   PhaseLock lock(opt_.phase_lead > 0 ? period : 0, static_cast<int64_t>(opt_.phase_lead * 1e9),
                        static_cast<int64_t>(opt_.phase_max_step * static_cast<double>(period)));
@@ -432,15 +416,17 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
     int64_t shift = 0;  // the phase lock's move of the next deadline
     if (do_tick) {
       if (rs != RunState::Running) --steps_pending;
-      // The newest accepted command of each tool (validated by the DDS thread).
-      const int n_in = take_inputs(inputs);
-      shift = follow_commands(lock, inputs, n_in, deadline);
       // The engine's work must end a margin before the next deadline, counted from this tick's
       // scheduled start (a late wake-up eats into it).
       Deadline budget;
       budget.at_ns = opt_.budget ? deadline + stats_.budget_ns : 0;
-      const TickReport& r = multirate_ ? multirate_tick(inputs.data(), n_in, deadline, rs, win, frame)
-                                       : tick(*model_, state_, *work_, inputs.data(), n_in, budget);
+      // The newest accepted command of each tool (checked by the DDS thread as it submitted it).
+      if (multirate_) sim_.take_commands();
+      const TickReport& r = multirate_ ? multirate_tick(sim_.inputs().data(), static_cast<int>(sim_.inputs().size()),
+                                                        deadline, rs, win, frame)
+                                       : sim_.step(budget);
+      log_inputs();
+      shift = follow_commands(lock, sim_.inputs(), deadline);
       if (r.deadline_check >= 0) {  // the cut this tick made, so that a replay makes it too
         SessionEvent se;
         se.tick = static_cast<int64_t>(stats_.ticks);
@@ -452,14 +438,14 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       // Hand-off to the server's threads, timed under the hand_off stage.
       const int64_t h0 = steady_now_ns();
       if (r.damage_events > 0) publish_damage_events(r);
-      if (!state_.tools.empty()) publish_feedback(r);
-      if (!multirate_ && state_wanted.load(std::memory_order_relaxed) && state_.step % opt_.publish_every == 0)
-        publish_state_frame(r, state_, ++frame);
-      if (cutter_) service_cuts(r.cut_edges);  // last: a swap retires the workspace r is in
+      if (!sim_.state().tools.empty()) publish_feedback(r);
+      if (!multirate_ && state_wanted.load(std::memory_order_relaxed) && sim_.state().step % opt_.publish_every == 0)
+        publish_state_frame(r, sim_.state(), ++frame);
+      if (sim_.cutter()) service_cuts(r.cut_edges);  // last: a swap retires the workspace r is in
       const int64_t handoff = steady_now_ns() - h0;
       stats_.stage_ns_total[static_cast<int>(Stage::HandOff)] += handoff;
       win.stage_ns[static_cast<int>(Stage::HandOff)] += handoff;
-    } else if (cutter_) {
+    } else if (sim_.cutter()) {
       service_cuts(0);  // paused: a finished build is still swapped in, a pending Reset done
     }
     const int64_t done = steady_now_ns();
@@ -494,9 +480,9 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
   end.kind = SessionEvent::End;
   end.tick = static_cast<int64_t>(stats_.ticks);
   log(end);
-  stats_.sim_time = state_.time;
+  stats_.sim_time = sim_.state().time;
   stats_.wall_time = static_cast<double>(steady_now_ns() - t0) * 1e-9;
-  stats_.lag = running_wall - state_.time;
+  stats_.lag = running_wall - sim_.state().time;
   finished.store(true);
   outputs_published.fetch_add(1, std::memory_order_release);
   outputs_published.notify_all();

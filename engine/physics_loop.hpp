@@ -15,6 +15,7 @@
 #include "engine/cut_worker.hpp"
 #include "engine/model.hpp"
 #include "engine/phase_lock.hpp"
+#include "engine/simulation.hpp"
 #include "engine/session_log.hpp"
 #include "engine/spsc_queue.hpp"
 #include "engine/state.hpp"
@@ -171,12 +172,15 @@ class PhysicsLoop {
 
   // ---- ports (lock-free) ----
   SpscQueue<ControlEvent, 64> controls;      ///< DDS-in thread → physics
+  /// Tool commands: the DDS-in thread submits (checked and counted there), physics takes the
+  /// newest of each tool (engine/tool_commands.hpp; the one port of every front end).
+  ToolCommandPort& commands() { return sim_.commands(); }
+  const ToolCommandPort& commands() const { return sim_.commands(); }
   TripleBuffer<StateFrame> state_out;        ///< physics → publisher
   TripleBuffer<StatusFrame> status_out;      ///< physics → publisher
   std::atomic<bool> state_wanted{false};     ///< publisher: a renderer is listening
   std::atomic<uint64_t> outputs_published{0};  ///< bumped (and notified) on every hand-off
   std::atomic<bool> finished{false};         ///< set when run() returns
-  std::vector<std::unique_ptr<TripleBuffer<ToolInput>>> tool_in;  ///< per tool: latest command
   TripleBuffer<FeedbackBatch> feedback_out;  ///< physics → feedback writer, every tick
   std::atomic<uint64_t> feedback_published{0};
   SpscQueue<SessionEvent, 8192> record;      ///< physics → recorder thread
@@ -190,10 +194,10 @@ class PhysicsLoop {
   const PhysicsLoopStats& stats() const { return stats_; }
   /// The simulation state (multirate: the tissue worker's, whose tools carry its own copies of
   /// the poses). Read after run() has returned.
-  const State& state() const { return multirate_ ? fem_state_ : state_; }
-  const Model& model() const { return *model_; }
+  const State& state() const { return multirate_ ? fem_state_ : sim_.state(); }
+  const Model& model() const { return sim_.model(); }
   /// Cutting statistics (null without a cutting tool). Read after run() has returned.
-  const CutWorker* cutter() const { return cutter_.get(); }
+  const CutWorker* cutter() const { return sim_.cutter(); }
 
  private:
   /// What the status frame averages over its period (reset at each status frame).
@@ -206,12 +210,11 @@ class PhysicsLoop {
     double residual_max = 0, error_energy_max = 0, error_position_max = 0;
   };
   void handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown);
-  /// The newest command of each tool (logged for replay); returns how many.
-  int take_inputs(std::array<ToolInput, kMaxTools>& inputs);
+  /// Logs the commands the tick took (sim_.inputs()) for the replay.
+  void log_inputs();
   /// Records how long this tick's commands waited for it and returns the phase lock's move of
   /// the next deadline.
-  int64_t follow_commands(PhaseLock& lock, const std::array<ToolInput, kMaxTools>& inputs, int n_in,
-                          int64_t tick_start);
+  int64_t follow_commands(PhaseLock& lock, const std::vector<ToolInput>& inputs, int64_t tick_start);
   /// Statistics of one tick (`tick`: count it as a tick; false for a multirate tissue step,
   /// whose ticks are counted by the physics thread); a non-finite step faults the run.
   void account_tick(const TickReport& r, RunState& rs, StatusWindow& win, bool tick = true);
@@ -240,17 +243,13 @@ class PhysicsLoop {
     }
   }
   bool record_lost_ = false;
-  std::shared_ptr<const Model> model_;     ///< the model ticking now (a cut model once cut)
-  std::shared_ptr<const Model> original_;  ///< the scenario's model (what a Reset returns to)
   PhysicsLoopOptions opt_;
-  State state_;
-  State initial_;
-  std::unique_ptr<TickWorkspace> work_;
-  /// Cutting (Model::cutting): cut models built on its thread and swapped in at tick boundaries;
-  /// a Reset that must wait for its spare workspace is retried each tick.
-  std::unique_ptr<CutWorker> cutter_;
+  /// The model ticking now (a cut model once cut), its state and workspace, the commands port
+  /// and the cut stage (cut models built on its worker, swapped in at tick boundaries).
+  Simulation sim_;
+  State initial_;  ///< multirate: the tissue worker's state after a Reset
+  /// A Reset that must wait for the cut worker's spare workspace is retried each tick.
   bool reset_pending_ = false;
-  uint64_t cuts_posted_ = 0;  ///< the cutter's posts seen (each one is logged)
   PhysicsLoopStats stats_;
   // ---- multirate (Model::fem_every > 1): the tissue steps on a worker thread ----
   // Ownership: while tissue_done_ == tissue_posted_ the worker is idle and the physics thread

@@ -26,6 +26,7 @@
 #include "engine/cut_swap.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
+#include "engine/simulation.hpp"
 #include "engine/state.hpp"
 #include "engine/solver_report.hpp"
 #include "engine/state_bytes.hpp"
@@ -48,9 +49,12 @@ struct Snapshot {
   uint64_t fingerprint = 0;
 };
 
-class Simulation {
+/// The Python face of the engine's Simulation (engine/simulation.hpp): the same commands port
+/// (set_pose is checked, clamped or refused and counted as a served command is), the same cut
+/// stage (synchronous), the scenario's scripts submitted for the tools Python does not pose.
+class PySimulation {
  public:
-  explicit Simulation(const std::string& path) {
+  explicit PySimulation(const std::string& path) {
     try {
       sc_ = compile_scenario(load_scenario(path));
     } catch (const InputError& e) {
@@ -61,7 +65,7 @@ class Simulation {
 
   /// From YAML (or JSON) text; `name` stands for the file in messages, relative paths resolve
   /// against base_dir.
-  Simulation(const std::string& text, const std::string& name, const std::string& base_dir) {
+  PySimulation(const std::string& text, const std::string& name, const std::string& base_dir) {
     try {
       sc_ = compile_scenario(parse_scenario(text, name, base_dir));
     } catch (const InputError& e) {
@@ -72,10 +76,11 @@ class Simulation {
 
   void reset() {
     if (fingerprint_ == 0) fingerprint_ = model_fingerprint(*sc_.model);
-    model_ = sc_.model;
-    w_ = std::make_unique<TickWorkspace>(*model_);
-    s_ = State::initial(*model_);
-    poses_.assign(model_->tools.size(), std::nullopt);
+    // A fresh Simulation: a reset run is a new run (workspace caches included), bit for bit.
+    SimulationOptions o;
+    o.hold = ToolHold::Repeat;  // a pose set from Python stays set
+    sim_ = std::make_unique<Simulation>(sc_.model, o);
+    posed_.assign(sc_.model->tools.size(), 0);
   }
 
   /// n ticks; returns the number done (fewer only when a tick could not advance).
@@ -83,33 +88,40 @@ class Simulation {
     if (n < 0) throw py::value_error("step: n must be >= 0");
     py::gil_scoped_release release;
     for (int k = 0; k < n; ++k) {
-      inputs_.clear();
-      for (size_t t = 0; t < model_->tools.size(); ++t) {
-        ToolPose pose;
-        if (poses_[t]) pose = *poses_[t];
-        else if (!sc_.tool_scripts[t].keys.empty()) pose = sc_.tool_scripts[t].sample(s_.time);
-        else continue;
-        inputs_.push_back(ToolInput{static_cast<int32_t>(t), static_cast<uint64_t>(s_.step + 1), 0, pose});
-      }
-      const TickReport& r = tick(*model_, s_, *w_, inputs_.data(), static_cast<int>(inputs_.size()));
-      // (The report lives in the workspace, which a cut retires: keep the last one.)
-      if (k == n - 1 || r.status == TickStatus::NonFinite || r.cut_edges > 0) last_ = r;
+      sim_->submit_scripts(sc_.tool_scripts, &posed_);
+      const TickReport& r = sim_->advance();
+      if (k == n - 1 || r.status == TickStatus::NonFinite) last_ = r;
       if (r.status == TickStatus::NonFinite) return k;
-      if (r.cut_edges > 0) {
-        CutBuild b = build_cut(*model_, s_.edge_cut);
-        apply_cut(b, model_, w_, s_);
-      }
     }
     return n;
   }
 
-  void set_pose(int tool, const std::array<double, 3>& position, const std::array<double, 4>& quaternion, double jaw) {
+  /// Checked as every front end's commands are (engine/tool_commands.hpp): "accepted",
+  /// "clamped" (applied, moved into the limits) or "rejected" (not applied; the tool keeps its
+  /// last pose). Counted in `commands`.
+  std::string set_pose(int tool, const std::array<double, 3>& position, const std::array<double, 4>& quaternion,
+                       double jaw) {
     check_tool(tool);
     ToolPose p;
     p.position = {position[0], position[1], position[2]};
     p.orientation = quaternion;
     p.jaw = jaw;
-    poses_[tool] = p;
+    const State& s = sim_->state();
+    const int64_t t_ns = std::llround(s.time * 1e9);  // takes effect at the next tick's start
+    const ToolCheck c = sim_->commands().submit(tool, p, static_cast<uint64_t>(s.step + 1), t_ns, t_ns);
+    if (c.result == ToolCheck::Rejected) return "rejected";
+    posed_[tool] = 1;
+    return c.result == ToolCheck::Clamped ? "clamped" : "accepted";
+  }
+
+  py::dict commands() const {
+    const CommandCounters& c = sim_->commands().counters();
+    py::dict d;
+    d["accepted"] = c.accepted.load();
+    d["clamped"] = c.clamped.load();
+    d["rejected"] = c.rejected.load();
+    d["last_reason"] = std::string(sim_->commands().last_reason());
+    return d;
   }
 
   py::dict feedback(int tool) const {
@@ -150,7 +162,7 @@ class Simulation {
   /// summary.json's "solver" holds).
   py::object solver() const { return py::module_::import("json").attr("loads")(solver_json(sc_).dump()); }
 
-  Snapshot snapshot() const { return {model_, s_, fingerprint_}; }
+  Snapshot snapshot() const { return {sim_->model_ptr(), sim_->state(), fingerprint_}; }
 
   void restore(const Snapshot& snap) {
     if (snap.fingerprint != fingerprint_)
@@ -159,11 +171,7 @@ class Simulation {
     if (!m) m = model_for(snap.state);
     std::string why;
     if (!state_fits_model(snap.state, *m, &why)) throw py::value_error("restore: the snapshot does not fit the model: " + why);
-    if (m != model_) {  // a snapshot from before (or after) a cut: its own model
-      model_ = std::move(m);
-      w_ = std::make_unique<TickWorkspace>(*model_);
-    }
-    s_ = snap.state;
+    sim_->restore(std::move(m), snap.state);
   }
 
   /// A read-only (n, 3) view of v, kept alive by `owner`.
@@ -174,22 +182,22 @@ class Simulation {
     return a;
   }
 
-  void write_vtu_file(const std::string& path) const { write_vtu(path, *model_, s_); }
+  void write_vtu_file(const std::string& path) const { write_vtu(path, sim_->model(), sim_->state()); }
 
   /// Moves the nodes to `x` ((n, 3), finite); velocities stay. For setting up a state.
   void set_positions(const py::array_t<double, py::array::c_style | py::array::forcecast>& x) {
-    const py::ssize_t n = model_->fem.num_nodes;
+    const py::ssize_t n = sim_->model().fem.num_nodes;
     if (x.ndim() != 2 || x.shape(0) != n || x.shape(1) != 3)
       throw py::value_error("positions: expected an array of shape (" + std::to_string(n) + ", 3)");
     const double* p = x.data();
     for (py::ssize_t i = 0; i < 3 * n; ++i)
       if (!std::isfinite(p[i])) throw py::value_error("positions: entry " + std::to_string(i / 3) + " is not finite");
-    std::copy(p, p + 3 * n, s_.tissue.x.begin());
+    std::copy(p, p + 3 * n, sim_->state().tissue.x.begin());
   }
 
   /// Per element damage d ∈ [0, 1] (float32, read-only view; empty without a damage model).
   static py::array damage_view(py::object self) {
-    State& s = self.cast<Simulation&>().s_;
+    State& s = self.cast<PySimulation&>().state();
     py::array a(py::dtype::of<float>(), {static_cast<py::ssize_t>(s.damage.size())}, {py::ssize_t{4}},
                 s.damage.data(), self);
     a.attr("setflags")(py::arg("write") = false);
@@ -197,21 +205,22 @@ class Simulation {
   }
   /// Elements that reached warned, damaged and ruptured (cumulative).
   std::array<int64_t, 3> damage_counts() const {
-    return {s_.damage_count[1], s_.damage_count[2], s_.damage_count[3]};
+    const State& s = sim_->state();
+    return {s.damage_count[1], s.damage_count[2], s.damage_count[3]};
   }
 
-  double time() const { return s_.time; }
-  int64_t steps() const { return s_.step; }
-  double time_step() const { return model_->time_step; }
-  int num_nodes() const { return model_->fem.num_nodes; }
-  int num_tools() const { return static_cast<int>(model_->tools.size()); }
-  State& state() { return s_; }
+  double time() const { return sim_->state().time; }
+  int64_t steps() const { return sim_->state().step; }
+  double time_step() const { return sim_->model().time_step; }
+  int num_nodes() const { return sim_->model().fem.num_nodes; }
+  int num_tools() const { return static_cast<int>(sim_->model().tools.size()); }
+  State& state() { return sim_->state(); }
 
  private:
   void check_tool(int tool) const {
-    if (tool < 0 || static_cast<size_t>(tool) >= model_->tools.size())
+    if (tool < 0 || static_cast<size_t>(tool) >= sim_->model().tools.size())
       throw py::index_error("tool " + std::to_string(tool) + " out of range: the scenario has " +
-                            std::to_string(model_->tools.size()) + " tools");
+                            std::to_string(sim_->model().tools.size()) + " tools");
   }
 
   /// The model an unpickled state belongs to: the scenario's uncut one, or the cut model its
@@ -221,18 +230,15 @@ class Simulation {
     if (!cut || !sc_.model->cutting) return sc_.model;
     if (s.edge_cut.size() != sc_.model->cut_edge_dofs.size())
       throw py::value_error("restore: the snapshot's edge cuts do not fit this scenario's mesh");
-    if (model_->cutting && model_->cut_edge_state == s.edge_cut) return model_;
+    if (sim_->model().cutting && sim_->model().cut_edge_state == s.edge_cut) return sim_->model_ptr();
     CutBuild b = build_cut(*sc_.model, s.edge_cut);
     return b.changed ? b.model : sc_.model;
   }
 
   CompiledScenario sc_;
   uint64_t fingerprint_ = 0;
-  std::shared_ptr<const Model> model_;
-  std::unique_ptr<TickWorkspace> w_;
-  State s_;
-  std::vector<std::optional<ToolPose>> poses_;
-  std::vector<ToolInput> inputs_;
+  std::unique_ptr<Simulation> sim_;
+  std::vector<uint8_t> posed_;  ///< per tool: Python posed it (its script is left alone)
   std::optional<TickReport> last_;
 };
 
@@ -256,38 +262,43 @@ PYBIND11_MODULE(_stroma, mod) {
             }
             return s;
           }));
-  py::class_<Simulation>(mod, "Simulation", "A scenario stepped as `stroma run` steps it")
+  py::class_<PySimulation>(mod, "Simulation", "A scenario stepped as `stroma run` steps it")
       .def(py::init<const std::string&>(), py::arg("scenario"), "Loads and compiles a scenario YAML file")
       .def(py::init<const std::string&, const std::string&, const std::string&>(), py::arg("text"), py::arg("name"),
            py::arg("base_dir"), "From scenario YAML (or JSON) text; `name` stands for the file in error messages")
-      .def("step", &Simulation::step, py::arg("n") = 1, "Advances n ticks (the GIL is released); returns ticks done")
-      .def("reset", &Simulation::reset, "Back to the initial state (and the uncut model)")
-      .def("snapshot", &Simulation::snapshot, "A copy of the current state")
-      .def("restore", &Simulation::restore, py::arg("snapshot"), "Continues from a snapshot")
-      .def("set_pose", &Simulation::set_pose, py::arg("tool"), py::arg("position"),
+      .def("step", &PySimulation::step, py::arg("n") = 1, "Advances n ticks (the GIL is released); returns ticks done")
+      .def("reset", &PySimulation::reset, "Back to the initial state (and the uncut model)")
+      .def("snapshot", &PySimulation::snapshot, "A copy of the current state")
+      .def("restore", &PySimulation::restore, py::arg("snapshot"), "Continues from a snapshot")
+      .def("set_pose", &PySimulation::set_pose, py::arg("tool"), py::arg("position"),
            py::arg("quaternion") = std::array<double, 4>{1, 0, 0, 0}, py::arg("jaw") = 0.0,
-           "Commands tool `tool` to this pose (m; unit quaternion w, x, y, z; jaw rad) from the next tick on")
-      .def("feedback", &Simulation::feedback, py::arg("tool"), "Force, torque, stiffness and contacts of the last tick")
-      .def_property_readonly("metrics", &Simulation::metrics, "Status, CG iterations and residual of the last tick")
-      .def_property_readonly("solver", &Simulation::solver,
+           "Commands tool `tool` to this pose (m; unit quaternion w, x, y, z; jaw rad) from the next tick on, "
+           "checked against the tool's limits as every front end's commands are: returns 'accepted', 'clamped' "
+           "(moved into the workspace or speed limit) or 'rejected' (not applied: non-finite, not a unit "
+           "quaternion, or outside the limits under on_invalid: reject)")
+      .def_property_readonly("commands", &PySimulation::commands,
+                             "Tool commands accepted, clamped and rejected so far, and the last reason")
+      .def("feedback", &PySimulation::feedback, py::arg("tool"), "Force, torque, stiffness and contacts of the last tick")
+      .def_property_readonly("metrics", &PySimulation::metrics, "Status, CG iterations and residual of the last tick")
+      .def_property_readonly("solver", &PySimulation::solver,
                              "The linear solver, its preconditioner and cap policy, and who chose each (auto: the "
                              "engine, at load; summary.json's \"solver\")")
-      .def("write_vtu", &Simulation::write_vtu_file, py::arg("path"), "Writes the current state as VTU")
-      .def_property_readonly("time", &Simulation::time, "Simulated time (s)")
-      .def_property_readonly("steps", &Simulation::steps, "Ticks done")
-      .def_property_readonly("time_step", &Simulation::time_step, "Tick length (s)")
-      .def_property_readonly("num_nodes", &Simulation::num_nodes)
-      .def_property_readonly("num_tools", &Simulation::num_tools)
+      .def("write_vtu", &PySimulation::write_vtu_file, py::arg("path"), "Writes the current state as VTU")
+      .def_property_readonly("time", &PySimulation::time, "Simulated time (s)")
+      .def_property_readonly("steps", &PySimulation::steps, "Ticks done")
+      .def_property_readonly("time_step", &PySimulation::time_step, "Tick length (s)")
+      .def_property_readonly("num_nodes", &PySimulation::num_nodes)
+      .def_property_readonly("num_tools", &PySimulation::num_tools)
       .def_property_readonly(
-          "positions", [](py::object self) { return Simulation::view(self.cast<Simulation&>().state().tissue.x, self); },
+          "positions", [](py::object self) { return PySimulation::view(self.cast<PySimulation&>().state().tissue.x, self); },
           "Node positions (m), an (n, 3) read-only view of the engine's memory")
-      .def("set_positions", &Simulation::set_positions, py::arg("x"),
+      .def("set_positions", &PySimulation::set_positions, py::arg("x"),
            "Moves the nodes to x, an (n, 3) array of finite numbers (velocities stay)")
-      .def_property_readonly("damage", &Simulation::damage_view,
+      .def_property_readonly("damage", &PySimulation::damage_view,
                              "Per-element damage in [0, 1], a read-only float32 view (empty: no damage model)")
-      .def_property_readonly("damage_counts", &Simulation::damage_counts,
+      .def_property_readonly("damage_counts", &PySimulation::damage_counts,
                              "Elements that reached warned, damaged, ruptured")
       .def_property_readonly(
-          "velocities", [](py::object self) { return Simulation::view(self.cast<Simulation&>().state().tissue.v, self); },
+          "velocities", [](py::object self) { return PySimulation::view(self.cast<PySimulation&>().state().tissue.v, self); },
           "Node velocities (m/s), an (n, 3) read-only view of the engine's memory");
 }

@@ -148,7 +148,7 @@ void CrtkBridge::take_commands(Tool& t) {
   if (n > 0) dds_return_loan(t.command_reader, samples, n);
 }
 
-void CrtkBridge::take_servo(Tool& t, int index, CommandGate& gate) {
+void CrtkBridge::take_servo(Tool& t, int index, ToolCommandPort& port) {
   void* samples[16] = {nullptr};
   dds_sample_info_t infos[16];
   const dds_return_t n = dds_take(t.servo_reader, samples, infos, 16, 16);
@@ -175,7 +175,7 @@ void CrtkBridge::take_servo(Tool& t, int index, CommandGate& gate) {
     ToolPose pose;
     pose.position = {p.x, p.y, p.z};
     pose.orientation = {q.w, q.x, q.y, q.z};  // ROS (x, y, z, w) -> Stroma (w, x, y, z)
-    const ToolCheck chk = gate.submit(index, pose, ++t.seq, stamp);
+    const ToolCheck chk = port.submit(index, pose, ++t.seq, stamp, steady_now_ns());
     if (chk.result == ToolCheck::Rejected) {
       cnt_.servo_limits.fetch_add(1);
       spdlog::warn("CRTK: tool '{}' servo_cp rejected ({}): FAULT until enabled again", t.name, chk.reason);
@@ -187,10 +187,10 @@ void CrtkBridge::take_servo(Tool& t, int index, CommandGate& gate) {
   if (n > 0) dds_return_loan(t.servo_reader, samples, n);
 }
 
-void CrtkBridge::take_inputs(CommandGate& gate) {
+void CrtkBridge::take_inputs(ToolCommandPort& port) {
   for (size_t k = 0; k < tools_.size(); ++k) {
     take_commands(*tools_[k]);
-    take_servo(*tools_[k], static_cast<int>(k), gate);
+    take_servo(*tools_[k], static_cast<int>(k), port);
   }
 }
 

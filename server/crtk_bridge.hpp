@@ -15,7 +15,7 @@
 /// servo_cp is applied only while ENABLED. It is refused and counted when its header stamp is 0
 /// (CRTK: invalid data), when a value is not finite, or when the tool is not ENABLED; a pose the
 /// tool's limits reject (workspace, speed; on_invalid: reject) puts the tool in FAULT, which only
-/// `enable` (or `disable`) leaves. Accepted poses go through the same CommandGate as Stroma's own
+/// `enable` (or `disable`) leaves. Accepted poses go through the same commands port (engine/tool_commands.hpp) as Stroma's own
 /// ToolCommand, so both count in SimStatus alike.
 ///
 /// Threads: take_inputs() runs on the server's input thread (its readers are attached to that
@@ -32,7 +32,8 @@
 
 #include "engine/model.hpp"
 #include "engine/physics_loop.hpp"
-#include "server/command_gate.hpp"
+#include "engine/tool_commands.hpp"
+#include "tissue/clock.hpp"
 
 namespace stroma {
 
@@ -61,8 +62,8 @@ class CrtkBridge {
   CrtkBridge& operator=(const CrtkBridge&) = delete;
 
   /// Input thread: takes state commands, then servo_cp samples (the newest per tool first
-  /// wins), through `gate`.
-  void take_inputs(CommandGate& gate);
+  /// wins), through `port`.
+  void take_inputs(ToolCommandPort& port);
   /// Feedback thread: measured_cp and measured_cf of every tool for this tick.
   void publish_feedback(const FeedbackBatch& batch);
 
@@ -75,7 +76,7 @@ class CrtkBridge {
   void set_state(Tool& t, CrtkState s);
   void publish_state(Tool& t);
   void take_commands(Tool& t);
-  void take_servo(Tool& t, int index, CommandGate& gate);
+  void take_servo(Tool& t, int index, ToolCommandPort& port);
 
   const Model& model_;
   std::vector<std::unique_ptr<Tool>> tools_;

@@ -24,7 +24,8 @@
 #include "engine/damage.hpp"
 #include "engine/session_log.hpp"
 #include "engine/state_io.hpp"
-#include "server/command_gate.hpp"
+#include "server/input_counters.hpp"
+#include "tissue/clock.hpp"
 #include "server/crtk_bridge.hpp"
 #include "server/dds_participant.hpp"
 #include "server/state_publisher.hpp"
@@ -188,7 +189,7 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
           const stroma_TissueMesh msg = tissue_mesh_message(surfaces.surfaces()[b], static_cast<uint32_t>(b), session);
           dds_write(ep.mesh_writer, &msg);
         }
-      const int64_t now = monotonic_ns();
+      const int64_t now = steady_now_ns();
       for (const PublishedSurface& s : surfaces.surfaces()) {
         const stroma_TissueState msg = tissue_state_message(s, f, now, session);
         dds_write(ep.state_writer, &msg);  // best effort; a failure is not the physics' problem
@@ -249,9 +250,10 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
       msg.kinetic_energy = st.kinetic_energy;
       msg.elastic_energy = st.elastic_energy;
       msg.controls_received = in.controls.load();
-      msg.commands_accepted = in.accepted.load() + in.clamped.load();
-      msg.commands_rejected = in.rejected.load();
-      msg.commands_superseded = in.superseded.load();
+      const CommandCounters& cc = loop.commands().counters();
+      msg.commands_accepted = cc.accepted.load() + cc.clamped.load();
+      msg.commands_rejected = cc.rejected.load();
+      msg.commands_superseded = cc.superseded.load();
       msg.budget_ms = st.budget_ms;
       msg.ticks_over_budget = st.over_budget;
       msg.ticks_degraded = st.degraded;
@@ -278,7 +280,7 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
 void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool>& stop,
                   InputCounters& cnt, CrtkBridge* crtk) {
   const Model& m = loop.model();
-  CommandGate gate(loop, cnt);
+  ToolCommandPort& port = loop.commands();  // checks and counts every command (engine/tool_commands.hpp)
   void* samples[16] = {nullptr};
   dds_sample_info_t infos[16];
   WriterSeqs seqs;
@@ -308,18 +310,18 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
       for (dds_return_t i = 0; i < n; ++i) {
         if (!infos[i].valid_data) continue;
         const auto* c = static_cast<const stroma_ToolCommand*>(samples[i]);
-        if (const uint64_t g = seqs.gap(infos[i].publication_handle, c->seq)) cnt.superseded.fetch_add(g);
+        if (const uint64_t g = seqs.gap(infos[i].publication_handle, c->seq)) port.count_superseded(g);
         int tool = -1;
         for (size_t t = 0; t < m.tools.size(); ++t)
           if (m.tools[t].name == c->tool) tool = static_cast<int>(t);
         if (tool < 0) {
-          cnt.rejected.fetch_add(1);
+          port.count_rejected();
           spdlog::debug("command for unknown tool '{}' rejected", c->tool);
           continue;
         }
         if (ep.command_reader_tool[r] >= 0 && ep.command_reader_tool[r] != tool) {
           // Protected domain: the writer was permitted this reader's tool partition only.
-          cnt.rejected.fetch_add(1);
+          port.count_rejected();
           spdlog::debug("command for tool '{}' in the partition of '{}' rejected", c->tool,
                         m.tools[ep.command_reader_tool[r]].name);
           continue;
@@ -329,13 +331,13 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
         for (int k = 0; k < 4; ++k) pose.orientation[k] = c->orientation[k];
         pose.jaw = c->jaw;
         pose.buttons = c->buttons;
-        const ToolCheck chk = gate.submit(tool, pose, c->seq, c->client_time_ns);
+        const ToolCheck chk = port.submit(tool, pose, c->seq, c->client_time_ns, steady_now_ns());
         if (chk.result == ToolCheck::Rejected)
           spdlog::debug("tool '{}' command {} rejected: {}", c->tool, c->seq, chk.reason);
       }
       if (n > 0) dds_return_loan(reader, samples, n);
     }
-    if (crtk) crtk->take_inputs(gate);
+    if (crtk) crtk->take_inputs(port);
   }
 }
 
@@ -568,8 +570,8 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
   j["ticks_degraded"] = st.degraded;
   j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
   {
-    const uint64_t a = counters.accepted.load(), c = counters.clamped.load(), r = counters.rejected.load(),
-                   s = counters.superseded.load();
+    const CommandCounters& cc = loop.commands().counters();
+    const uint64_t a = cc.accepted.load(), c = cc.clamped.load(), r = cc.rejected.load(), s = cc.superseded.load();
     j["tool_commands"] = {{"received", a + c + r + s}, {"accepted", a}, {"clamped", c}, {"rejected", r},
                           {"superseded", s}};
   }
@@ -632,7 +634,7 @@ int run_serve(const ServeOptions& o) {
   try {
     const Endpoints ep = create_endpoints(pp.participant, *model, !o.security_dir.empty());
     // A new id per server run: renderers that outlive a server reset on a new session.
-    const uint64_t session = static_cast<uint64_t>(monotonic_ns()) ^ (static_cast<uint64_t>(getpid()) << 40);
+    const uint64_t session = static_cast<uint64_t>(steady_now_ns()) ^ (static_cast<uint64_t>(getpid()) << 40);
     SurfaceExtractor surfaces(scenario);
     publish_scene(ep, scenario, surfaces.surfaces(), session);
 

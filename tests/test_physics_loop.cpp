@@ -129,12 +129,9 @@ TEST(PhysicsLoop, PhaseLockMakesCommandsArriveTheLeadBeforeTheirTick) {
       if (fifo) setup_realtime_thread(RealtimeMode::Auto, -1, 55, 64 * 1024, false);
       const uint64_t seen = loop.feedback_published.load();
       auto publish = [&](uint64_t seq) {
-        ToolInput& slot = loop.tool_in[0]->write_slot();
-        slot = ToolInput{};
-        slot.seq = seq;
-        slot.pose.position = {0.05, 0.5, 0.005};  // far above the beam
-        slot.arrival_ns = steady_now_ns();
-        loop.tool_in[0]->publish();
+        ToolPose pose;
+        pose.position = {0.05, 0.5, 0.005};  // far above the beam
+        loop.commands().submit(0, pose, seq, 0, steady_now_ns());
       };
       // The tick phase from 20 feedbacks (each published when a tick ends): the earliest one,
       // relative to the period, is a tick's start plus its shortest duration. Then send one
@@ -197,11 +194,9 @@ TEST(PhysicsLoop, MultirateStepsTheTissueOnAWorkerAndRendersEveryTick) {
   std::atomic<bool> stop{false};
   std::thread physics([&] { loop.run(stop); });
   // The probe pressed into the liver's top (mesh units) for the whole run.
-  ToolInput& slot = loop.tool_in[0]->write_slot();
-  slot = ToolInput{};
-  slot.seq = 1;
-  slot.pose.position = {0.454, 5.27, 0.154};  // 0.1 into the top of the liver (radius 0.3)
-  loop.tool_in[0]->publish();
+  ToolPose pose;
+  pose.position = {0.454, 5.27, 0.154};  // 0.1 into the top of the liver (radius 0.3)
+  ASSERT_EQ(loop.commands().submit(0, pose, 1, 0, steady_now_ns()).result, ToolCheck::Accepted);
   const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(400);
   uint64_t frames = 0, feedback_batches = 0, in_contact = 0;
   double force_seen = 0;

@@ -137,6 +137,30 @@ def test_a_scripted_probe_presses_as_in_stroma_run_and_set_pose_takes_it_away(tm
         sim.feedback(-1)
 
 
+def test_set_pose_is_checked_refused_and_counted_as_every_front_end_s_commands():
+    # The commands port of the engine's Simulation (docs/PYTHON.md): a NaN, a zero or non-unit
+    # quaternion, or a jump of 10x max_speed in one tick is refused (the scenario's on_invalid:
+    # reject), never applied, and counted, as `serve` refuses and counts them.
+    sim = stroma.Simulation(str(SCENARIOS / "regression" / "liver_probe_press.yaml"))  # max_speed 50
+    assert sim.set_pose(0, [-1.5, 7.0, 0.5]) == "accepted"
+    sim.step(10)
+    held = sim.feedback(0)
+    refused = [
+        sim.set_pose(0, [-1.5, float("nan"), 0.5]),
+        sim.set_pose(0, [-1.5, 7.0, 0.5], [0, 0, 0, 0]),
+        sim.set_pose(0, [-1.5, 7.0, 0.5], [0.5, 0.5, 0.5, 0.6]),
+        sim.set_pose(0, [-1.5, 7.0 - 10 * 50 * 11 * sim.time_step, 0.5]),  # 10x the limit over 11 ticks
+    ]
+    assert refused == ["rejected"] * 4
+    counts = sim.commands
+    assert (counts["accepted"], counts["clamped"], counts["rejected"]) == (1, 0, 4)
+    assert "max_speed" in counts["last_reason"]
+    sim.step(5)
+    assert sim.feedback(0) == held, "the tool held its accepted pose: nothing refused reached the tissue"
+    # Within the limit it moves: 0.04 units in one tick at 50 units/s.
+    assert sim.set_pose(0, [-1.5, 7.0 - 0.04, 0.5]) == "accepted"
+
+
 def test_a_scalpel_run_cuts_as_stroma_run_and_restores_across_the_cut(tmp_path):
     scenario = SCENARIOS / "regression" / "liver_incision.yaml"
     steps = 2500

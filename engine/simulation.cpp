@@ -1,0 +1,154 @@
+#include "engine/simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "engine/cut_worker.hpp"
+#include "tissue/clock.hpp"
+
+namespace stroma {
+
+Simulation::Simulation(std::shared_ptr<const Model> model, SimulationOptions options)
+    : opt_(options),
+      model_(model ? std::move(model) : throw std::invalid_argument("Simulation: no model")),
+      original_(model_),
+      state_(State::initial(*model_)),
+      initial_(state_),
+      work_(std::make_unique<TickWorkspace>(*model_)),
+      port_(model_->tools, model_->time_step) {
+  if (opt_.realtime) work_->stepper().set_realtime(true);
+  const size_t n = model_->tools.size();
+  inputs_.reserve(2 * n + 16);
+  held_.resize(n);
+  has_held_.assign(n, 0);
+  if (model_->cutting && opt_.cut_builds == CutBuilds::OnWorker)
+    cutter_ = std::make_unique<CutWorker>(model_, model_->cut_edge_dofs.size(), opt_.registry);
+}
+
+Simulation::~Simulation() = default;
+
+int Simulation::submit_scripts(const std::vector<Trajectory>& scripts, const std::vector<uint8_t>* skip) {
+  int n = 0;
+  const size_t tools = std::min(scripts.size(), model_->tools.size());
+  const int64_t client_ns = std::llround(state_.time * 1e9);
+  for (size_t t = 0; t < tools; ++t) {
+    if (scripts[t].keys.empty() || (skip && t < skip->size() && (*skip)[t])) continue;
+    port_.submit(static_cast<int>(t), scripts[t].sample(state_.time), static_cast<uint64_t>(state_.step + 1), client_ns,
+                 client_ns);
+    ++n;
+  }
+  return n;
+}
+
+int Simulation::take_commands() {
+  inputs_.resize(model_->tools.size() + 1);  // within the capacity reserved at construction
+  int n = port_.take(inputs_.data(), static_cast<int>(model_->tools.size()));
+  inputs_.resize(static_cast<size_t>(n));
+  if (opt_.hold == ToolHold::Repeat) {
+    // A tool with a new command holds it from now on; the others repeat theirs (as a pose set
+    // from Python stays set), in tool order.
+    size_t taken = 0;
+    for (size_t t = 0; t < held_.size(); ++t) {
+      if (taken < static_cast<size_t>(n) && inputs_[taken].tool == static_cast<int32_t>(t)) {
+        held_[t] = inputs_[taken++];
+        has_held_[t] = 1;
+      }
+    }
+    inputs_.clear();
+    for (size_t t = 0; t < held_.size(); ++t)
+      if (has_held_[t]) {
+        ToolInput in = held_[t];
+        in.seq = static_cast<uint64_t>(state_.step + 1);
+        inputs_.push_back(in);
+      }
+  }
+  return static_cast<int>(inputs_.size());
+}
+
+const TickReport& Simulation::step(Deadline deadline, const ToolInput* trusted, int trusted_count) {
+  retired_ = CutBuild{};  // (Synchronous) the report of the tick before a swap is not read any more
+  take_commands();
+  for (int k = 0; k < trusted_count; ++k) inputs_.push_back(trusted[k]);
+  return tick(*model_, state_, *work_, inputs_.data(), static_cast<int>(inputs_.size()), deadline);
+}
+
+bool Simulation::apply_build(CutBuild& b) {
+  const int64_t refreshes = work_->stepper().preconditioner_refreshes();
+  if (!apply_cut(b, model_, work_, state_)) return false;
+  retired_refreshes_ += refreshes;  // the retired workspace's
+  ++topology_swaps_;
+  return true;
+}
+
+CutStageResult Simulation::cut(int cut_edges) {
+  CutStageResult res;
+  if (!model_->cutting) return res;
+  if (cutter_) {
+    const uint64_t posted = cutter_->stats().posted;
+    res.swapped = cutter_->service(model_, work_, state_, cut_edges, state_.step);
+    res.posted = cutter_->stats().posted != posted;
+    if (res.swapped) {
+      ++topology_swaps_;
+      build_ms_total_ += cutter_->stats().build_ms_last;
+      build_ms_max_ = std::max(build_ms_max_, cutter_->stats().build_ms_last);
+    }
+    return res;
+  }
+  if (cut_edges <= 0) return res;
+  // The blade cut edges: the topology follows before the next tick. The old model, workspace
+  // and state stay in retired_ until then, so the tick's report is still readable.
+  CutBuild b = build_cut(*model_, state_.edge_cut);
+  res.build_ms = b.build_ms;
+  build_ms_total_ += b.build_ms;
+  build_ms_max_ = std::max(build_ms_max_, b.build_ms);
+  res.swapped = apply_build(b);
+  if (res.swapped) retired_ = std::move(b);
+  return res;
+}
+
+const TickReport& Simulation::advance(Deadline deadline) {
+  const TickReport& r = step(deadline);
+  if (model_->cutting) cut(r.cut_edges);
+  return r;  // (a swap keeps the retired workspace, and r with it, until the next step)
+}
+
+bool Simulation::reset() {
+  if (cutter_) {
+    if (!cutter_->reset(original_, model_, work_)) return false;
+  } else if (model_ != original_) {
+    retired_ = CutBuild{};
+    model_ = original_;
+    work_ = std::make_unique<TickWorkspace>(*model_);
+    if (opt_.realtime) work_->stepper().set_realtime(true);
+  }
+  state_ = initial_;  // a copy into arrays at least as large: no allocation
+  std::fill(has_held_.begin(), has_held_.end(), 0);
+  if (!opt_.commands_from_another_thread) port_.seed(state_.tools);
+  return true;
+}
+
+void Simulation::restore(std::shared_ptr<const Model> m, const State& s) {
+  if (cutter_ || opt_.commands_from_another_thread)
+    throw std::logic_error("Simulation::restore: only for a simulation stepped and commanded on one thread");
+  retired_ = CutBuild{};
+  if (m != model_) {
+    model_ = std::move(m);
+    work_ = std::make_unique<TickWorkspace>(*model_);
+    if (opt_.realtime) work_->stepper().set_realtime(true);
+  }
+  state_ = s;
+  if (!opt_.commands_from_another_thread) port_.seed(state_.tools);
+}
+
+bool Simulation::swap_recorded(const std::vector<double>& edge_cut, double* build_ms) {
+  CutBuild b = build_cut(*model_, edge_cut);
+  build_ms_total_ += b.build_ms;
+  build_ms_max_ = std::max(build_ms_max_, b.build_ms);
+  if (build_ms) *build_ms = b.build_ms;
+  if (!apply_build(b)) return false;
+  retired_ = std::move(b);
+  return true;
+}
+
+}  // namespace stroma
