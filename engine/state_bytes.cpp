@@ -87,16 +87,113 @@ class Reader {
 
 }  // namespace
 
+namespace {
+
+/// Padding-free plain records, hashed as their bytes (a new field changes the size: the
+/// static_asserts below then ask for a look at model_fingerprint).
+static_assert(sizeof(ElementParams) == 4 * sizeof(int32_t) + 13 * sizeof(double), "ElementParams has padding");
+static_assert(sizeof(FibreParams) == 5 * sizeof(double), "FibreParams has padding");
+static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 has padding");
+
+void hash_stepper(Fnv& f, const StepperSettings& s) {
+  f.value(static_cast<int>(s.integrator));
+  f.value(static_cast<int>(s.linear_solver));
+  f.value(static_cast<int>(s.preconditioner));
+  f.value(s.max_iterations);
+  f.value(s.tolerance);
+  f.value(static_cast<int>(s.warm_start));
+  f.value(s.static_tolerance);
+  f.value(s.static_max_newton);
+  f.value(s.newton_iterations);
+  f.value(s.newton_tolerance);
+  f.value(s.preconditioner_refresh);
+  f.value(static_cast<uint8_t>(s.refresh_follows_pace));
+}
+
+void hash_tool(Fnv& f, const ToolSpec& t) {
+  f.array(std::vector<char>(t.name.begin(), t.name.end()));
+  for (const double v : {t.workspace_min[0], t.workspace_min[1], t.workspace_min[2], t.workspace_max[0],
+                         t.workspace_max[1], t.workspace_max[2], t.max_speed, t.timeout, t.radius, t.shaft_radius,
+                         t.shaft_length, t.contact_stiffness, t.contact_damping, t.friction, t.max_force,
+                         t.coupling_stiffness, t.coupling_damping, t.grasp_close, t.grasp_open, t.grasp_reach,
+                         t.grasp_stiffness, t.cut_toughness, t.blade_height})
+    f.value(v);
+  f.value(static_cast<int>(t.on_invalid));
+  f.value(static_cast<int>(t.shape));
+  f.value(static_cast<uint8_t>(t.can_grasp));
+  f.value(static_cast<uint8_t>(t.cuts));
+}
+
+void hash_damage(Fnv& f, const DamageSpec& d) {
+  f.value(static_cast<uint8_t>(d.enabled));
+  f.value(static_cast<int>(d.measure));
+  f.value(d.warning);
+  f.value(d.onset);
+  f.value(d.rupture);
+}
+
+}  // namespace
+
 uint64_t model_fingerprint(const Model& m) {
+  // Everything of the compiled model a tick reads, so that two models with the same fingerprint
+  // step a state alike: the FEM system, the step's settings, the tools, damage, contact.
   Fnv f;
-  f.value(m.fem.num_nodes);
-  f.array(m.fem.rest);
-  f.array(m.fem.elements);
-  f.array(m.fem.mass);
+  const FemModel& fem = m.fem;
+  f.value(fem.num_nodes);
+  f.array(fem.rest);
+  f.array(fem.elements);
+  for (const ElementRange& r : fem.ranges) {
+    f.value(r.begin);
+    f.value(r.end);
+    f.value(static_cast<int>(r.kernel));
+    f.value(static_cast<uint8_t>(r.fixed));
+    f.value(static_cast<uint8_t>(r.fibres));
+    f.value(r.visco);
+    f.value(static_cast<uint8_t>(r.smoothed));
+    f.value(r.element_share);
+    f.value(r.patch_elements);
+    f.value(r.element_bulk_share);
+  }
+  f.array(fem.mass);
+  f.array(fem.element_density);
+  f.array(fem.fibres);
+  for (const PronySeries& p : fem.visco) {
+    f.value(p.terms);
+    for (int k = 0; k < p.terms; ++k) {
+      f.value(p.g[k]);
+      f.value(p.tau[k]);
+    }
+  }
+  f.array(fem.alpha);
+  f.array(fem.constrained);
+  f.array(fem.f_ext);
+  f.value(fem.gravity);
+  for (const BodyRange& b : fem.bodies) {
+    f.value(b.density);
+    f.value(b.node_begin);
+    f.value(b.element_begin);
+  }
+  hash_stepper(f, m.stepper);
   f.value(m.time_step);
+  f.value(m.fem_every);
+  f.value(static_cast<uint8_t>(m.haptic_secant));
+  f.value(static_cast<uint8_t>(m.substep_on_cg_cap));
+  f.value(m.time_budget);
+  f.value(m.max_step_displacement);
   f.value(static_cast<uint64_t>(m.tools.size()));
-  f.value(static_cast<uint8_t>(m.cutting != nullptr));
+  for (const ToolSpec& t : m.tools) hash_tool(f, t);
   f.value(static_cast<uint8_t>(m.has_damage));
+  for (const DamageSpec& d : m.body_damage) hash_damage(f, d);
+  for (const DamageSpec& d : m.region_damage) hash_damage(f, d);
+  f.array(m.element_region_damage);
+  f.value(static_cast<uint8_t>(m.has_contact));
+  f.value(static_cast<uint8_t>(m.body_contact.has_value()));
+  if (m.body_contact) {
+    f.value(m.body_contact->stiffness);
+    f.array(m.body_contact->body_depth);
+  }
+  f.array(m.collision_triangles);
+  f.value(static_cast<uint8_t>(m.cutting != nullptr));
   return f.h;
 }
 

@@ -19,9 +19,14 @@
 
 namespace stroma {
 
-/// A hash of what makes a compiled scenario's uncut model the one a state belongs to: its node
-/// count, rest positions, elements (nodes and constants), lumped masses, time step and tools
-/// count. Equal scenarios compiled in different processes give equal fingerprints.
+/// A hash of everything of a compiled scenario's uncut model that a tick reads: the FEM system
+/// (rest positions, elements and their constants, kernels, masses, fibres, Prony series,
+/// Rayleigh α, constraints, external forces and gravity), the stepper's settings, the time step,
+/// multirate, budget and cap policy, every tool's limits and constants, the damage models,
+/// contact and the collision surface. A snapshot is restored only into a simulation whose model
+/// has its fingerprint: another scenario that happens to share the mesh (other gravity, fixed
+/// set, damping, tools) is refused. Equal scenarios compiled in different processes give equal
+/// fingerprints.
 uint64_t model_fingerprint(const Model& uncut);
 
 /// `s` as bytes, stamped with `fingerprint` (model_fingerprint of its scenario's uncut model).

@@ -79,6 +79,30 @@ TEST(StateBytes, FingerprintsTellScenariosApartAndAgreeAcrossCompiles) {
   EXPECT_NE(why.find("positions"), std::string::npos) << why;
 }
 
+TEST(StateBytes, FingerprintIsOfTheWholeCompiledModelNotOfTheMeshAlone) {
+  // liver.yaml and liver_probe_press.yaml share the mesh, its nodes and masses: their states
+  // have the same sizes, yet the models differ (gravity, fixed set, damping, tool), so a
+  // snapshot of one must not restore into the other. Each single change is told apart too.
+  const CompiledScenario liver = compile_scenario(load_scenario(kDir + "liver.yaml"));
+  const CompiledScenario press = compile_scenario(load_scenario(kDir + "regression/liver_probe_press.yaml"));
+  EXPECT_NE(model_fingerprint(*liver.model), model_fingerprint(*press.model));
+  const uint64_t base = model_fingerprint(*liver.model);
+  auto changed = [&](auto&& edit) {
+    Model m = *liver.model;
+    edit(m);
+    return model_fingerprint(m);
+  };
+  EXPECT_NE(changed([](Model& m) { m.fem.gravity[1] += 1e-9; }), base) << "gravity";
+  EXPECT_NE(changed([](Model& m) { m.fem.f_ext[1] += 1e-12; }), base) << "external force";
+  EXPECT_NE(changed([](Model& m) { m.fem.constrained[0] ^= 1; }), base) << "fixed set";
+  EXPECT_NE(changed([](Model& m) { m.fem.alpha[0] += 1e-9; }), base) << "Rayleigh mass damping";
+  EXPECT_NE(changed([](Model& m) { m.fem.elements[0].beta += 1e-12; }), base) << "Rayleigh stiffness damping";
+  EXPECT_NE(changed([](Model& m) { m.stepper.tolerance *= 2; }), base) << "solver tolerance";
+  EXPECT_NE(changed([](Model& m) { m.time_step *= 2; }), base) << "time step";
+  EXPECT_NE(changed([](Model& m) { m.fem.ranges[0].kernel = ElementKernel::Linear; }), base) << "element kernel";
+  EXPECT_EQ(changed([](Model& m) { m.name = "renamed"; }), base) << "a name is not physics";
+}
+
 TEST(StateBytes, BadBytesAreInputErrorsNamingTheField) {
   const CompiledScenario sc = compile_scenario(load_scenario(kDir + "regression/liver_probe_damage.yaml"));
   const std::string good = encode_state(State::initial(*sc.model), 7);

@@ -161,6 +161,24 @@ def test_set_pose_is_checked_refused_and_counted_as_every_front_end_s_commands()
     assert sim.set_pose(0, [-1.5, 7.0 - 0.04, 0.5]) == "accepted"
 
 
+def test_a_snapshot_restores_only_into_a_simulation_of_the_same_compiled_model():
+    # liver.yaml and liver_probe_press.yaml share the mesh (states of one size) but not the model
+    # (gravity, fixed set, damping, a tool): restoring across them is refused and changes nothing.
+    liver = stroma.Simulation(str(SCENARIOS / "liver.yaml"))
+    liver.step(5)
+    snap = liver.snapshot()
+    press = stroma.Simulation(str(SCENARIOS / "regression" / "liver_probe_press.yaml"))
+    press.step(3)
+    before = press.positions.copy()
+    for s in (snap, pickle.loads(pickle.dumps(snap))):
+        with pytest.raises(ValueError, match="another scenario"):
+            press.restore(s)
+    assert press.steps == 3 and np.array_equal(press.positions, before)
+    same = stroma.Simulation(str(SCENARIOS / "liver.yaml"))
+    same.restore(pickle.loads(pickle.dumps(snap)))
+    assert same.steps == 5 and np.array_equal(same.positions, liver.positions)
+
+
 def test_a_scalpel_run_cuts_as_stroma_run_and_restores_across_the_cut(tmp_path):
     scenario = SCENARIOS / "regression" / "liver_incision.yaml"
     steps = 2500
