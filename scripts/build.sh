@@ -3,5 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+# The benchmark programs unless told otherwise (scripts/test.sh leaves them out): the cache
+# keeps the last value, so it is set each time.
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DSTROMA_BUILD_BENCH=ON "$@" >/dev/null
 cmake --build build -j "$jobs"

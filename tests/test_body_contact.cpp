@@ -15,6 +15,7 @@
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "tissue/input_error.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 
@@ -71,6 +72,7 @@ double body_mass(const Model& m, int b) {
 }  // namespace
 
 TEST(BodyContact, BarDroppedOntoAFixedBlockRestsOnItCarryingItsWeight) {
+  STROMA_LONG_TEST();
   const double gap = 0.005;
   auto m = compile_yaml(drop_yaml(gap, 0.0, true));
   ASSERT_TRUE(m->body_contact.has_value());

@@ -14,6 +14,7 @@
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "cantilever_with_probe.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 
@@ -40,6 +41,7 @@ TEST(Contact, NoContactNoForceButTheCollideStageRuns) {
 }
 
 TEST(Contact, SpherePressingTheBeamBalancesTheClampReaction) {
+  STROMA_LONG_TEST();
   auto m = compile_model(beam_with_probe());
   State s = State::initial(*m);
   TickWorkspace w(*m);
@@ -101,6 +103,7 @@ struct LiverProbe {
 // Tool held still in contact for 10 s: the total energy (kinetic + elastic + gravity + contact
 // potential) does not grow.
 TEST(Contact, PassiveWhenTheToolIsHeldStill) {
+  STROMA_LONG_TEST();
   LiverProbe lp;
   // Come down onto the upper surface at (-1.5, ·, 0.5) and press ~0.5 units in.
   for (int k = 0; k <= 1000; ++k) lp.step_to(-1.5, 6.0 - 1.2 * k / 1000.0, 0.5);

@@ -19,6 +19,7 @@
 #include "engine/tick.hpp"
 #include "haptics/feedback.hpp"
 #include "tests/test_scenarios.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 namespace fs = std::filesystem;
@@ -152,6 +153,7 @@ TEST(Feedback, ServedAndHeadlessGiveTheSameFeedbackAndTheCouplingsTorque) {
 // the start of the tick — this tick's tool motion pressed into last tick's surface — would read
 // tens of per cent high here.
 TEST(Feedback, SlowIndenterFollowsTheQuasiStaticForceCurve) {
+  STROMA_LONG_TEST();
   const double a = 0.05, H = 0.05, R = 0.005, speed = 1e-3;  // m, m/s
   const std::string mesh =
       write_quarter_block((fs::temp_directory_path() / "stroma_feedback_block.msh").string(), a, H, 5e-4, 1.5);

@@ -14,6 +14,7 @@
 
 #include "engine/compiled_scenario.hpp"
 #include "engine/tick.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 
@@ -34,6 +35,7 @@ std::string case_name(const testing::TestParamInfo<InexactCase>& p) {
 class InexactSolve : public testing::TestWithParam<InexactCase> {};
 
 TEST_P(InexactSolve, NeverGainsEnergyAndNeverDiverges) {
+  STROMA_LONG_TEST();
   const InexactCase& c = GetParam();
   ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/physical/" + c.scene);
   spec.solver.on_cg_cap = CapPolicy::Continue;  // keep capped steps: what is under test
@@ -94,6 +96,7 @@ INSTANTIATE_TEST_SUITE_P(PhysicalScenes, InexactSolve,
 // the reason the scene ships with it. Checked on both, so the test shows the difference it
 // relies on.
 TEST(SofaSettingsLiver, TheWarpedPreconditionerMeetsSofasToleranceWithinItsCapEveryTick) {
+  STROMA_LONG_TEST();
   for (Preconditioner prec : {Preconditioner::Jacobi, Preconditioner::WarpedCholesky}) {
     ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver_sofa_settings.yaml");
     ASSERT_EQ(spec.solver.max_iterations, 25);

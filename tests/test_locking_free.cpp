@@ -34,6 +34,7 @@
 #include "tissue/input_error.hpp"
 #include "tissue/mesh_prepare.hpp"
 #include "tissue/nodal_smoothing.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 using namespace stroma::test_fem;
@@ -378,6 +379,7 @@ TEST(LockingFree, MatrixFreeCgAndAssembledCholmodGiveTheSameStaticBlock) {
 }
 
 TEST(LockingFree, ReleasedNearIncompressibleBlockNeverGainsEnergy) {
+  STROMA_LONG_TEST();
   // A twisted-and-squeezed free block released at rest, no damping: implicit Euler may only lose
   // energy. A spurious low-energy mode or a wrong tangent would show as growth or blow-up.
   for (const std::string lf : {"{method: node_smoothing, stabilisation: 0.05}", "element_patches"}) {

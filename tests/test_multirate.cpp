@@ -14,6 +14,7 @@
 #include "haptics/tool_shape.hpp"
 #include "tissue/input_error.hpp"
 #include "cantilever_with_probe.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 
@@ -88,6 +89,7 @@ TEST(Multirate, TicksRenderTheModelOfTheStepThatHasFinished) {
 // model missed: the secant model (force + measured stiffness × motion since) keeps those jumps
 // smaller than holding the force (measured: by a third).
 TEST(Multirate, SecantModelSmoothsTheForceBetweenSteps) {
+  STROMA_LONG_TEST();
   auto run = [](bool secant) {
     ScenarioSpec spec = beam_with_probe(10, secant);
     // A finer beam (2 mm elements) under a 6 mm sphere: enough contact points that the steps'

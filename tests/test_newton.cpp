@@ -14,6 +14,7 @@
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 
@@ -78,6 +79,7 @@ TEST(Newton, RefinedStepSolvesTheNonlinearImplicitEulerEquations) {
 // energy scale); with Newton iterations — what the default (`auto`) gives a 33 ms step — the
 // total energy stays within 1 % of where it started.
 TEST(Newton, IterationsStopTheEnergyGainOfLargeSteps) {
+  STROMA_LONG_TEST();
   double growth[2];
   for (int run = 0; run < 2; ++run) {
     ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");

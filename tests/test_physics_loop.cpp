@@ -17,6 +17,7 @@
 #include "engine/spsc_queue.hpp"
 #include "tissue/clock.hpp"
 #include "cantilever_with_probe.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 
@@ -109,6 +110,7 @@ TEST(PhysicsLoop, TicksAtTheStepRateAndObeysControlsFromAnotherThread) {
 // arrive the asked lead (200 µs) before them. The scene is a beam at rest with its probe far
 // away: ticks of a few µs.
 TEST(PhysicsLoop, PhaseLockMakesCommandsArriveTheLeadBeforeTheirTick) {
+  STROMA_TIMING_TEST();
   auto m = compile_model(test_scenarios::cantilever_with_probe());
   ASSERT_FALSE(m->tools.empty());
   // As served: the loop and the client under SCHED_FIFO when permitted (a loaded test machine

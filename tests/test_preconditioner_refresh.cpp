@@ -34,6 +34,7 @@
 #include "tissue/fem_build.hpp"
 #include "tissue/solver_choice.hpp"
 #include "tissue/time_stepper.hpp"
+#include "test_labels.hpp"
 
 namespace stroma {
 namespace {
@@ -282,6 +283,7 @@ ScenarioSpec stiff_press() {
 // Penalty contact is not in the rest-pose factor; a refreshed factor contains it. A stiff sphere
 // pressing a soft block: CG iterations in contact drop with the refresh.
 TEST(PreconditionerRefresh, ContactStiffnessEntersTheRefreshedFactor) {
+  STROMA_LONG_TEST();
   ScenarioSpec spec = stiff_press();
   spec.solver.preconditioner_refresh = 0;
   const RunTrace rest = run(spec, 60);
@@ -300,6 +302,7 @@ TEST(PreconditionerRefresh, ContactStiffnessEntersTheRefreshedFactor) {
 // from its iterate. Every solve converges, the trajectory is the plain warped one to the
 // tolerance, and the fallback is reported.
 TEST(PreconditionerRefresh, CappedWarpedSolveFallsBackToJacobi) {
+  STROMA_LONG_TEST();
   ScenarioSpec spec = stiff_press();
   spec.solver.preconditioner_refresh = 0;
   spec.solver.max_iterations = 2000;  // share ≥ the ~20–30 iterations contact needs: no fallback
@@ -340,6 +343,7 @@ TEST(PreconditionerRefresh, SubStepsKeepTheTicksFactor) {
 // `stroma run` reports what the warped preconditioner did in summary.json: the fallbacks to
 // Jacobi and the refreshed factors swapped in — the same counts the ticks reported.
 TEST(PreconditionerRefresh, RunSummaryCountsFallbacksAndRefreshes) {
+  STROMA_LONG_TEST();
   ScenarioSpec spec = stiff_press();
   spec.solver.preconditioner_refresh = 8;
   spec.solver.max_iterations = 200;
@@ -511,6 +515,7 @@ TEST(PreconditionerRefresh, RealTimeResetDropsTheJobUnderWayAndRefreshesResume) 
 // steps from rest did, its ticks slow down, and the worker has time to refresh more often — the
 // period shrinks (deterministically: from the iteration count, never a clock).
 TEST(PreconditionerRefresh, AutoPeriodShrinksWhenTheFactorGoesStale) {
+  STROMA_LONG_TEST();
   ScenarioSpec spec = load_scenario(kScenarios + "physical/armadillo_0p15m.yaml");
   spec.solver.preconditioner = Preconditioner::WarpedCholesky;
   spec.solver.tolerance = 1e-6;

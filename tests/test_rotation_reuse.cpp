@@ -17,6 +17,7 @@
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "tissue/fem_forces.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 
@@ -172,6 +173,7 @@ TEST(RotationReuse, TheNextAssembleTakesTheGuardsRotationsOnlyWherePositionsAreT
 // and the sub-step ladder redoes ticks that hit the cap. The trajectories agree to round-off;
 // the reuse happened in one run and not in the other.
 TEST(RotationReuse, TicksWithAndWithoutReuseFollowTheSameTrajectory) {
+  STROMA_LONG_TEST();
   ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
   BodySpec second = spec.bodies[0];
   second.name = "neo_hookean";

@@ -20,6 +20,7 @@
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "tissue/solver_choice.hpp"
+#include "test_labels.hpp"
 
 namespace stroma {
 namespace {
@@ -277,6 +278,7 @@ TEST(SolverReport, SummaryJsonSaysWhatRunsAndWhoChoseIt) {
 // no solve reaches 1e-9); converged with the engine's choice every solve reaches it, and the
 // comparison measures how far SOFA's capped solves are off.
 TEST(SolverComparison, SofaBeamAsWrittenAgainstConverged) {
+  STROMA_LONG_TEST();
   const ScenarioSpec spec = load_scenario(kScenarios + "sofa/beam_k6.scn");
   ASSERT_EQ(spec.solver.preconditioner, Preconditioner::None);
   const SolverComparison c = compare_with_converged(spec, 60);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "bench/stability/stability_suite.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 
@@ -60,6 +61,7 @@ const std::vector<std::string> kClaimed = {
 }  // namespace
 
 TEST(Stability, QuickSuiteKeepsEveryStateFiniteAndPassesTheClaimedRegime) {
+  STROMA_LONG_TEST();
   StabilityOptions o;
   o.quick = true;
   o.source_dir = STROMA_SOURCE_DIR;

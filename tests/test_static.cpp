@@ -16,6 +16,7 @@
 #include "engine/compiled_scenario.hpp"
 #include "engine/headless_runner.hpp"
 #include "tests/test_scenarios.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 namespace fs = std::filesystem;
@@ -47,6 +48,7 @@ nlohmann::json read_json(const fs::path& p) {
 // Newton solve of the whole load diverges; load stepping reaches the equilibrium in several
 // increments, and the tool's force is reported in summary.json and metrics.csv.
 TEST(Static, DeepIndentationConvergesWithLoadSteppingAndReportsTheToolForce) {
+  STROMA_LONG_TEST();
   const CompiledScenario sc = compile_scenario(parse_scenario(indentation_yaml("stable_neo_hookean", 0.005), "s.yaml", ""));
   const fs::path dir = fs::temp_directory_path() / "stroma_static_deep";
   fs::remove_all(dir);

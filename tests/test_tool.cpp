@@ -14,6 +14,7 @@
 #include "engine/trajectory.hpp"
 #include "tests/test_scenarios.hpp"
 #include "tissue/input_error.hpp"
+#include "test_labels.hpp"
 
 using namespace stroma;
 namespace fs = std::filesystem;
@@ -128,6 +129,7 @@ double max_distance(const std::vector<double>& a, const std::vector<double>& b) 
 // energy stayed at the pressed level. After `timeout` the idle tool lets go and the tissue
 // returns to where it rests without a tool.
 TEST(ScriptedTool, IdleToolReleasesTheTissueAfterItsTimeout) {
+  STROMA_LONG_TEST();
   ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/physical/liver_16cm.yaml");
   const CompiledScenario sc = compile_scenario(spec);
   ASSERT_DOUBLE_EQ(sc.model->tools.at(0).timeout, 0.5);
