@@ -18,6 +18,7 @@
 #include <fcl/fcl.h>
 
 #include "collision/triangle_bvh.hpp"
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 
 using namespace stroma;

@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 
 #include "bench/bench_stats.hpp"
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "tissue/cut_blade.hpp"

@@ -29,6 +29,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "tissue/cut_model.hpp"

@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"

@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 
 #include "engine/compiled_scenario.hpp"
+#include "engine/model_check.hpp"
+#include "tissue/demand.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/model.hpp"
 #include "engine/solver_comparison.hpp"
@@ -699,6 +701,10 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
   if (spec.body_contact) compile_body_contact(*spec.body_contact, spec, *model);
   if (std::any_of(model->tools.begin(), model->tools.end(), [](const ToolSpec& t) { return t.cuts; }))
     enable_cutting(*model);
+#if STROMA_DEMANDS_ON
+  std::string why;  // the model's documented invariants (engine/model_check.hpp)
+  STROMA_DEMAND(model_invariants_hold(*model, &why), "compiled model: " + why);
+#endif
   out.model = std::move(model);
   return out;
 }

@@ -59,4 +59,9 @@ struct CompileOptions {
 /// problem; nothing is half-built.
 CompiledScenario compile_scenario(const ScenarioSpec& spec, const CompileOptions& options = {});
 
+/// Loads every mesh, validates materials and selections against them, and compiles the model
+/// alone (tests and benchmarks; the commands use compile_scenario). Throws InputError with the
+/// scenario file, line and field on any problem.
+std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec);
+
 }  // namespace stroma

@@ -1,4 +1,6 @@
 #include "engine/cut_compile.hpp"
+#include "engine/model_check.hpp"
+#include "tissue/demand.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -257,6 +259,10 @@ std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<c
     area += triangle_area(&pts[3 * t.v[0]], &pts[3 * t.v[1]], &pts[3 * t.v[2]]);
   }
   st.cut_area = 0.5 * area;
+#if STROMA_DEMANDS_ON
+  std::string why;  // a cut model keeps the model's invariants (engine/model_check.hpp)
+  STROMA_DEMAND(model_invariants_hold(*m, &why), "cut model: " + why);
+#endif
   return m;
 }
 

@@ -48,7 +48,7 @@ int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* reco
     if (!m.body_damage[b].enabled && !regions) continue;
     const BodyRange& br = m.fem.bodies[b];
     for (int32_t e = br.element_begin; e < br.element_end; ++e) {
-      const DamageSpec& d = damage_of(m, b, e);
+      const DamageModel& d = damage_of(m, b, e);
       if (!d.enabled) continue;
       if (s.damage_level[e] == kRuptured) continue;
       const double v = element_damage_measure(m, x, e, d.measure);

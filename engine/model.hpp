@@ -1,7 +1,8 @@
 #pragma once
 /// \file model.hpp
 /// The compiled, immutable scenario model (as MuJoCo's mjModel): the constants the tick reads,
-/// typed and resolved — nothing else. Built once by compile_scenario() (compiled_scenario.hpp),
+/// typed and resolved, and the few its outputs read (name, probes, body_tets, a cut model's
+/// edge state and serial). Built once by compile_scenario() (compiled_scenario.hpp),
 /// shared read-only by every thread. The scenario text, log notes, headless tool scripts and
 /// visual surfaces live beside it in CompiledScenario: the tick never reads them.
 
@@ -12,7 +13,7 @@
 #include <vector>
 
 #include "collision/body_contact.hpp"
-#include "engine/scenario_spec.hpp"
+#include "engine/damage_model.hpp"
 #include "haptics/tool.hpp"
 #include "tissue/barycentric.hpp"
 #include "tissue/cut_topology.hpp"
@@ -72,11 +73,11 @@ struct Model {
   double max_step_displacement = 0;
   std::vector<ProbeModel> probes;
   std::vector<ToolSpec> tools;            ///< resolved (see the invariants), in scenario order
-  std::vector<DamageSpec> body_damage;    ///< per body (enabled = false: no damage model)
+  std::vector<DamageModel> body_damage;    ///< per body (enabled = false: no damage model)
   /// Damage models of regions that have their own (`regions: [{…, damage: …}]`), and per element
   /// the one it follows: an index into region_damage, or −1 for its body's. Empty: every element
   /// follows its body's. damage_of() reads either.
-  std::vector<DamageSpec> region_damage;
+  std::vector<DamageModel> region_damage;
   std::vector<int32_t> element_region_damage;
   bool has_damage = false;                ///< some body has a damage model: damage stage runs
   std::vector<double> element_node_mass;  ///< ρV/4 of each element (damage: removed at rupture)
@@ -123,7 +124,7 @@ struct Model {
 };
 
 /// The damage model element e of body b follows (its region's, or its body's).
-inline const DamageSpec& damage_of(const Model& m, size_t b, int32_t e) {
+inline const DamageModel& damage_of(const Model& m, size_t b, int32_t e) {
   if (m.element_region_damage.empty() || m.element_region_damage[e] < 0) return m.body_damage[b];
   return m.region_damage[m.element_region_damage[e]];
 }
@@ -137,9 +138,5 @@ inline bool body_can_tear(const Model& m, size_t b) {
   return false;
 }
 
-/// Loads every mesh, validates materials and selections against them, and compiles the model
-/// alone (tests and benchmarks; the commands use compile_scenario). Throws InputError with the
-/// scenario file, line and field on any problem.
-std::shared_ptr<const Model> compile_model(const ScenarioSpec& spec);
 
 }  // namespace stroma

@@ -20,7 +20,7 @@
 
 #include "engine/model.hpp"
 #include "engine/state.hpp"
-#include "engine/tick.hpp"
+#include "engine/tick_types.hpp"
 
 namespace stroma {
 

@@ -280,8 +280,7 @@ void PhysicsLoop::tissue_worker() {
     d.at_ns = tissue_deadline_;
     r.budget_ns = d.at_ns > 0 ? d.at_ns - t0 : 0;
     step_tissue(m, fem_state_, sim_.workspace(), d, m.fem_every);
-    r.total_ns = steady_now_ns() - t0;
-    r.over_budget = tissue_deadline_ > 0 && t0 + r.total_ns > tissue_deadline_;
+    close_report(r, t0, tissue_deadline_);  // the tick's accounting (engine/tick_types.hpp)
     step_kinetic_ = sim_.workspace().stepper().kinetic_energy(fem_state_.tissue);  // O(n): here, not in a tick
     tissue_done_.store(seen, std::memory_order_release);
   }

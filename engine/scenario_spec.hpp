@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/damage_model.hpp"
 #include "haptics/tool.hpp"
 #include "tissue/options.hpp"
 #include "tissue/tet_mesh.hpp"
@@ -108,22 +109,8 @@ inline int resolved_newton_iterations(int newton_iterations, double time_step) {
   return time_step > 1.0e-3 * (1 + 1e-9) ? kAutoNewtonLargeStep : 1;
 }
 
-/// Which per-element quantity damage thresholds apply to.
-enum class DamageMeasure {
-  VonMises,         ///< von Mises stress of the corotated small strain (Pa)
-  PrincipalStrain   ///< largest principal value of the corotated small strain (–)
-};
-
-/// `material.damage:` section: thresholds on a per-element measure. Between onset and rupture
-/// the damage variable d = (m − onset)/(rupture − onset) grows (never decreases) and scales the
-/// element's stiffness by (1 − d); at rupture (d = 1) the element carries no stiffness.
-struct DamageSpec {
-  bool enabled = false;
-  DamageMeasure measure = DamageMeasure::VonMises;
-  double warning = 0;  ///< reported before harm (≤ onset); 0 = onset
-  double onset = 0;
-  double rupture = 0;
-};
+/// `material.damage:` section (engine/damage_model.hpp): the compiled model's type, as parsed.
+using DamageSpec = DamageModel;
 
 /// `material:` section of a body.
 /// `fibres:` of a material: one family of exponential (Holzapfel–Gasser–Ogden) fibres on a

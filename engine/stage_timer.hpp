@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-#include "engine/tick.hpp"
+#include "engine/tick_types.hpp"
 #include "tissue/clock.hpp"
 
 namespace stroma {

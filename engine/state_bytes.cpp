@@ -124,7 +124,7 @@ void hash_tool(Fnv& f, const ToolSpec& t) {
   f.value(static_cast<uint8_t>(t.cuts));
 }
 
-void hash_damage(Fnv& f, const DamageSpec& d) {
+void hash_damage(Fnv& f, const DamageModel& d) {
   f.value(static_cast<uint8_t>(d.enabled));
   f.value(static_cast<int>(d.measure));
   f.value(d.warning);
@@ -183,8 +183,8 @@ uint64_t model_fingerprint(const Model& m) {
   f.value(static_cast<uint64_t>(m.tools.size()));
   for (const ToolSpec& t : m.tools) hash_tool(f, t);
   f.value(static_cast<uint8_t>(m.has_damage));
-  for (const DamageSpec& d : m.body_damage) hash_damage(f, d);
-  for (const DamageSpec& d : m.region_damage) hash_damage(f, d);
+  for (const DamageModel& d : m.body_damage) hash_damage(f, d);
+  for (const DamageModel& d : m.region_damage) hash_damage(f, d);
   f.array(m.element_region_damage);
   f.value(static_cast<uint8_t>(m.has_contact));
   f.value(static_cast<uint8_t>(m.body_contact.has_value()));

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "engine/stage_timer.hpp"
+#include "engine/tick.hpp"  // step_inputs
 
 namespace stroma {
 

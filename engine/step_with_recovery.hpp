@@ -23,7 +23,7 @@
 
 #include "engine/model.hpp"
 #include "engine/state.hpp"
-#include "engine/tick.hpp"
+#include "engine/tick_types.hpp"
 #include "tissue/deadline.hpp"
 
 namespace stroma {

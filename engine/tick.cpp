@@ -1,4 +1,6 @@
 #include "engine/tick.hpp"
+#include "engine/model_check.hpp"
+#include "tissue/demand.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -300,6 +302,7 @@ bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, 
 
 const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInput* inputs, int input_count,
                        Deadline deadline) {
+  STROMA_DEMAND(state_sized_for(m, s), "tick: the state does not fit the model (engine/model_check.hpp)");
   TickReport& r = w.report;
   const int64_t t0 = steady_now_ns();
   if (!deadline.active() && m.time_budget > 0) deadline.at_ns = t0 + static_cast<int64_t>(m.time_budget * 1e9);
@@ -315,8 +318,7 @@ const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInp
     if (multirate)
       for (ToolState& ts : s.tools) ts.haptic = ts.haptic_next;
     if (!step_tissue(m, s, w, deadline, 1)) {
-      r.total_ns = steady_now_ns() - t0;
-      r.over_budget = tick_deadline > 0 && t0 + r.total_ns - r.refresh_wait_ns > tick_deadline;
+      close_report(r, t0, tick_deadline);
       return r;
     }
   } else {
@@ -327,8 +329,7 @@ const TickReport& tick(const Model& m, State& s, TickWorkspace& w, const ToolInp
     StageTimer t(r, Stage::HandOff);
     render_haptic_models(m, s, r.tools);
   }
-  r.total_ns = steady_now_ns() - t0;
-  r.over_budget = tick_deadline > 0 && t0 + r.total_ns - r.refresh_wait_ns > tick_deadline;
+  close_report(r, t0, tick_deadline);
   return r;
 }
 

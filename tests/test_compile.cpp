@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"

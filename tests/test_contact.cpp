@@ -10,6 +10,7 @@
 #include <set>
 
 #include "collision/triangle_bvh.hpp"
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"

@@ -19,6 +19,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/cut_swap.hpp"
 #include "engine/damage.hpp"

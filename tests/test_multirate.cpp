@@ -7,6 +7,7 @@
 #include <cmath>
 #include <vector>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/multirate.hpp"
 #include "engine/state.hpp"

@@ -12,6 +12,7 @@
 
 #include <time.h>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/physics_loop.hpp"
 #include "engine/realtime.hpp"
 #include "engine/spsc_queue.hpp"

@@ -22,6 +22,7 @@
 #include <sstream>
 #include <string>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"

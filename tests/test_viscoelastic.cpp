@@ -26,6 +26,7 @@
 #include <sstream>
 #include <string>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/cut_swap.hpp"
 #include "engine/model.hpp"

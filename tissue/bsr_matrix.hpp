@@ -16,7 +16,7 @@ namespace stroma {
 /// the blocks (i, j) with j ≥ i; block (j, i) is the transpose of (i, j) and is not stored.
 /// Every row has its diagonal block, first (columns in each row are sorted ascending).
 /// Why upper only: the element pass adds 10 blocks per tetrahedron instead of 16 and the SpMV
-/// reads ~0.55× the bytes (docs/PERFORMANCE.md, "Upper-triangle storage").
+/// reads ~0.55× the bytes (docs/PERFORMANCE.md, "Physical scale": the optimisations table).
 struct BsrPattern {
   int32_t n = 0;                  ///< block rows (= nodes)
   std::vector<int32_t> row_ptr;   ///< n+1 offsets into `col`

@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 
+#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
 #include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"

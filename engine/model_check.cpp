@@ -1,0 +1,87 @@
+#include "engine/model_check.hpp"
+
+namespace stroma {
+
+namespace {
+
+/// Records the first broken invariant.
+struct Checker {
+  std::string* why;
+  bool ok = true;
+  bool operator()(bool holds, const char* what) {
+    if (!holds && ok) {
+      ok = false;
+      if (why) *why = what;
+    }
+    return holds;
+  }
+};
+
+}  // namespace
+
+bool model_invariants_hold(const Model& m, std::string* why) {
+  Checker c{why};
+  const FemModel& f = m.fem;
+  const size_t n = static_cast<size_t>(f.num_nodes), ne = f.elements.size();
+  c(f.num_nodes > 0, "fem.num_nodes > 0");
+  c(f.rest.size() == 3 * n && f.f_ext.size() == 3 * n, "fem.rest and fem.f_ext have 3 entries per node");
+  c(f.mass.size() == n && f.inv_mass.size() == n && f.alpha.size() == n && f.constrained.size() == n,
+    "fem.mass, inv_mass, alpha and constrained have one entry per node");
+  c(f.slots.size() == ne, "fem.slots parallel to fem.elements");
+  c(f.rest_frame.empty() || f.rest_frame.size() == ne, "fem.rest_frame empty or parallel to the elements");
+  c(f.element_density.empty() || f.element_density.size() == ne, "fem.element_density empty or per element");
+  c(f.fibres.empty() || f.fibres.size() == ne, "fem.fibres empty or per element");
+  c(f.pattern.n == f.num_nodes && f.pattern.diag.size() == n && f.pattern.row_ptr.size() == n + 1,
+    "fem.pattern has a block row and a diagonal slot per node");
+  c(f.node_element_ptr.size() == n + 1, "fem.node_element_ptr has nodes + 1 offsets");
+  int32_t next = 0;
+  for (const ElementRange& r : f.ranges) {
+    c(r.begin == next && r.end >= r.begin, "fem.ranges cover the elements in order without overlap");
+    c(r.visco < static_cast<int32_t>(f.visco.size()), "a range's Prony series is one of fem.visco");
+    next = r.end;
+  }
+  c(static_cast<size_t>(next) == ne, "fem.ranges cover every element");
+  for (const ElementParams& e : f.elements) {
+    bool nodes_ok = true;
+    for (int32_t v : e.node) nodes_ok = nodes_ok && v >= 0 && static_cast<size_t>(v) < n;
+    c(nodes_ok, "every element's nodes are nodes of the model");
+    c(e.volume > 0 && e.lambda >= 0 && e.mu >= 0 && e.beta >= 0, "elements: volume > 0, lambda, mu, beta >= 0");
+    if (!c.ok) break;
+  }
+  c(m.time_step > 0 && m.fem_every >= 1, "time_step > 0, fem_every >= 1");
+  c(m.max_step_displacement > 0, "max_step_displacement > 0");
+  bool shaped = false;
+  for (const ToolSpec& t : m.tools) {
+    shaped = shaped || t.shape != ToolShape::None;
+    c(t.shape == ToolShape::None || t.contact_stiffness > 0, "a shaped tool's contact stiffness is resolved (> 0)");
+    c(!t.can_grasp || t.grasp_stiffness > 0, "a grasping tool's grasp stiffness is resolved (> 0)");
+    for (int k = 0; k < 3; ++k) c(t.workspace_min[k] <= t.workspace_max[k], "tool workspace min <= max");
+  }
+  c(m.has_contact == (shaped || m.body_contact.has_value()), "has_contact <=> a shaped tool or body contact");
+  const size_t tris = m.collision_triangles.size();
+  c(m.collision_dofs.size() == tris && m.collision_edge.size() == tris && m.collision_face_elem.size() == tris,
+    "the collision arrays are parallel");
+  c(m.has_contact || tris == 0, "collision arrays only for contact scenes");
+  c(m.body_damage.size() == f.bodies.size(), "one damage model per body");
+  c(m.element_region_damage.empty() || m.element_region_damage.size() == ne,
+    "element_region_damage empty or per element");
+  c(m.has_damage == !m.element_node_mass.empty(), "element_node_mass sized exactly when has_damage");
+  c(!m.has_damage || m.element_node_mass.size() == ne, "element_node_mass per element");
+  c(!(m.has_damage && m.has_contact) || m.element_face_ptr.size() == ne + 1,
+    "element_face_ptr has elements + 1 offsets with damage and contact");
+  c(!m.cutting || m.topology != nullptr, "a cutting model has its topology");
+  return c.ok;
+}
+
+bool state_sized_for(const Model& m, const State& s) {
+  const size_t dofs = 3 * static_cast<size_t>(m.fem.num_nodes), ne = m.fem.elements.size();
+  return s.tissue.x.size() == dofs && s.tissue.v.size() == dofs && s.tools.size() == m.tools.size() &&
+         s.tissue.visco_q.size() == static_cast<size_t>(m.fem.visco_q_size) &&
+         s.tissue.visco_s0.size() == static_cast<size_t>(m.fem.visco_s0_size) &&
+         (m.has_damage ? s.damage.size() == ne && s.damage_level.size() == ne &&
+                             s.node_mass.size() == static_cast<size_t>(m.fem.num_nodes)
+                       : s.damage.empty()) &&
+         s.edge_cut.size() == (m.cutting ? m.cut_edge_dofs.size() : 0);
+}
+
+}  // namespace stroma
