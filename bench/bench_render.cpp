@@ -24,9 +24,9 @@
 #include "render/gl_context.hpp"
 #include "render/png_io.hpp"
 #include "render/renderer.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
-#include "tissue/surface_io.hpp"
+#include "io/surface_io.hpp"
 
 using namespace stroma;
 using namespace stroma::render;

@@ -11,7 +11,7 @@
 # SERVE_ARGS="..." passes more options to the server (e.g. "--phase-lead-us 0": the fixed
 # schedule, for an A/B of the phase lock).
 # DDS_CONFIG=FILE passes --dds-config FILE to the server and the client (e.g.
-# server/cyclonedds-loopback.xml: the loopback configuration without real-time receive threads,
+# dds/cyclonedds-loopback.xml: the loopback configuration without real-time receive threads,
 # for an A/B of that setting).
 set -euo pipefail
 cd "$(dirname "$0")/.."

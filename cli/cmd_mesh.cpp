@@ -17,11 +17,11 @@
 #include "cli/commands.hpp"
 #include "engine/starter_scenario.hpp"
 #include "tissue/input_error.hpp"
-#include "tissue/label_image.hpp"
-#include "tissue/mesh_write.hpp"
+#include "io/label_image.hpp"
+#include "io/mesh_write.hpp"
 #include "tissue/meshing/mesher.hpp"
 #include "tissue/meshing/quality_report.hpp"
-#include "tissue/surface_io.hpp"
+#include "io/surface_io.hpp"
 
 namespace fs = std::filesystem;
 

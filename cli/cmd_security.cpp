@@ -1,13 +1,13 @@
 /// \file cmd_security.cpp
 /// `stroma security init DIR`: a test PKI and signed DDS Security documents for a protected
-/// domain (server/dds_security.hpp; SECURITY.md).
+/// domain (dds/dds_security.hpp; SECURITY.md).
 
 #include <algorithm>
 
 #include <spdlog/spdlog.h>
 
 #include "cli/commands.hpp"
-#include "server/dds_security.hpp"
+#include "dds/dds_security.hpp"
 
 namespace stroma::cli {
 

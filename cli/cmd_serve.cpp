@@ -49,7 +49,7 @@ void add_serve(CLI::App& app, std::vector<Command>& out) {
                   "state_command in; measured_cp, measured_cf, operating_state out (docs/CRTK.md)");
   serve->footer(
       "Network: by default every DDS participant is on the loopback interface only, without multicast\n"
-      "(secure by default). To serve on a LAN, copy server/cyclonedds-loopback.xml, replace \"lo\" by\n"
+      "(secure by default). To serve on a LAN, copy dds/cyclonedds-loopback.xml, replace \"lo\" by\n"
       "your interface and pass it with --dds-config FILE (or set CYCLONEDDS_URI).\n"
       "Topics: stroma_TissueMesh, stroma_TissueState, stroma_SimStatus (out), stroma_Control (in); see docs/DDS.md.");
   out.push_back({serve, [srv] { return run_serve(*srv); }});

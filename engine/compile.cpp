@@ -20,9 +20,9 @@
 #include "tissue/input_error.hpp"
 #include "tissue/mat3.hpp"
 #include "tissue/material.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
-#include "tissue/surface_io.hpp"
+#include "io/surface_io.hpp"
 
 namespace stroma {
 

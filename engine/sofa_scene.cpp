@@ -17,7 +17,7 @@
 #include <fmt/format.h>
 
 #include "tissue/input_error.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
 
 namespace stroma {

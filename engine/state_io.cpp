@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 
 #include "tissue/input_error.hpp"
-#include "tissue/text_scan.hpp"
+#include "io/text_scan.hpp"
 
 namespace stroma {
 

@@ -8,7 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "ros_crtk.h"
-#include "server/dds_participant.hpp"
+#include "dds/dds_participant.hpp"
 
 namespace stroma {
 

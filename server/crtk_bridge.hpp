@@ -3,7 +3,7 @@
 /// `stroma serve --crtk`: each tool as a CRTK device on ROS 2's DDS conventions (docs/CRTK.md),
 /// so a ROS 2 node drives it and feels its force with no bridge and no ROS on the server.
 ///
-/// Per tool T (topic names as ROS 2 puts them on DDS, types from server/ros_crtk.idl):
+/// Per tool T (topic names as ROS 2 puts them on DDS, types from dds/ros_crtk.idl):
 ///   rt/T/servo_cp         geometry_msgs/PoseStamped    in   the device pose, pre-emptive (newest wins)
 ///   rt/T/state_command    crtk_msgs/StringStamped      in   enable | disable | pause | resume
 ///   rt/T/measured_cp      geometry_msgs/PoseStamped    out  the tool's pose, every tick

@@ -18,7 +18,7 @@
 
 #include "engine/realtime.hpp"
 #include "engine/trajectory.hpp"
-#include "server/dds_participant.hpp"
+#include "dds/dds_participant.hpp"
 #include "stroma.h"
 
 namespace stroma {

@@ -29,7 +29,7 @@
 #include "tissue/cut_model.hpp"
 #include "tissue/cut_topology.hpp"
 #include "tissue/fem_build.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
 #include "tissue/time_stepper.hpp"
 

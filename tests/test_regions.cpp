@@ -32,7 +32,7 @@
 #include "test_meshes.hpp"
 #include "test_scenarios.hpp"
 #include "tissue/input_error.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 
 using namespace stroma;
 using test_scenarios::write_temp;

@@ -14,7 +14,7 @@
 #include "engine/headless_runner.hpp"
 #include "engine/state_io.hpp"
 #include "tissue/input_error.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 
 using namespace stroma;
 namespace fs = std::filesystem;

@@ -22,9 +22,9 @@
 #include "test_meshes.hpp"
 #include "tissue/barycentric.hpp"
 #include "tissue/input_error.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
-#include "tissue/surface_io.hpp"
+#include "io/surface_io.hpp"
 #include "tissue/visual_mapping.hpp"
 
 namespace stroma {

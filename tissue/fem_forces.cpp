@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "tissue/element_batch.hpp"
 #include "tissue/mat3.hpp"
 #include "tissue/nodal_smoothing.hpp"
 #include "tissue/material.hpp"
@@ -13,6 +14,12 @@
 namespace stroma {
 
 namespace {
+
+using element_batch::BatchInput;
+using element_batch::batch_gradient;
+using element_batch::gather;
+using element_batch::kBatch;
+using element_batch::Lanes;
 
 /// Deformation gradient F = Σ_{a=1..3} (x_a − x_0) ⊗ g_a of element e.
 inline void deformation_gradient(const double* __restrict x, const ElementParams& ep,
@@ -30,57 +37,6 @@ inline void deformation_gradient(const double* __restrict x, const ElementParams
     d1[i] = d[0][i];
     d2[i] = d[1][i];
   }
-}
-
-/// Elements per batch. Everything up to the final scatter into nodal arrays and matrix slots is
-/// computed for 16 elements at once in [entry][lane] (structure-of-arrays) form, so the compiler
-/// vectorises across elements: two AVX-512 registers per entry. Why 16 and not 8 (one
-/// register): the rotation's Jacobi sweeps are a chain of dependent square roots and divisions,
-/// latency-bound; two independent chains per instruction stream hide it (polar rotation 52.7 →
-/// 31.6 ns per element, the whole implicit element pass 110 → 88 ns; 32 lanes gain nothing more;
-/// docs/PERFORMANCE.md).
-constexpr int kBatch = 16;
-using Lanes = double[kBatch];
-
-/// Gathered inputs of one batch. Spare lanes (past the range end) hold an undeformed unit
-/// element with zero volume: finite values, zero contributions, never scattered.
-struct BatchInput {
-  double g[9][kBatch];   // shape gradients g1, g2, g3 (rows)
-  double d[9][kBatch];   // current edges x_a − x_0, a = 1..3 (d[3(a−1)+i])
-  double vol[kBatch], lambda[kBatch], mu[kBatch], beta[kBatch];
-};
-
-inline void gather(const FemModel& m, const double* __restrict x, int32_t e0, int count,
-                   BatchInput& in, const float* damage = nullptr) {
-  for (int l = 0; l < kBatch; ++l) {
-    if (l < count) {
-      const ElementParams& ep = m.elements[e0 + l];
-      const double* x0 = x + 3 * ep.node[0];
-      for (int a = 0; a < 3; ++a) {
-        const double* xa = x + 3 * ep.node[a + 1];
-        for (int i = 0; i < 3; ++i) in.d[3 * a + i][l] = xa[i] - x0[i];
-      }
-      for (int k = 0; k < 9; ++k) in.g[k][l] = ep.g[k];
-      in.vol[l] = ep.volume;
-      const double sc = damage ? 1.0 - static_cast<double>(damage[e0 + l]) : 1.0;
-      in.lambda[l] = ep.lambda * sc;
-      in.mu[l] = ep.mu * sc;
-      in.beta[l] = ep.beta;
-    } else {
-      for (int k = 0; k < 9; ++k) in.d[k][l] = in.g[k][l] = (k % 4 == 0) ? 1.0 : 0.0;
-      in.vol[l] = in.lambda[l] = in.mu[l] = in.beta[l] = 0.0;
-    }
-  }
-}
-
-/// G[i][j] = Σ_a d[a][i]·g[a][j] for every lane (F from positions, L from velocities).
-inline void batch_gradient(const double (&d)[9][kBatch], const double (&g)[9][kBatch],
-                           double (&G)[9][kBatch]) {
-#pragma omp simd
-  for (int l = 0; l < kBatch; ++l)
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        G[3 * i + j][l] = d[i][l] * g[j][l] + d[3 + i][l] * g[3 + j][l] + d[6 + i][l] * g[6 + j][l];
 }
 
 /// Nodal contributions out[a] = −scale·R·σ(sym(RᵀG) − shift·I)·g_a (a = 0..3, g_0 = −Σ) per lane;
@@ -381,61 +337,6 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
     }
   }
   if (!m.smoothing.empty() && !p.unsmoothed) energy += nodal_smoothing_pass(m, p);
-  return energy;
-}
-
-void viscous_update(const FemModel& m, const double* x, const float* damage, double h, double* visco_q,
-                    double* visco_s0) {
-  BatchInput in;
-  double F[9][kBatch], R[9][kBatch];
-  for (const ElementRange& r : m.ranges) {
-    if (r.visco < 0 || r.fixed) continue;
-    const ViscoStep st = visco_step(m.visco[r.visco], h);
-    // Corotational (polar: the loader checks) or hyperelastic, whose branches are corotational
-    // (hyperelastic_pass.hpp): the batched polar rotations U·Vᵀ both passes use, then per
-    // element σ₀ = λ tr(ε) I + 2με in the rotated frame.
-    for (int32_t e0 = r.begin; e0 < r.end; e0 += kBatch) {
-      const int count = std::min<int32_t>(kBatch, r.end - e0);
-      gather(m, x, e0, count, in, damage);
-      batch_gradient(in.d, in.g, F);
-      polar_rotation_batch<kBatch>(F, R);
-      for (int l = 0; l < count; ++l) {
-        double S[9];  // RᵀF
-        for (int i = 0; i < 3; ++i)
-          for (int k = 0; k < 3; ++k) S[3 * i + k] = R[i][l] * F[k][l] + R[3 + i][l] * F[3 + k][l] + R[6 + i][l] * F[6 + k][l];
-        const double e00 = S[0] - 1, e11 = S[4] - 1, e22 = S[8] - 1;
-        const double e01 = 0.5 * (S[1] + S[3]), e02 = 0.5 * (S[2] + S[6]), e12 = 0.5 * (S[5] + S[7]);
-        const double lt = in.lambda[l] * (e00 + e11 + e22), mu2 = 2 * in.mu[l];
-        const double s0[6] = {mu2 * e00 + lt, mu2 * e11 + lt, mu2 * e22 + lt, mu2 * e01, mu2 * e02, mu2 * e12};
-        const int64_t j = e0 + l - r.begin;
-        double* q = visco_q + r.visco_q_begin + 6 * st.terms * j;
-        double* sn = visco_s0 + r.visco_s0_begin + 6 * j;
-        for (int i = 0; i < st.terms; ++i)
-          for (int k = 0; k < 6; ++k) q[6 * i + k] = st.decay[i] * q[6 * i + k] + st.gg[i] * (s0[k] - sn[k]);
-        for (int k = 0; k < 6; ++k) sn[k] = s0[k];
-      }
-    }
-  }
-}
-
-double viscous_stored_energy(const FemModel& m, const double* visco_q) {
-  double energy = 0;
-  for (const ElementRange& r : m.ranges) {
-    if (r.visco < 0) continue;
-    const PronySeries& ps = m.visco[r.visco];
-    for (int32_t e = r.begin; e < r.end; ++e) {
-      const ElementParams& ep = m.elements[e];
-      const double* q = visco_q + r.visco_q_begin + 6 * ps.terms * (e - r.begin);
-      for (int i = 0; i < ps.terms; ++i) {
-        // ½ Q : C⁻¹ : Q for the isotropic C = g·(λ, μ): (Q:Q − λ/(3λ + 2μ)·tr²Q)/(4μ)/g.
-        const double* Q = q + 6 * i;
-        const double qq = Q[0] * Q[0] + Q[1] * Q[1] + Q[2] * Q[2] + 2 * (Q[3] * Q[3] + Q[4] * Q[4] + Q[5] * Q[5]);
-        const double tr = Q[0] + Q[1] + Q[2];
-        if (!(ps.g[i] > 0) || !(ep.mu > 0)) continue;
-        energy += ep.volume * (qq - ep.lambda / (3 * ep.lambda + 2 * ep.mu) * tr * tr) / (4 * ep.mu * ps.g[i]);
-      }
-    }
-  }
   return energy;
 }
 

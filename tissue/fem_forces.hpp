@@ -49,7 +49,7 @@ struct ElasticPass {
 double elastic_pass(const FemModel& m, const ElasticPass& pass);
 
 /// Brings the visco-elastic internal variables to positions x at the end of a step of length h
-/// (viscoelastic.hpp): Qᵢ ← e^(−h/τᵢ)Qᵢ + gᵢγᵢ(σ₀(x) − σ₀ⁿ), σ₀ⁿ ← σ₀(x). `damage` scales σ₀
+/// (viscoelastic.hpp; defined in tissue/viscoelastic.cpp, beside the Prony series it steps): Qᵢ ← e^(−h/τᵢ)Qᵢ + gᵢγᵢ(σ₀(x) − σ₀ⁿ), σ₀ⁿ ← σ₀(x). `damage` scales σ₀
 /// as it scales the element (null: none). Nothing without visco-elastic ranges.
 void viscous_update(const FemModel& m, const double* x, const float* damage, double h, double* visco_q,
                     double* visco_s0);

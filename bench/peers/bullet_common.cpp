@@ -3,7 +3,7 @@
 
 #include "bullet_common.hpp"
 
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 
 #include <algorithm>
 #include <filesystem>

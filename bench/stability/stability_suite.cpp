@@ -21,7 +21,7 @@
 #include "engine/tick.hpp"
 #include "tissue/fem_forces.hpp"
 #include "haptics/contact.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
 
 namespace stroma {

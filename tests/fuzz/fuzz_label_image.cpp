@@ -9,7 +9,7 @@
 #include <string>
 
 #include "tissue/input_error.hpp"
-#include "tissue/label_image.hpp"
+#include "io/label_image.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;

@@ -2,7 +2,7 @@
 // byte picks the extension (.obj, .stl, .off, .ply by its value mod 4); the rest is the file.
 #include "fuzz_input.hpp"
 #include "tissue/input_error.hpp"
-#include "tissue/surface_io.hpp"
+#include "io/surface_io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;

@@ -7,7 +7,7 @@
 
 #include "tissue/bounding_box.hpp"
 #include "tissue/input_error.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
 #include "tissue/visual_mapping.hpp"
 

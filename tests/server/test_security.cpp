@@ -12,7 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "server/dds_participant.hpp"
+#include "dds/dds_participant.hpp"
 #include "stroma.h"
 #include "tests/server/process.hpp"
 

@@ -28,7 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/realtime.hpp"
-#include "server/dds_participant.hpp"
+#include "dds/dds_participant.hpp"
 #include "tests/server/process.hpp"
 
 using stroma::test::Process;
@@ -577,7 +577,7 @@ std::vector<std::string> udp_local_addresses(pid_t pid) {
 
 // Cyclone 0.10 binds its receive sockets to 0.0.0.0 whatever interface it is told to use; with
 // the built-in loopback configuration every socket of the server must be bound to 127.0.0.1
-// (or ::1), so another host cannot reach it (server/loopback_bind.hpp).
+// (or ::1), so another host cannot reach it (dds/loopback_bind.hpp).
 TEST(Serve, SocketsAreBoundToLoopbackOnly) {
   Server server(122, {"--duration", "60"});
   Client client(122);

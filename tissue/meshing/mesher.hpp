@@ -20,9 +20,9 @@
 #include <utility>
 #include <vector>
 
-#include "tissue/label_image.hpp"
+#include "io/label_image.hpp"
 #include "tissue/mesh_quality.hpp"
-#include "tissue/surface_io.hpp"
+#include "io/surface_io.hpp"
 #include "tissue/tet_mesh.hpp"
 
 namespace stroma::meshing {

@@ -18,7 +18,7 @@
 #include "tissue/mesh_prepare.hpp"
 #include "tissue/meshing/hausdorff.hpp"
 #include "tissue/meshing/mesh_3_pipeline.hpp"
-#include "tissue/surface_check.hpp"
+#include "io/surface_check.hpp"
 
 namespace stroma::meshing {
 namespace {

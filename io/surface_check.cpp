@@ -1,7 +1,7 @@
 /// \file surface_check.cpp
 /// Topological surface checks (see surface_check.hpp).
 
-#include "tissue/surface_check.hpp"
+#include "io/surface_check.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -3,7 +3,7 @@
 /// buffer and walks it with a small Scanner; numbers go through std::from_chars. Errors carry a
 /// byte offset that is turned into a line number only when an error is actually thrown, so the
 /// happy path never counts lines.
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 
 #include <fmt/format.h>
 
@@ -22,14 +22,14 @@
 #include <vector>
 
 
-#include "tissue/inflate.hpp"
+#include "io/inflate.hpp"
 #include "tissue/input_error.hpp"
-#include "tissue/text_scan.hpp"
+#include "io/text_scan.hpp"
 
 namespace stroma {
 namespace {
 
-using namespace text;  // is_space, lower, iequals, clip, parse_number (tissue/text_scan.hpp)
+using namespace text;  // is_space, lower, iequals, clip, parse_number (io/text_scan.hpp)
 
 constexpr size_t kNoPos = std::string_view::npos;
 
@@ -1335,7 +1335,7 @@ class VtuReader {
                 fmt::format("compressed DataArray holds {} bytes; expected {} for {} values", total, expected, count));
     const unsigned char* sizes = bytes + 3 * hs;
     size_t at = 3 * hs + static_cast<size_t>(nblocks) * hs;
-    std::string out;  // grows with what really inflates (tissue/inflate.cpp)
+    std::string out;  // grows with what really inflates (io/inflate.cpp)
     for (uint64_t b = 0; b < nblocks; ++b) {
       const uint64_t csize = load_bits(sizes + b * hs, static_cast<int>(hs), big_endian_);
       if (csize > avail - at)

@@ -8,7 +8,7 @@
 #include <random>
 #include <string>
 
-#include "tissue/inflate.hpp"
+#include "io/inflate.hpp"
 
 using namespace stroma;
 

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "tissue/input_error.hpp"
-#include "tissue/mesh_io.hpp"
+#include "io/mesh_io.hpp"
 
 namespace stroma {
 namespace {

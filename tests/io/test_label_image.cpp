@@ -10,9 +10,9 @@
 
 #include "tests/input_error_message.hpp"
 #include "tissue/input_error.hpp"
-#include "tissue/label_image.hpp"
+#include "io/label_image.hpp"
 #include "tissue/mesh_quality.hpp"
-#include "tissue/surface_check.hpp"
+#include "io/surface_check.hpp"
 
 using namespace stroma;
 using stroma::test_support::message_of;

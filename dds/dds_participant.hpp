@@ -2,7 +2,7 @@
 /// \file dds_participant.hpp
 /// Creating the DDS participant with Stroma's network policy: loopback only unless the user
 /// says otherwise. Cyclone's default picks the external interface and multicasts; Stroma is
-/// secure by default and ships server/cyclonedds-loopback.xml (embedded here).
+/// secure by default and ships dds/cyclonedds-loopback.xml (embedded here).
 
 #include <string>
 
@@ -32,7 +32,7 @@ struct DdsParticipant {
 ///
 /// `security_dir` (from --security; empty: none): the participant joins a protected domain as
 /// `identity` ("server", "renderer" or a client's name) with the certificates and signed
-/// documents of that directory (server/dds_security.hpp); its <Security> settings are added to
+/// documents of that directory (dds/dds_security.hpp); its <Security> settings are added to
 /// whichever configuration is used. Throws std::runtime_error naming a missing file.
 DdsParticipant create_participant(int domain_id, const std::string& config_file, int receive_priority = 0,
                                   const std::string& security_dir = "", const std::string& identity = "");

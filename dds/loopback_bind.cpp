@@ -1,4 +1,4 @@
-#include "server/loopback_bind.hpp"
+#include "dds/loopback_bind.hpp"
 
 #include <netinet/in.h>
 #include <sys/socket.h>

@@ -2,7 +2,7 @@
 /// Surface mesh readers (see surface_io.hpp). The file is read into one buffer and walked line
 /// by line (text formats) or record by record (binary STL); numbers go through std::from_chars,
 /// which is exact and locale-independent.
-#include "tissue/surface_io.hpp"
+#include "io/surface_io.hpp"
 
 #include <fmt/format.h>
 
@@ -20,12 +20,12 @@
 #include <unordered_map>
 
 #include "tissue/input_error.hpp"
-#include "tissue/text_scan.hpp"
+#include "io/text_scan.hpp"
 
 namespace stroma {
 namespace {
 
-using namespace text;  // is_space, iequals, clip, parse_number, words, content_lines (tissue/text_scan.hpp)
+using namespace text;  // is_space, iequals, clip, parse_number, words, content_lines (io/text_scan.hpp)
 
 /// Whitespace-separated tokens of one line.
 class Tokens {

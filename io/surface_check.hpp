@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "tissue/surface_io.hpp"
+#include "io/surface_io.hpp"
 
 namespace stroma {
 

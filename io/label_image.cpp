@@ -4,7 +4,7 @@
 /// data size from it and only then reads, inflates or allocates — a hostile header cannot make
 /// the reader allocate more than the file can fill (`kMaxVoxels` caps it anyway).
 
-#include "tissue/label_image.hpp"
+#include "io/label_image.hpp"
 
 #include <zlib.h>  // deflate, for the writers
 
@@ -19,9 +19,9 @@
 
 #include <fmt/format.h>
 
-#include "tissue/inflate.hpp"
+#include "io/inflate.hpp"
 #include "tissue/input_error.hpp"
-#include "tissue/text_scan.hpp"
+#include "io/text_scan.hpp"
 
 namespace stroma {
 namespace {

@@ -1,7 +1,7 @@
 /// \file mesh_write.cpp
 /// gmsh 2.2 and VTU writers for tetrahedral meshes (see mesh_write.hpp).
 
-#include "tissue/mesh_write.hpp"
+#include "io/mesh_write.hpp"
 
 #include <cstdio>
 #include <filesystem>
@@ -11,7 +11,7 @@
 
 #include <fmt/format.h>
 
-#include "tissue/text_scan.hpp"
+#include "io/text_scan.hpp"
 
 namespace stroma {
 namespace {

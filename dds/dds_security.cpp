@@ -1,4 +1,4 @@
-#include "server/dds_security.hpp"
+#include "dds/dds_security.hpp"
 
 #include <dlfcn.h>
 #include <fcntl.h>

@@ -1,4 +1,4 @@
-#include "server/dds_participant.hpp"
+#include "dds/dds_participant.hpp"
 
 #include <cstdlib>
 #include <fstream>
@@ -8,8 +8,8 @@
 #include <fmt/format.h>
 
 #include "engine/realtime.hpp"
-#include "server/dds_security.hpp"
-#include "server/loopback_bind.hpp"
+#include "dds/dds_security.hpp"
+#include "dds/loopback_bind.hpp"
 
 namespace stroma {
 
@@ -67,7 +67,7 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file,
     if (receive_priority > 0) p.config_source += "; receive thread at normal priority (SCHED_FIFO denied)";
   }
   // The built-in configuration promises loopback only: its sockets are bound to loopback too
-  // (server/loopback_bind.hpp), not just told to use "lo".
+  // (dds/loopback_bind.hpp), not just told to use "lo".
   if (config_file.empty() && !(env_uri && *env_uri)) enable_loopback_bind();
   if (!security_dir.empty()) {
     const std::string sec = security_config_element(security_dir, identity);

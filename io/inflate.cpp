@@ -2,7 +2,7 @@
 /// inflate_bounded on zlib's streaming API: input and output fed in chunks zlib's 32-bit counters
 /// can take, the output doubled from 64 KB as it fills.
 
-#include "tissue/inflate.hpp"
+#include "io/inflate.hpp"
 
 #include <zlib.h>
 
