@@ -18,21 +18,25 @@ namespace {
 
 const std::string kSrc = STROMA_SOURCE_DIR;
 
-/// A 50 mm cube (5 kPa, ν 0.45, ρ 1000, bottom bonded) and a 5 mm sphere probe with `limits`
-/// (workspace, max_speed, on_invalid) above it.
+/// A 50 mm cube (5 kPa, ν 0.45, ρ 1000, bottom bonded) and a 5 mm sphere probe; `tool_extra`:
+/// more lines of the tool (limits, script), `tail`: more top-level sections.
+std::string probe_yaml(const std::string& tool_extra, const std::string& tail = "") {
+  return "name: probe\n"
+         "bodies:\n"
+         "  - name: cube\n"
+         "    mesh: " + kSrc + "/scenarios/meshes/cube_tet4_h5p000mm.msh\n"
+         "    material: {young_modulus: 5000, poisson_ratio: 0.45, density: 1000}\n"
+         "    fixed:\n"
+         "      - box: {min: [-1, -1, -1], max: [1, 1.0e-9, 1]}\n"
+         "tools:\n"
+         "  - name: probe\n"
+         "    shape: {type: sphere, radius: 0.005}\n"
+         "    contact: {stiffness: 1.0e4}\n" + tool_extra + tail;
+}
+
+/// The probe scene's model with `limits` (workspace, max_speed, on_invalid) on the probe.
 std::shared_ptr<const Model> probe_model(const std::string& limits) {
-  const std::string yaml = "name: probe\n"
-                           "bodies:\n"
-                           "  - name: cube\n"
-                           "    mesh: " + kSrc + "/scenarios/meshes/cube_tet4_h5p000mm.msh\n"
-                           "    material: {young_modulus: 5000, poisson_ratio: 0.45, density: 1000}\n"
-                           "    fixed:\n"
-                           "      - box: {min: [-1, -1, -1], max: [1, 1.0e-9, 1]}\n"
-                           "tools:\n"
-                           "  - name: probe\n"
-                           "    shape: {type: sphere, radius: 0.005}\n"
-                           "    contact: {stiffness: 1.0e4}\n" + limits;
-  return compile_scenario(parse_scenario(yaml, "probe.yaml", kSrc)).model;
+  return compile_scenario(parse_scenario(probe_yaml(limits), "probe.yaml", kSrc)).model;
 }
 
 ToolPose at(double x, double y, double z) {
@@ -152,20 +156,9 @@ TEST(SimulationCommands, StromaRunCountsItsScriptedCommandsAndRefusesOnesOutside
                                                         "keyframes:\n"
                                                         "  - {t: 0.0, position: [0.025, 0.09, 0.025]}\n"
                                                         "  - {t: 0.02, position: [0.025, 0.05, 0.025]}\n");
-  const std::string yaml = "name: scripted\n"
-                           "bodies:\n"
-                           "  - name: cube\n"
-                           "    mesh: " + kSrc + "/scenarios/meshes/cube_tet4_h5p000mm.msh\n"
-                           "    material: {young_modulus: 5000, poisson_ratio: 0.45, density: 1000}\n"
-                           "    fixed:\n"
-                           "      - box: {min: [-1, -1, -1], max: [1, 1.0e-9, 1]}\n"
-                           "tools:\n"
-                           "  - name: probe\n"
-                           "    shape: {type: sphere, radius: 0.005}\n"
-                           "    contact: {stiffness: 1.0e4}\n"
-                           "    workspace: {min: [-0.1, 0.07, -0.1], max: [0.1, 0.2, 0.1]}\n"
-                           "    script: " + script + "\n"
-                           "run: {steps: 20}\n";
+  const std::string yaml = probe_yaml("    workspace: {min: [-0.1, 0.07, -0.1], max: [0.1, 0.2, 0.1]}\n"
+                                      "    script: " + script + "\n",
+                                      "run: {steps: 20}\n");
   const CompiledScenario sc = compile_scenario(parse_scenario(yaml, "scripted.yaml", kSrc));
   RunOptions o;
   o.progress = false;
