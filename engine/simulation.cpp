@@ -42,7 +42,7 @@ int Simulation::submit_scripts(const std::vector<Trajectory>& scripts, const std
 }
 
 int Simulation::take_commands() {
-  inputs_.resize(model_->tools.size() + 1);  // within the capacity reserved at construction
+  inputs_.resize(model_->tools.size());  // within the capacity reserved at construction
   int n = port_.take(inputs_.data(), static_cast<int>(model_->tools.size()));
   inputs_.resize(static_cast<size_t>(n));
   if (opt_.hold == ToolHold::Repeat) {
@@ -67,7 +67,9 @@ int Simulation::take_commands() {
 }
 
 const TickReport& Simulation::step(Deadline deadline, const ToolInput* trusted, int trusted_count) {
-  retired_ = CutBuild{};  // (Synchronous) the report of the tick before a swap is not read any more
+  // (Synchronous) the last swap's old model, workspace and state: the report of the tick before
+  // it is not read any more. Only a swap fills it: a served tick never builds or frees one here.
+  if (retired_.model) retired_ = CutBuild{};
   take_commands();
   for (int k = 0; k < trusted_count; ++k) inputs_.push_back(trusted[k]);
   return tick(*model_, state_, *work_, inputs_.data(), static_cast<int>(inputs_.size()), deadline);
