@@ -18,12 +18,12 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "engine/headless_runner.hpp"
-#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
-#include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "runtime/headless_runner.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
 #include "tissue/cholmod_solver.hpp"
 #include "tissue/constraints.hpp"
 

@@ -18,8 +18,8 @@
 #include <fcl/fcl.h>
 
 #include "collision/triangle_bvh.hpp"
-#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
+#include "scene/compiled_scenario.hpp"
 
 using namespace stroma;
 

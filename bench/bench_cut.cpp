@@ -20,9 +20,9 @@
 #include <fmt/format.h>
 
 #include "bench/bench_stats.hpp"
-#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
-#include "engine/scenario_spec.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
 #include "tissue/cut_blade.hpp"
 #include "tissue/cut_model.hpp"
 #include "tissue/time_stepper.hpp"

@@ -29,9 +29,9 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
-#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
-#include "engine/scenario_spec.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
 #include "tissue/cut_model.hpp"
 #include "tissue/cut_topology.hpp"
 

@@ -22,10 +22,10 @@
 #include <CLI/CLI.hpp>
 
 #include "bench/bench_stats.hpp"
-#include "engine/compiled_scenario.hpp"
 #include "engine/cut_worker.hpp"
 #include "engine/simulation.hpp"
 #include "engine/tick.hpp"
+#include "scene/compiled_scenario.hpp"
 #include "tissue/clock.hpp"
 
 using namespace stroma;

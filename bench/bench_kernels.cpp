@@ -9,11 +9,11 @@
 #include <random>
 #include <string>
 
-#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
-#include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
 #include "tissue/cholmod_solver.hpp"
 #include "tissue/fem_forces.hpp"
 #include "tissue/nodal_smoothing.hpp"

@@ -18,11 +18,11 @@
 #include <fmt/format.h>
 
 #include "bench/bench_stats.hpp"
-#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
-#include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
 
 using namespace stroma;
 

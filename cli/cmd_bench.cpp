@@ -11,7 +11,7 @@
 #include "bench/accuracy/accuracy_suite.hpp"
 #include "bench/stability/stability_suite.hpp"
 #include "cli/commands.hpp"
-#include "engine/output_dir.hpp"
+#include "runtime/output_dir.hpp"
 #include "tissue/input_error.hpp"
 
 namespace fs = std::filesystem;

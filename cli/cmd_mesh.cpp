@@ -15,13 +15,13 @@
 #include <fmt/format.h>
 
 #include "cli/commands.hpp"
-#include "engine/starter_scenario.hpp"
-#include "tissue/input_error.hpp"
 #include "io/label_image.hpp"
 #include "io/mesh_write.hpp"
+#include "io/surface_io.hpp"
+#include "scene/starter_scenario.hpp"
+#include "tissue/input_error.hpp"
 #include "tissue/meshing/mesher.hpp"
 #include "tissue/meshing/quality_report.hpp"
-#include "io/surface_io.hpp"
 
 namespace fs = std::filesystem;
 

@@ -8,13 +8,13 @@
 #include <spdlog/spdlog.h>
 
 #include "cli/commands.hpp"
-#include "engine/headless_runner.hpp"
-#include "engine/output_dir.hpp"
-#include "engine/session_log.hpp"
-#include "engine/sofa_scene.hpp"
-#include "engine/solver_comparison.hpp"
-#include "engine/solver_report.hpp"
-#include "engine/state_io.hpp"
+#include "runtime/headless_runner.hpp"
+#include "runtime/output_dir.hpp"
+#include "runtime/session_log.hpp"
+#include "runtime/state_io.hpp"
+#include "scene/sofa_scene.hpp"
+#include "scene/solver_comparison.hpp"
+#include "scene/solver_report.hpp"
 #include "tissue/input_error.hpp"
 
 namespace fs = std::filesystem;

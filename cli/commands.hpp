@@ -11,7 +11,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "engine/compiled_scenario.hpp"
+#include "scene/compiled_scenario.hpp"
 
 namespace stroma::cli {
 

@@ -7,9 +7,9 @@
 
 #include <fmt/format.h>
 
-#include "engine/realtime.hpp"
 #include "dds/dds_security.hpp"
 #include "dds/loopback_bind.hpp"
+#include "runtime/realtime.hpp"
 
 namespace stroma {
 

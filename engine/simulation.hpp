@@ -24,13 +24,13 @@
 #include <memory>
 #include <vector>
 
-#include "engine/compiled_scenario.hpp"
 #include "engine/cut_registry.hpp"
 #include "engine/cut_swap.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "engine/tool_commands.hpp"
+#include "engine/trajectory.hpp"
 
 namespace stroma {
 

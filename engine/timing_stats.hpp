@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <cmath>
 #include <string>
+#include <vector>
 
 namespace stroma {
 
@@ -62,5 +64,28 @@ class LatencyHistogram {
   int64_t sum_ns_ = 0;
   int64_t max_ns_ = 0;
 };
+
+/// Percentiles of a sample (milliseconds).
+struct TimingSummary {
+  double p50 = 0, p99 = 0, max = 0, mean = 0;
+};
+
+/// p50, p99, max and mean of a sample (ms); the sample is taken by value (reordered).
+inline TimingSummary summarize(std::vector<double> v) {
+  TimingSummary t;
+  if (v.empty()) return t;
+  double sum = 0;
+  for (double x : v) sum += x;
+  t.mean = sum / static_cast<double>(v.size());
+  auto pct = [&](double q) {
+    const size_t k = std::min(v.size() - 1, static_cast<size_t>(std::ceil(q * v.size())) - (q > 0 ? 1 : 0));
+    std::nth_element(v.begin(), v.begin() + k, v.end());
+    return v[k];
+  };
+  t.p50 = pct(0.5);
+  t.p99 = pct(0.99);
+  t.max = *std::max_element(v.begin(), v.end());
+  return t;
+}
 
 }  // namespace stroma

@@ -22,16 +22,16 @@
 #include <string>
 #include <vector>
 
-#include "engine/compiled_scenario.hpp"
 #include "engine/cut_swap.hpp"
 #include "engine/model.hpp"
-#include "engine/scenario_spec.hpp"
 #include "engine/simulation.hpp"
 #include "engine/state.hpp"
-#include "engine/solver_report.hpp"
 #include "engine/state_bytes.hpp"
 #include "engine/tick.hpp"
-#include "engine/vtu_writer.hpp"
+#include "runtime/vtu_writer.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
+#include "scene/solver_report.hpp"
 #include "tissue/input_error.hpp"
 
 namespace py = pybind11;
@@ -158,7 +158,7 @@ class PySimulation {
     return d;
   }
 
-  /// The solver the scenario runs and who chose it (engine/solver_report.hpp: the object
+  /// The solver the scenario runs and who chose it (scene/solver_report.hpp: the object
   /// summary.json's "solver" holds).
   py::object solver() const { return py::module_::import("json").attr("loads")(solver_json(sc_).dump()); }
 

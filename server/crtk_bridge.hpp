@@ -31,8 +31,8 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/model.hpp"
-#include "engine/physics_loop.hpp"
 #include "engine/tool_commands.hpp"
+#include "runtime/physics_loop.hpp"
 #include "tissue/clock.hpp"
 
 namespace stroma {

@@ -11,7 +11,7 @@ struct ServeOptions {
   std::string scenario;
   std::string dds_config;      ///< Cyclone XML file; empty: CYCLONEDDS_URI or built-in loopback
   std::string security_dir;    ///< --security: a `stroma security init` directory (protected domain)
-  bool converge = false;       ///< --converge: the solver left to the engine (engine/solver_comparison.hpp)
+  bool converge = false;       ///< --converge: the solver left to the engine (scene/solver_comparison.hpp)
   int domain = 0;
   std::string realtime = "auto";  ///< auto | fifo | off
   int cpu = -1;                ///< pin the physics thread to this CPU (−1: no pinning)
@@ -26,7 +26,7 @@ struct ServeOptions {
   /// period minus this, or solver.time_budget when smaller. Must be ≥ 0 and < the period.
   double budget_margin_ms = 0.15;
   /// Phase-lock the tick schedule so tool commands arrive this long before the tick that takes
-  /// them (µs; engine/phase_lock.hpp); 0: free-running schedule. Must be < the period.
+  /// them (µs; runtime/phase_lock.hpp); 0: free-running schedule. Must be < the period.
   double phase_lead_us = 200;
   /// --crtk: also expose each tool as a CRTK device on ROS 2's DDS conventions (docs/CRTK.md).
   bool crtk = false;

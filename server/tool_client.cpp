@@ -16,9 +16,9 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "engine/realtime.hpp"
-#include "engine/trajectory.hpp"
 #include "dds/dds_participant.hpp"
+#include "engine/trajectory.hpp"
+#include "runtime/realtime.hpp"
 #include "stroma.h"
 
 namespace stroma {

@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "engine/scenario_spec.hpp"
+#include "scene/scenario_spec.hpp"
 
 namespace stroma::test_scenarios {
 

@@ -78,7 +78,7 @@ inline void sort_pair(double (&ev)[3][W], double (&V)[9][W]) {
 }  // namespace detail
 
 /// Number of cyclic Jacobi sweeps. Four sweeps drive the off-diagonal of FᵀF to round-off for
-/// every 3×3 matrix tried (tests/test_rotation.cpp checks against Eigen's SVD).
+/// every 3×3 matrix tried (tests/tissue/test_rotation.cpp checks against Eigen's SVD).
 inline constexpr int kPolarSweeps = 4;
 
 /// Rotation-variant SVD of W deformation gradients at once: F = U·Σ·Vᵀ with U, V ∈ SO(3)
@@ -225,7 +225,7 @@ inline void polar_rotation_svd_batch(const double (&F)[9][W], double (&R)[9][W])
 /// every instruction together. Newton's iteration where every lane has det F > 0 and converges
 /// (polar_rotation_newton_batch: the usual case, ~3× cheaper), else the SVD for the whole batch
 /// (svd_rotations_batch: fixed cost, Irving's rotation for inverted elements). The two agree to
-/// round-off (tests/test_rotation.cpp).
+/// round-off (tests/tissue/test_rotation.cpp).
 template <int W>
 inline void polar_rotation_batch(const double (&F)[9][W], double (&R)[9][W]) {
   if (polar_rotation_newton_batch<W>(F, R)) return;

@@ -58,7 +58,7 @@ void TimeStepper::prepare(double h) {
   // A refreshed factor is of the assembled system, which lacks the matrix-free node domains.
   if (nodal_) period = 0;
   // `auto` unresolved (a model not made by compile_scenario): the period of a worker that
-  // keeps up with real time (engine/compile.cpp resolves it with the run's own pace).
+  // keeps up with real time (scene/compile.cpp resolves it with the run's own pace).
   if (period < 0) {
     cfg_.refresh_follows_pace = true;
     period = auto_refresh_period(m_, warped_->factor_entries(), kTypicalWarpedIterations);

@@ -17,13 +17,13 @@
 
 #include "bench/accuracy/quarter_block_mesh.hpp"
 #include "bench/accuracy/thick_ring.hpp"
-#include "engine/compiled_scenario.hpp"
-#include "engine/headless_runner.hpp"
 #include "engine/model.hpp"
-#include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/static_run.hpp"
 #include "engine/tick.hpp"
+#include "runtime/headless_runner.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
 
 namespace stroma {
 

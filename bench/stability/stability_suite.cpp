@@ -14,14 +14,14 @@
 
 #include <fmt/format.h>
 
-#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
-#include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
-#include "tissue/fem_forces.hpp"
 #include "haptics/contact.hpp"
 #include "io/mesh_io.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
+#include "tissue/fem_forces.hpp"
 #include "tissue/mesh_prepare.hpp"
 
 namespace stroma {

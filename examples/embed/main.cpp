@@ -15,11 +15,11 @@
 #include <string>
 #include <vector>
 
-#include <stroma/engine/compiled_scenario.hpp>
-#include <stroma/engine/headless_runner.hpp>
-#include <stroma/engine/scenario_spec.hpp>
+#include <stroma/scene/compiled_scenario.hpp>
+#include <stroma/runtime/headless_runner.hpp>
+#include <stroma/scene/scenario_spec.hpp>
 #include <stroma/engine/state.hpp>
-#include <stroma/engine/state_io.hpp>
+#include <stroma/runtime/state_io.hpp>
 #include <stroma/engine/tick.hpp>
 #include <stroma/tissue/input_error.hpp>
 

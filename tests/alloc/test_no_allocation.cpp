@@ -14,12 +14,12 @@
 #include <new>
 #include <string>
 
-#include "engine/compiled_scenario.hpp"
 #include "engine/cut_swap.hpp"
 #include "engine/damage.hpp"
-#include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
 
 namespace {
 std::atomic<long> g_allocations{0};

@@ -8,10 +8,10 @@
 // ticks run under a 50 ms time budget (the served path's deadline, engine/step_with_recovery.hpp)
 // for the same reason: a stiff scene's capped solves redone in up to 16 sub-steps otherwise.
 
-#include "engine/compiled_scenario.hpp"
-#include "engine/scenario_spec.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
 #include "tissue/input_error.hpp"
 
 namespace {

@@ -1,7 +1,7 @@
 // libFuzzer target: session logs (`stroma serve --record`, `stroma run --replay`), checked
 // against a scenario with one tool as the replay does.
-#include "engine/session_log.hpp"
 #include "fuzz_input.hpp"
+#include "runtime/session_log.hpp"
 #include "tissue/input_error.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

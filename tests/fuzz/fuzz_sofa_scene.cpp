@@ -2,9 +2,9 @@
 // InputError), then the translated scenario's parse and compile. Relative mesh paths resolve
 // against scenarios/sofa/ (STROMA_SOURCE_DIR), so the seeds are the shipped scenes.
 
-#include "engine/compiled_scenario.hpp"
-#include "engine/scenario_spec.hpp"
-#include "engine/sofa_scene.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
+#include "scene/sofa_scene.hpp"
 #include "tissue/input_error.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

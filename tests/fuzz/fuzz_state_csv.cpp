@@ -1,6 +1,6 @@
 // libFuzzer target: reference states (`stroma check SCENARIO REF.csv`, final_state.csv).
-#include "engine/state_io.hpp"
 #include "fuzz_input.hpp"
+#include "runtime/state_io.hpp"
 #include "tissue/input_error.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -26,15 +26,15 @@
 #include <string>
 #include <vector>
 
-#include "engine/compiled_scenario.hpp"
 #include "engine/model.hpp"
-#include "engine/scenario_spec.hpp"
-#include "engine/state_io.hpp"
 #include "render/capsule_mesh.hpp"
 #include "render/frame_writer.hpp"
 #include "render/gl_context.hpp"
 #include "render/png_io.hpp"
 #include "render/renderer.hpp"
+#include "runtime/state_io.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
 
 namespace stroma::render {
 namespace {

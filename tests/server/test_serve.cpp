@@ -27,8 +27,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/realtime.hpp"
 #include "dds/dds_participant.hpp"
+#include "runtime/realtime.hpp"
 #include "tests/server/process.hpp"
 
 using stroma::test::Process;

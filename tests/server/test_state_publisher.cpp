@@ -21,12 +21,12 @@
 #include <cmath>
 #include <set>
 
-#include "engine/compiled_scenario.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/cut_registry.hpp"
 #include "engine/cut_swap.hpp"
-#include "engine/physics_loop.hpp"
 #include "engine/tick.hpp"
+#include "runtime/physics_loop.hpp"
+#include "scene/compiled_scenario.hpp"
 #include "server/state_publisher.hpp"
 
 using namespace stroma;
