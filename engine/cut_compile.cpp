@@ -192,22 +192,9 @@ std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<c
   if (!current.cutting) throw std::invalid_argument("compile_cut_model: the model has no cutting support");
   const CutSupport& cs = *current.cutting;
   auto m = std::make_shared<Model>();
-  // What does not depend on the topology.
-  m->name = current.name;
-  m->stepper = current.stepper;
-  m->time_step = current.time_step;
-  m->fem_every = current.fem_every;
-  m->fem_step = current.fem_step;
-  m->haptic_secant = current.haptic_secant;
-  m->substep_on_cg_cap = current.substep_on_cg_cap;
-  m->time_budget = current.time_budget;
-  m->max_step_displacement = current.max_step_displacement;
-  m->tools = current.tools;
-  m->body_damage = current.body_damage;
-  m->region_damage = current.region_damage;
-  m->has_damage = current.has_damage;
-  m->has_contact = current.has_contact;
-  m->cutting = current.cutting;
+  m->constants() = current.constants();  // what a topology change keeps, whole
+  // The topology part, built anew: the cut FEM system and everything indexed by its elements,
+  // nodes and surface faces.
   m->topology = topo;
   m->topology_version = version;
   m->cut_edge_state = edge_cut;

@@ -38,7 +38,7 @@ struct CutSupport {
 void enable_cutting(Model& m);
 
 /// The Model of `current`'s scenario cut to `topo` (built from edge_cut by build_cut_topology),
-/// as version `version`. Everything but the topology-dependent arrays is copied from `current`.
+/// as version `version`: current's ModelConstants whole, and a ModelTopology built for `topo`.
 /// Throws std::invalid_argument if the topology does not fit the scenario's mesh.
 std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<const CutTopology> topo,
                                          const std::vector<double>& edge_cut, int32_t version);

@@ -35,10 +35,14 @@ Vec3 grasped_point(const Model& m, const ToolState& ts, int i, const double* x) 
   return p;
 }
 
-/// Re-attaches each tool's grasped points to the closest point of the new surface within its
-/// radius (dropping, in order, those with none): the same material, now on the cut model.
-void regrasp(const Model& old_m, const double* old_x, const Model& m, TickWorkspace& w, const State& s,
-             std::vector<ToolState>& tools) {
+/// The tools' part of a state carried to the cut model m: each tool's state as it was, its
+/// grasped points re-attached to the closest point of the new surface within its radius
+/// (dropping, in order, those with none) — the same material, now on the cut model. `s` is
+/// the new state with its tissue already carried over (the surface is refitted to it).
+void transfer_tools(const Model& old_m, const State& old_s, const Model& m, TickWorkspace& w, State& s) {
+  std::copy(old_s.tools.begin(), old_s.tools.end(), s.tools.begin());
+  const double* old_x = old_s.tissue.x.data();
+  std::vector<ToolState>& tools = s.tools;
   bool any = false;
   for (const ToolState& ts : tools) any = any || ts.grasped > 0;
   if (!any || !m.has_contact) return;
@@ -106,46 +110,14 @@ bool apply_cut(CutBuild& b, std::shared_ptr<const Model>& m, std::unique_ptr<Tic
   if (!b.changed || !b.model || b.base_version != m->topology_version) return false;
   const Model& nm = *b.model;
   State& ns = b.state;
-  transfer_state(s.tissue, b.from_dof, ns.tissue);
-  if (nm.has_damage) {
-    for (size_t e = 0; e < ns.damage.size(); ++e) {
-      ns.damage[e] = s.damage[b.from_element[e]];
-      ns.damage_level[e] = s.damage_level[b.from_element[e]];
-    }
-    // Lumped masses without the ruptured elements' shares. A node left with no intact element is
-    // free debris and keeps some mass (as damage.cpp does): what it had, at most its new lumped
-    // mass (so debris never gains mass across swaps).
-    for (int32_t n = 0; n < nm.fem.num_nodes; ++n) {
-      double mass = nm.fem.mass[n];
-      bool attached = false;
-      for (int32_t j = nm.fem.node_element_ptr[n]; j < nm.fem.node_element_ptr[n + 1]; ++j) {
-        const int32_t e = nm.fem.node_element[j];
-        if (ns.damage_level[e] == kRuptured) mass -= nm.element_node_mass[e];
-        else attached = true;
-      }
-      ns.node_mass[n] = attached ? std::max(0.0, mass) : std::min(nm.fem.mass[n], s.node_mass[b.from_dof[n]]);
-    }
-    ns.damage_count = s.damage_count;
-    ns.first_damage_time = s.first_damage_time;
-    // The tears carried over: a face is surface where exactly one side is intact (a body without
-    // a damage model: always).
-    for (size_t f = 0; f < ns.face_active.size(); ++f) {
-      const int32_t ea = nm.collision_face_elem[f][0], eb = nm.collision_face_elem[f][1];
-      if (ea < 0 && eb < 0) {
-        ns.face_active[f] = 1;
-        continue;
-      }
-      const bool a_ok = ea >= 0 && ns.damage_level[ea] != kRuptured;
-      const bool b_ok = eb >= 0 && ns.damage_level[eb] != kRuptured;
-      ns.face_active[f] = a_ok && !b_ok ? 1 : (!a_ok && b_ok ? 2 : 0);
-    }
-  }
-  transfer_visco_state(m->fem, s.tissue, nm.fem, b.from_element, ns.tissue);
-  std::copy(s.tools.begin(), s.tools.end(), ns.tools.begin());
+  // Each part of the state that follows the topology, through its own transfer.
+  transfer_state(s.tissue, b.from_dof, ns.tissue);                      // tissue: x, v, warm start
+  transfer_visco_state(m->fem, s.tissue, nm.fem, b.from_element, ns.tissue);  // visco-elastic
+  if (nm.has_damage) transfer_damage(s, b.from_dof, b.from_element, nm, ns);  // damage, masses, faces
+  transfer_tools(*m, s, nm, *b.workspace, ns);                          // tools, grasps re-attached
   std::copy(s.edge_cut.begin(), s.edge_cut.end(), ns.edge_cut.begin());
   ns.time = s.time;
   ns.step = s.step;
-  regrasp(*m, s.tissue.x.data(), nm, *b.workspace, ns, ns.tools);
   std::swap(s, ns);
   std::swap(m, b.model);
   std::swap(w, b.workspace);

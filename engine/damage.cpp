@@ -68,21 +68,14 @@ int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* reco
         if (level == kRuptured) {
           // The element's mass leaves the nodes that still belong to intact tissue; nodes left
           // with no intact element keep theirs (free debris, so no node becomes massless).
-          for (int32_t n : m.fem.elements[e].node) {
-            bool attached = false;
-            for (int32_t j = m.fem.node_element_ptr[n]; j < m.fem.node_element_ptr[n + 1] && !attached; ++j)
-              attached = s.damage_level[m.fem.node_element[j]] != kRuptured;
-            if (attached) s.node_mass[n] = std::max(0.0, s.node_mass[n] - m.element_node_mass[e]);
-          }
+          for (int32_t n : m.fem.elements[e].node)
+            if (node_attached(m, s.damage_level, n)) s.node_mass[n] = std::max(0.0, s.node_mass[n] - m.element_node_mass[e]);
         }
         if (level == kRuptured && !s.face_active.empty()) {
           // The tear: faces between this element and an intact one become surface.
           for (int32_t j = m.element_face_ptr[e]; j < m.element_face_ptr[e + 1]; ++j) {
             const int32_t f = m.element_face[j];
-            const int32_t ea = m.collision_face_elem[f][0], eb = m.collision_face_elem[f][1];
-            const bool a_ok = ea >= 0 && s.damage_level[ea] != kRuptured;
-            const bool b_ok = eb >= 0 && s.damage_level[eb] != kRuptured;
-            s.face_active[f] = a_ok && !b_ok ? 1 : (!a_ok && b_ok ? 2 : 0);
+            s.face_active[f] = face_activity(m, s.damage_level, f);
           }
         }
         if (records && records->size() < records->capacity())
@@ -91,6 +84,29 @@ int update_damage(const Model& m, State& s, std::vector<DamageEventRecord>* reco
     }
   }
   return events;
+}
+
+void transfer_damage(const State& from, const std::vector<int32_t>& from_dof, const std::vector<int32_t>& from_element,
+                     const Model& nm, State& to) {
+  for (size_t e = 0; e < to.damage.size(); ++e) {
+    to.damage[e] = from.damage[from_element[e]];
+    to.damage_level[e] = from.damage_level[from_element[e]];
+  }
+  for (int32_t n = 0; n < nm.fem.num_nodes; ++n) {
+    if (!node_attached(nm, to.damage_level, n)) {
+      to.node_mass[n] = std::min(nm.fem.mass[n], from.node_mass[from_dof[n]]);
+      continue;
+    }
+    double mass = nm.fem.mass[n];
+    for (int32_t j = nm.fem.node_element_ptr[n]; j < nm.fem.node_element_ptr[n + 1]; ++j) {
+      const int32_t e = nm.fem.node_element[j];
+      if (to.damage_level[e] == kRuptured) mass -= nm.element_node_mass[e];
+    }
+    to.node_mass[n] = std::max(0.0, mass);
+  }
+  to.damage_count = from.damage_count;
+  to.first_damage_time = from.first_damage_time;
+  for (size_t f = 0; f < to.face_active.size(); ++f) to.face_active[f] = face_activity(nm, to.damage_level, static_cast<int32_t>(f));
 }
 
 }  // namespace stroma

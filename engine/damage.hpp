@@ -37,6 +37,34 @@ struct DamageEventRecord {
   int32_t tool = -1;     ///< tool in contact at that moment (−1: none); set by the caller
 };
 
+/// Collision face f's activity under the elements' damage levels (State::face_active's values):
+/// a face is surface where exactly one side is intact — 1 as stored (its first element intact),
+/// 2 reversed, 0 inside intact tissue or between ruptured elements; a face with no element on
+/// either side (the boundary of a body without a damage model) is always 1.
+inline uint8_t face_activity(const Model& m, const std::vector<uint8_t>& level, int32_t f) {
+  const int32_t ea = m.collision_face_elem[f][0], eb = m.collision_face_elem[f][1];
+  if (ea < 0 && eb < 0) return 1;
+  const bool a_ok = ea >= 0 && level[ea] != kRuptured;
+  const bool b_ok = eb >= 0 && level[eb] != kRuptured;
+  return a_ok && !b_ok ? 1 : (!a_ok && b_ok ? 2 : 0);
+}
+
+/// Whether node n still belongs to intact tissue (some element around it is not ruptured).
+inline bool node_attached(const Model& m, const std::vector<uint8_t>& level, int32_t n) {
+  for (int32_t j = m.fem.node_element_ptr[n]; j < m.fem.node_element_ptr[n + 1]; ++j)
+    if (level[m.fem.node_element[j]] != kRuptured) return true;
+  return false;
+}
+
+/// The damage part of a state carried across a topology change (engine/cut_swap.cpp): `to`,
+/// sized for the new model `nm`, gets each element's damage and level from the element it
+/// refines (from_element), the counters, and what the rules above make of them on the new
+/// topology — lumped masses without the ruptured elements' shares (a node left with no intact
+/// element is free debris and keeps what it had, at most its new lumped mass, so debris never
+/// gains mass across swaps) and each collision face's activity. No allocation.
+void transfer_damage(const State& from, const std::vector<int32_t>& from_dof, const std::vector<int32_t>& from_element,
+                     const Model& nm, State& to);
+
 /// The damage stage: updates s.damage / s.damage_level / counters from the current positions.
 /// Returns how many elements reached a new level this tick; if `events` is given, appends
 /// their records while it has spare capacity (never reallocates). No allocation.

@@ -2,7 +2,9 @@
 /// \file model.hpp
 /// The compiled, immutable scenario model (as MuJoCo's mjModel): the constants the tick reads,
 /// typed and resolved, and the few its outputs read (name, probes, body_tets, a cut model's
-/// edge state and serial). Built once by compile_scenario() (compiled_scenario.hpp),
+/// edge state and serial) — in two parts: the scenario's constants (ModelConstants), which a
+/// topology change keeps, and the part that follows the mesh's topology (ModelTopology), which
+/// each cut builds anew. Built once by compile_scenario() (compiled_scenario.hpp),
 /// shared read-only by every thread. The scenario text, log notes, headless tool scripts and
 /// visual surfaces live beside it in CompiledScenario: the tick never reads them.
 
@@ -40,21 +42,20 @@ struct CutStats {
   double cut_area = 0;          ///< m²: the wound's area (one lip's rest area)
 };
 
-/// The compiled scenario model.
+/// The part of a compiled model that a topology change keeps: the scenario's constants — the
+/// step's settings, the tools, the damage models, which stages the scene needs. A cut model
+/// takes them whole from the model it refines (engine/cut_compile.cpp: one assignment).
 ///
 /// Invariants (established by compile_scenario, relied on by the tick):
-///  - `fem` is a valid FemModel (see its invariants); every index below is into its arrays.
 ///  - `tools` are resolved: a tool with a shape has contact_stiffness > 0, a grasping tool has
 ///    grasp_stiffness > 0; workspace_min ≤ workspace_max. Their order is the scenario's and the
 ///    index of a ToolInput.
-///  - `has_contact` ⇔ some tool has a shape or `body_contact` is set; then the collision arrays
-///    (triangles, slots, edges, face_elem) are parallel and non-empty only for contact scenes.
-///  - `has_damage` ⇔ some body_damage[b] or region_damage[r] is enabled; element_node_mass is sized to the elements
-///    then (empty otherwise), element_face_ptr to the elements + 1 when has_contact.
-///  - `max_step_displacement` > 0: half the rest bounding-box diagonal of the whole scene.
-struct Model {
+///  - `has_contact` ⇔ some tool has a shape or the scenario has `body_contact`.
+///  - `has_damage` ⇔ some body_damage[b] or region_damage[r] is enabled.
+///  - `max_step_displacement` > 0: half the rest bounding-box diagonal of the whole scene (a cut
+///    moves no rest position, so it is the cut models' too).
+struct ModelConstants {
   std::string name;                ///< the scenario's name (logs, outputs, published scene)
-  FemModel fem;                    ///< all bodies in one system
   StepperSettings stepper;         ///< integrator and solver settings (Newton count resolved)
   double time_step = 0.001;        ///< s: the tick (and haptic) period
   /// Multirate (solver.fem_every): the tissue is stepped every fem_every ticks by fem_step =
@@ -71,18 +72,39 @@ struct Model {
   /// Largest node displacement one step (or sub-step) may make before it counts as diverged
   /// (half the scene's rest bounding-box diagonal).
   double max_step_displacement = 0;
-  std::vector<ProbeModel> probes;
   std::vector<ToolSpec> tools;            ///< resolved (see the invariants), in scenario order
   std::vector<DamageModel> body_damage;    ///< per body (enabled = false: no damage model)
-  /// Damage models of regions that have their own (`regions: [{…, damage: …}]`), and per element
-  /// the one it follows: an index into region_damage, or −1 for its body's. Empty: every element
-  /// follows its body's. damage_of() reads either.
+  /// Damage models of regions that have their own (`regions: [{…, damage: …}]`); which element
+  /// follows which is the topology part's (ModelTopology::element_region_damage).
   std::vector<DamageModel> region_damage;
-  std::vector<int32_t> element_region_damage;
   bool has_damage = false;                ///< some body has a damage model: damage stage runs
-  std::vector<double> element_node_mass;  ///< ρV/4 of each element (damage: removed at rupture)
   /// Some tool has a shape, or the scenario has body contact: the collide stage and BVH exist.
   bool has_contact = false;
+  // Cutting (docs/CUTTING.md). A scenario with a cutting tool compiles its uncut model with
+  // `cutting` set; each topology change compiles a new Model (engine/cut_compile.hpp) that the
+  // runner swaps in at a tick boundary (engine/cut_swap.hpp).
+  std::shared_ptr<const CutSupport> cutting;  ///< null: no tool cuts (no edge state, no scan)
+};
+
+/// The part of a compiled model that follows the mesh's topology — the FEM system and its
+/// pattern, everything indexed by element, node or surface face, the collision surface, body
+/// contact, probes — and which topology it is. compile_scenario builds the uncut one; each cut
+/// builds a new one whole (compile_cut_model).
+///
+/// Invariants:
+///  - `fem` is a valid FemModel (see its invariants); every index below is into its arrays.
+///  - the collision arrays (triangles, slots, edges, face_elem) are parallel and non-empty only
+///    when ModelConstants::has_contact.
+///  - element_node_mass is sized to the elements when has_damage (empty otherwise),
+///    element_face_ptr to the elements + 1 when has_contact; element_region_damage is empty or
+///    sized to the elements.
+struct ModelTopology {
+  FemModel fem;                    ///< all bodies in one system
+  std::vector<ProbeModel> probes;
+  /// Per element the region damage model it follows: an index into region_damage, or −1 for its
+  /// body's. Empty: every element follows its body's. damage_of() reads either.
+  std::vector<int32_t> element_region_damage;
+  std::vector<double> element_node_mass;  ///< ρV/4 of each element (damage: removed at rupture)
   std::optional<BodyContactModel> body_contact;  ///< scenario `body_contact:` (none: not computed)
   /// All bodies' surfaces (outward), over surface points: the DOFs, then collision_embedded
   /// (collision/contact_surface.hpp). An uncut model has no embedded points.
@@ -104,10 +126,6 @@ struct Model {
   std::vector<int32_t> element_face_ptr, element_face;
   std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
 
-  // Cutting (docs/CUTTING.md). A scenario with a cutting tool compiles its uncut model with
-  // `cutting` set; each topology change compiles a new Model (engine/cut_compile.hpp) that the
-  // runner swaps in at a tick boundary (engine/cut_swap.hpp).
-  std::shared_ptr<const CutSupport> cutting;  ///< null: no tool cuts (no edge state, no scan)
   std::shared_ptr<const CutTopology> topology;  ///< this model's topology (the uncut one's too)
   int32_t topology_version = 0;  ///< 0: uncut; +1 per swapped-in cut model
   /// Per edge of the uncut mesh, the two DOFs whose positions the blade tests it at (the edge's
@@ -121,6 +139,19 @@ struct Model {
   /// names the model whose layout it has by this (CutModelRegistry), since topology versions
   /// start again after a Reset.
   uint64_t cut_serial = 0;
+};
+
+/// The compiled scenario model: the constants a topology change keeps and the part it replaces.
+/// Fields are read as one (m.tools, m.fem); constants() and topology_part() name the halves.
+/// Invariants: those of both parts, and between them — `has_contact` ⇔ the collision arrays
+/// are non-empty; `has_damage` ⇔ element_node_mass is sized; body_damage has one entry per
+/// fem.bodies; element_region_damage indexes region_damage (engine/model_check.hpp checks
+/// them after every compile and cut compile in checked builds).
+struct Model : ModelConstants, ModelTopology {
+  ModelConstants& constants() { return *this; }
+  const ModelConstants& constants() const { return *this; }
+  ModelTopology& topology_part() { return *this; }
+  const ModelTopology& topology_part() const { return *this; }
 };
 
 /// The damage model element e of body b follows (its region's, or its body's).

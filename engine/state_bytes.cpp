@@ -132,7 +132,30 @@ void hash_damage(Fnv& f, const DamageModel& d) {
   f.value(d.rupture);
 }
 
+void hash_constants(Fnv& f, const ModelConstants& m) {
+  hash_stepper(f, m.stepper);
+  f.value(m.time_step);
+  f.value(m.fem_every);
+  f.value(static_cast<uint8_t>(m.haptic_secant));
+  f.value(static_cast<uint8_t>(m.substep_on_cg_cap));
+  f.value(m.time_budget);
+  f.value(m.max_step_displacement);
+  f.value(static_cast<uint64_t>(m.tools.size()));
+  for (const ToolSpec& t : m.tools) hash_tool(f, t);
+  f.value(static_cast<uint8_t>(m.has_damage));
+  for (const DamageModel& d : m.body_damage) hash_damage(f, d);
+  for (const DamageModel& d : m.region_damage) hash_damage(f, d);
+  f.value(static_cast<uint8_t>(m.has_contact));
+  f.value(static_cast<uint8_t>(m.cutting != nullptr));
+}
+
 }  // namespace
+
+uint64_t constants_fingerprint(const ModelConstants& m) {
+  Fnv f;
+  hash_constants(f, m);
+  return f.h;
+}
 
 uint64_t model_fingerprint(const Model& m) {
   // Everything of the compiled model a tick reads, so that two models with the same fingerprint
@@ -173,27 +196,14 @@ uint64_t model_fingerprint(const Model& m) {
     f.value(b.node_begin);
     f.value(b.element_begin);
   }
-  hash_stepper(f, m.stepper);
-  f.value(m.time_step);
-  f.value(m.fem_every);
-  f.value(static_cast<uint8_t>(m.haptic_secant));
-  f.value(static_cast<uint8_t>(m.substep_on_cg_cap));
-  f.value(m.time_budget);
-  f.value(m.max_step_displacement);
-  f.value(static_cast<uint64_t>(m.tools.size()));
-  for (const ToolSpec& t : m.tools) hash_tool(f, t);
-  f.value(static_cast<uint8_t>(m.has_damage));
-  for (const DamageModel& d : m.body_damage) hash_damage(f, d);
-  for (const DamageModel& d : m.region_damage) hash_damage(f, d);
+  hash_constants(f, m.constants());
   f.array(m.element_region_damage);
-  f.value(static_cast<uint8_t>(m.has_contact));
   f.value(static_cast<uint8_t>(m.body_contact.has_value()));
   if (m.body_contact) {
     f.value(m.body_contact->stiffness);
     f.array(m.body_contact->body_depth);
   }
   f.array(m.collision_triangles);
-  f.value(static_cast<uint8_t>(m.cutting != nullptr));
   return f.h;
 }
 

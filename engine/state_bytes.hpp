@@ -29,6 +29,11 @@ namespace stroma {
 /// fingerprints.
 uint64_t model_fingerprint(const Model& uncut);
 
+/// The part of model_fingerprint that hashes the constants a topology change keeps
+/// (ModelConstants: stepper, time step, multirate, budget, cap policy, tools, damage models,
+/// contact, cutting): equal for a model and every cut model compiled from it.
+uint64_t constants_fingerprint(const ModelConstants& m);
+
 /// `s` as bytes, stamped with `fingerprint` (model_fingerprint of its scenario's uncut model).
 std::string encode_state(const State& s, uint64_t fingerprint);
 

@@ -24,6 +24,7 @@
 #include "engine/damage.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
+#include "engine/state_bytes.hpp"
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "tissue/input_error.hpp"
@@ -164,6 +165,29 @@ TEST(CutEngine, TheCutModelOfAnUncutTopologyBehavesAsTheModel) {
   }
   EXPECT_GT(umax, 1e-4) << "the probe pressed the beam";
   EXPECT_LT(dmax, 1e-9 * umax + 1e-15) << "same physics, up to the order of the contact sums";
+}
+
+// The model's two parts (engine/model.hpp): a cut model takes the scenario's constants whole and
+// builds its topology part anew.
+TEST(CutEngine, ACutModelKeepsEveryConstantAndRebuildsItsTopologyPart) {
+  ScenarioSpec spec = beam_with_scalpel();
+  spec.solver.time_budget = 0.5;  // constants away from their defaults, so a dropped one shows
+  spec.tools[0].spec.max_force = 7;
+  CutRun run(spec);
+  const std::shared_ptr<const Model> uncut = run.m;
+  cut_through(run, total_mass(*uncut));
+  ASSERT_GT(run.swaps, 0);
+  EXPECT_EQ(constants_fingerprint(run.m->constants()), constants_fingerprint(uncut->constants()));
+  EXPECT_EQ(run.m->time_budget, 0.5);
+  EXPECT_EQ(run.m->tools[0].max_force, 7);
+  EXPECT_NE(model_fingerprint(*run.m), model_fingerprint(*uncut)) << "the topology part is the cut one";
+  EXPECT_GT(run.m->fem.num_nodes, uncut->fem.num_nodes);
+  EXPECT_EQ(run.m->topology_version, run.swaps);
+  EXPECT_EQ(run.m->probes.size(), uncut->probes.size());
+  // and the other way round: a constant changed is seen by the constants' fingerprint
+  Model other = *uncut;
+  other.tools[0].max_force = 8;
+  EXPECT_NE(constants_fingerprint(other.constants()), constants_fingerprint(uncut->constants()));
 }
 
 TEST(CutEngine, AScalpelSeparatesAClampedBeamAndTheFreePieceFallsRigidly) {
