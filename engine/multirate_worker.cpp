@@ -30,6 +30,8 @@ void MultirateWorker::stop() {
   posted_.fetch_add(1, std::memory_order_release);
   posted_.notify_one();
   thread_.join();
+  // That post only woke the thread: no step is outstanding (a step in progress finished first).
+  done_.store(posted_.load(std::memory_order_relaxed), std::memory_order_relaxed);
 }
 
 void MultirateWorker::run() {

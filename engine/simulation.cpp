@@ -6,6 +6,7 @@
 
 #include "engine/cut_worker.hpp"
 #include "tissue/clock.hpp"
+#include "tissue/demand.hpp"
 
 namespace stroma {
 
@@ -24,6 +25,8 @@ Simulation::Simulation(std::shared_ptr<const Model> model, SimulationOptions opt
   has_held_.assign(n, 0);
   if (model_->cutting && opt_.cut_builds == CutBuilds::OnWorker)
     cutter_ = std::make_unique<CutWorker>(model_, model_->cut_edge_dofs.size(), opt_.registry);
+  if (opt_.multirate_on_worker && model_->fem_every > 1)
+    multirate_ = std::make_unique<MultirateWorker>(*model_, *work_, state_);
 }
 
 Simulation::~Simulation() = default;
@@ -70,6 +73,8 @@ const TickReport& Simulation::step(Deadline deadline, const ToolInput* trusted, 
   // (Synchronous) the last swap's old model, workspace and state: the report of the tick before
   // it is not read any more. Only a swap fills it: a served tick never builds or frees one here.
   if (retired_.model) retired_ = CutBuild{};
+  STROMA_DEMAND(!multirate_ || trusted_count == 0, "Simulation::step: no replayed inputs with the multirate worker");
+  if (multirate_) return step_multirate(deadline, [](const TickReport&, const State&, int64_t, const TickReport&) {});
   take_commands();
   for (int k = 0; k < trusted_count; ++k) inputs_.push_back(trusted[k]);
   return tick(*model_, state_, *work_, inputs_.data(), static_cast<int>(inputs_.size()), deadline);
@@ -125,13 +130,14 @@ bool Simulation::reset() {
     if (opt_.realtime) work_->stepper().set_realtime(true);
   }
   state_ = initial_;  // a copy into arrays at least as large: no allocation
+  if (multirate_) multirate_->reset();
   std::fill(has_held_.begin(), has_held_.end(), 0);
   if (!opt_.commands_from_another_thread) port_.seed(state_.tools);
   return true;
 }
 
 void Simulation::restore(std::shared_ptr<const Model> m, const State& s) {
-  if (cutter_ || opt_.commands_from_another_thread)
+  if (cutter_ || multirate_ || opt_.commands_from_another_thread)
     throw std::logic_error("Simulation::restore: only for a simulation stepped and commanded on one thread");
   retired_ = CutBuild{};
   if (m != model_) {

@@ -8,6 +8,9 @@
 ///  - the cut stage follows each tick: a tick whose blade cut edges gets the cut model built and
 ///    swapped in — synchronously (headless: a run is a function of its inputs) or on a worker
 ///    that the physics thread never waits for (`serve`) — one code path with a policy;
+///  - multirate (solver.fem_every > 1): the tissue's step inside tick() (headless) or on a
+///    worker thread while each tick renders the tools (`serve`: MultirateWorker) — again one
+///    entry point, step(), with a policy;
 ///  - Reset and restore return to the scenario's model, or to the model a snapshot names.
 ///
 /// Model vs state (MuJoCo's mjModel/mjData): the Simulation holds a pointer to an immutable
@@ -27,6 +30,7 @@
 #include "engine/cut_registry.hpp"
 #include "engine/cut_swap.hpp"
 #include "engine/model.hpp"
+#include "engine/multirate_worker.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "engine/tool_commands.hpp"
@@ -59,6 +63,9 @@ struct SimulationOptions {
   /// thread). False (one thread, its client clock the simulated time: Python, run): reset() and
   /// restore() re-seed the commands port's speed check from the state (ToolCommandPort::seed).
   bool commands_from_another_thread = false;
+  /// Multirate models (solver.fem_every > 1): the tissue steps on a worker thread (MultirateWorker,
+  /// `serve`) rather than inside tick() (headless: the same pipeline emulated tick by tick).
+  bool multirate_on_worker = false;
 };
 
 /// What the cut stage did after a tick.
@@ -101,9 +108,25 @@ class Simulation {
   const std::vector<ToolInput>& inputs() const { return inputs_; }
 
   /// One tick: the port's newest commands, then `trusted` inputs (a replayed session's, already
-  /// checked when recorded; applied after, so they win), then tick(). `deadline`: see tick().
+  /// checked when recorded; applied after, so they win), then tick() — or, with the multirate
+  /// worker, its tick (step_multirate, finished steps not handed to anyone). `deadline`: see
+  /// tick(); with the worker, the deadline of a tissue step started at this tick.
   /// The cut stage is not run: call cut() (advance() does both).
   const TickReport& step(Deadline deadline = {}, const ToolInput* trusted = nullptr, int trusted_count = 0);
+  /// With the multirate worker (multirate() not null): one tick of the physics thread — the
+  /// port's newest commands, then MultirateWorker::tick, which calls `on_step(step_report,
+  /// tissue_state, ticks, tick_report)` for each finished tissue step before the next starts.
+  template <class OnStep>
+  const TickReport& step_multirate(Deadline deadline, OnStep&& on_step) {
+    take_commands();
+    return multirate_->tick(state_, inputs_.data(), static_cast<int>(inputs_.size()), deadline.at_ns, on_step);
+  }
+  /// The multirate worker (null unless multirate_on_worker and the model's fem_every > 1).
+  MultirateWorker* multirate() { return multirate_.get(); }
+  const MultirateWorker* multirate() const { return multirate_.get(); }
+  /// The tissue's state: state(), or with the multirate worker its state (the tools in it are
+  /// the worker's copies; read it while the worker is idle or stopped).
+  const State& tissue_state() const { return multirate_ ? multirate_->tissue_state() : state_; }
   /// The cut stage after a tick whose report cut `cut_edges` edges (and, OnWorker, every tick:
   /// a finished build is swapped in, pending cuts posted). Never waits, locks or allocates on
   /// the worker policy.
@@ -112,7 +135,7 @@ class Simulation {
   const TickReport& advance(Deadline deadline = {});
 
   /// Back to the scenario's model and initial state (and, see commands_from_another_thread, the
-  /// commands port's speed check with them). Synchronous: always; OnWorker: false,
+  /// commands port's speed check with them; the multirate worker's tissue at its next step). Synchronous: always; OnWorker: false,
   /// changing nothing, while the uncut workspace is still being made (retry at the next tick).
   bool reset();
   /// A snapshot's model and state (Synchronous only: may allocate a workspace for `m`), the
@@ -145,6 +168,7 @@ class Simulation {
   std::vector<uint8_t> has_held_;
   CutBuild retired_;                ///< Synchronous: the last swap's old model, workspace and state
   std::unique_ptr<CutWorker> cutter_;
+  std::unique_ptr<MultirateWorker> multirate_;  ///< after work_ and state_: it refers to them
   int topology_swaps_ = 0;
   int64_t retired_refreshes_ = 0;
   double build_ms_total_ = 0, build_ms_max_ = 0;

@@ -47,14 +47,9 @@ PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions 
       opt_(options),
       // Served ticks never wait for the preconditioner's worker (TimeStepper::set_realtime); cut
       // models are built on a worker (compile refuses cutting with multirate).
-      sim_(std::move(model), SimulationOptions{CutBuilds::OnWorker, ToolHold::Timeout, true, &cut_models, true}),
-      initial_(sim_.state()) {
-  multirate_ = sim_.model().fem_every > 1;
-  if (multirate_) {
-    fem_state_ = sim_.state();
-    haptic_report_.tools.resize(sim_.model().tools.size());
-    ticks_since_post_ = sim_.model().fem_every;  // the first tick starts the first step
-  }
+      // The tissue of a multirate model steps on the Simulation's worker (MultirateWorker).
+      sim_(std::move(model), SimulationOptions{CutBuilds::OnWorker, ToolHold::Timeout, true, &cut_models, true, true}) {
+  multirate_ = sim_.multirate() != nullptr;
 }
 
 void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown) {
@@ -76,7 +71,6 @@ void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& s
           break;
         }
         if (version != sim_.model().topology_version) publish_topology_event();
-        tissue_reset_ = multirate_;  // the worker's state when it is idle
         log(se);
         break;
       }
@@ -211,7 +205,7 @@ void PhysicsLoop::publish_status(StatusFrame*& status, RunState rs, StatusWindow
   status->controls = controls_seen;
   status->cg_iterations_mean = win.ticks ? static_cast<double>(win.cg_iterations) / static_cast<double>(win.ticks) : 0.0;
   // (multirate: the worker's last finished step; its state may be in use)
-  status->kinetic_energy = multirate_ ? tissue_kinetic_ : sim_.workspace().stepper().kinetic_energy(sim_.state().tissue);
+  status->kinetic_energy = multirate_ ? sim_.multirate()->kinetic_energy() : sim_.workspace().stepper().kinetic_energy(sim_.state().tissue);
   for (int st = 0; st < kStageCount; ++st)
     status->stage_ms[st] = win.ticks ? static_cast<double>(win.stage_ns[st]) * 1e-6 / static_cast<double>(win.ticks) : 0.0;
   status->missed_window = stats_.missed_deadlines - win.missed_at_start;
@@ -262,87 +256,16 @@ int64_t PhysicsLoop::follow_commands(PhaseLock& lock, const std::vector<ToolInpu
   return shift;
 }
 
-void PhysicsLoop::tissue_worker() {
-  // Below the physics thread (SCHED_FIFO 80: its 1 kHz ticks preempt a step of several ms) and
-  // the DDS threads (60), above everything else: a busy machine must not halve the tissue's
-  // rate. Off the physics thread's CPU: sharing it slowed the steps 2–3×.
-  setup_worker_thread(kTissueWorkerPriority, opt_.physics_cpu);
-  const Model& m = sim_.model();
-  uint64_t seen = 0;
-  for (;;) {
-    tissue_posted_.wait(seen, std::memory_order_acquire);
-    seen = tissue_posted_.load(std::memory_order_acquire);
-    if (tissue_stop_.load()) return;
-    TickReport& r = sim_.workspace().report;
-    begin_report(r);
-    const int64_t t0 = steady_now_ns();
-    Deadline d;
-    d.at_ns = tissue_deadline_;
-    r.budget_ns = d.at_ns > 0 ? d.at_ns - t0 : 0;
-    step_tissue(m, fem_state_, sim_.workspace(), d, m.fem_every);
-    close_report(r, t0, tissue_deadline_);  // the tick's accounting (engine/tick_types.hpp)
-    step_kinetic_ = sim_.workspace().stepper().kinetic_energy(fem_state_.tissue);  // O(n): here, not in a tick
-    tissue_done_.store(seen, std::memory_order_release);
+void PhysicsLoop::multirate_step_done(const TickReport& step, const State& tissue, int64_t ticks,
+                                      const TickReport& tick_report, RunState& rs, StatusWindow& win, uint64_t& frame) {
+  ++stats_.tissue_steps;
+  account_tick(step, rs, win, false);
+  if (step.damage_events > 0) publish_damage_events(step);
+  if (state_wanted.load(std::memory_order_relaxed) &&
+      (ticks_since_frame_ += static_cast<uint64_t>(ticks)) >= static_cast<uint64_t>(opt_.publish_every)) {
+    ticks_since_frame_ = 0;
+    publish_state_frame(tick_report, tissue, ++frame);
   }
-}
-
-const TickReport& PhysicsLoop::multirate_tick(const ToolInput* inputs, int n_in, int64_t tick_start, RunState& rs,
-                                              StatusWindow& win, uint64_t& frame) {
-  const Model& m = sim_.model();
-  TickReport& r = haptic_report_;
-  const int64_t t0 = steady_now_ns();
-  begin_report(r);
-  r.budget_ns = 0;
-  apply_tool_inputs(m, sim_.state(), r, inputs, n_in);
-  ++ticks_since_post_;
-  const uint64_t posted = tissue_posted_.load(std::memory_order_relaxed);
-  const bool idle = tissue_done_.load(std::memory_order_acquire) == posted;
-  if (!idle && ticks_since_post_ == m.fem_every) ++stats_.tissue_steps_late;  // due, still running
-  if (idle && ticks_since_post_ >= m.fem_every) {
-    // The worker's step is done: its models take over (as in a headless multirate run, at the
-    // tick fem_every after the step started), its outputs are handed off, the next one starts.
-    if (posted > 0 && !tissue_reset_) {
-      const TickReport& fr = sim_.workspace().report;
-      for (size_t k = 0; k < m.tools.size(); ++k) {
-        sim_.state().tools[k].haptic = fem_state_.tools[k].haptic_next;
-        r.tools[k].contacts = fr.tools[k].contacts;
-      }
-      ++stats_.tissue_steps;
-      account_tick(fr, rs, win, false);
-      tissue_kinetic_ = step_kinetic_;
-      if (fr.damage_events > 0) publish_damage_events(fr);
-      if (state_wanted.load(std::memory_order_relaxed) &&
-          (ticks_since_frame_ += static_cast<uint64_t>(ticks_since_post_)) >= static_cast<uint64_t>(opt_.publish_every)) {
-        ticks_since_frame_ = 0;
-        publish_state_frame(r, fem_state_, ++frame);
-      }
-    }
-    if (tissue_reset_) {
-      fem_state_ = initial_;
-      tissue_reset_ = false;
-    }
-    for (size_t k = 0; k < m.tools.size(); ++k) {  // the step is solved with the tools as they are now
-      ToolState& to = fem_state_.tools[k];
-      const ToolState& from = sim_.state().tools[k];
-      to.pose = from.pose;
-      to.seq = from.seq;
-      to.client_time_ns = from.client_time_ns;
-      to.last_command_time = from.last_command_time;
-      to.active = from.active;
-    }
-    tissue_deadline_ = opt_.budget ? tick_start + stats_.budget_ns : 0;
-    ticks_since_post_ = 0;
-    tissue_posted_.fetch_add(1, std::memory_order_release);
-    tissue_posted_.notify_one();
-  }
-  sim_.state().time = static_cast<double>(sim_.state().step + 1) * m.time_step;
-  ++sim_.state().step;
-  if (!m.tools.empty()) {
-    StageTimer t(r, Stage::HandOff);
-    render_haptic_models(m, sim_.state(), r.tools);
-  }
-  r.total_ns = steady_now_ns() - t0;
-  return r;
 }
 
 void PhysicsLoop::service_cuts(int cut_edges) {
@@ -391,8 +314,11 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
   PhaseLock lock(opt_.phase_lead > 0 ? period : 0, static_cast<int64_t>(opt_.phase_lead * 1e9),
                        static_cast<int64_t>(opt_.phase_max_step * static_cast<double>(period)));
 
-  std::thread worker;
-  if (multirate_) worker = std::thread([this] { tissue_worker(); });
+  // The multirate tissue worker: below the physics thread (SCHED_FIFO 80: its 1 kHz ticks preempt
+  // a step of several ms) and the DDS threads (60), above everything else — a busy machine must
+  // not halve the tissue's rate — and off the physics thread's CPU (sharing it slowed the steps
+  // 2–3×).
+  if (multirate_) sim_.multirate()->start([cpu = opt_.physics_cpu] { setup_worker_thread(kTissueWorkerPriority, cpu); });
 
   const int64_t t0 = steady_now_ns();
   int64_t deadline = t0 + period;
@@ -420,10 +346,16 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       Deadline budget;
       budget.at_ns = opt_.budget ? deadline + stats_.budget_ns : 0;
       // The newest accepted command of each tool (checked by the DDS thread as it submitted it).
-      if (multirate_) sim_.take_commands();
-      const TickReport& r = multirate_ ? multirate_tick(sim_.inputs().data(), static_cast<int>(sim_.inputs().size()),
-                                                        deadline, rs, win, frame)
-                                       : sim_.step(budget);
+      // The newest accepted command of each tool (checked by the DDS thread as it submitted it),
+      // then the tick — with the multirate worker, each finished tissue step handed off here.
+      const TickReport& r =
+          multirate_ ? sim_.step_multirate(budget,
+                                           [&](const TickReport& step, const State& tissue, int64_t ticks,
+                                               const TickReport& tick_report) {
+                                             multirate_step_done(step, tissue, ticks, tick_report, rs, win, frame);
+                                           })
+                     : sim_.step(budget);
+      if (multirate_) stats_.tissue_steps_late = sim_.multirate()->steps_late();
       log_inputs();
       shift = follow_commands(lock, sim_.inputs(), deadline);
       if (r.deadline_check >= 0) {  // the cut this tick made, so that a replay makes it too
@@ -469,12 +401,7 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       deadline = done;
     }
   }
-  if (worker.joinable()) {
-    tissue_stop_.store(true);
-    tissue_posted_.fetch_add(1, std::memory_order_release);
-    tissue_posted_.notify_one();
-    worker.join();
-  }
+  if (multirate_) sim_.multirate()->stop();
   SessionEvent end;
   end.kind = SessionEvent::End;
   end.tick = static_cast<int64_t>(stats_.ticks);

@@ -194,7 +194,7 @@ class PhysicsLoop {
   const PhysicsLoopStats& stats() const { return stats_; }
   /// The simulation state (multirate: the tissue worker's, whose tools carry its own copies of
   /// the poses). Read after run() has returned.
-  const State& state() const { return multirate_ ? fem_state_ : sim_.state(); }
+  const State& state() const { return sim_.tissue_state(); }
   const Model& model() const { return sim_.model(); }
   /// Cutting statistics (null without a cutting tool). Read after run() has returned.
   const CutWorker* cutter() const { return sim_.cutter(); }
@@ -220,15 +220,10 @@ class PhysicsLoop {
   void account_tick(const TickReport& r, RunState& rs, StatusWindow& win, bool tick = true);
   void publish_feedback(const TickReport& r);
   void publish_state_frame(const TickReport& r, const State& tissue, uint64_t frame);
-  /// Multirate: one tick of the physics thread — the tools' inputs, the tissue worker's finished
-  /// step taken up and the next one started (every fem_every ticks, or as soon as a late worker
-  /// is done), every tool rendered from its model. Publishes the state frame and damage events
-  /// of a finished step.
-  const TickReport& multirate_tick(const ToolInput* inputs, int n_in, int64_t tick_start, RunState& rs,
-                                   StatusWindow& win, uint64_t& frame);
-  /// Multirate: the tissue worker's loop (SCHED_FIFO kTissueWorkerPriority under a real-time
-  /// physics thread, normal priority otherwise).
-  void tissue_worker();
+  /// Multirate: a tissue step the Simulation's worker finished, taken up at this tick — its
+  /// statistics, damage events and (every publish_every ticks) a state frame of its state.
+  void multirate_step_done(const TickReport& step, const State& tissue, int64_t ticks, const TickReport& tick_report,
+                           RunState& rs, StatusWindow& win, uint64_t& frame);
   void publish_damage_events(const TickReport& r);
   void publish_topology_event();
   /// Cutting, at the end of a tick (or of a paused loop's turn): a pending Reset, a finished cut
@@ -247,26 +242,13 @@ class PhysicsLoop {
   /// The model ticking now (a cut model once cut), its state and workspace, the commands port
   /// and the cut stage (cut models built on its worker, swapped in at tick boundaries).
   Simulation sim_;
-  State initial_;  ///< multirate: the tissue worker's state after a Reset
   /// A Reset that must wait for the cut worker's spare workspace is retried each tick.
   bool reset_pending_ = false;
   PhysicsLoopStats stats_;
-  // ---- multirate (Model::fem_every > 1): the tissue steps on a worker thread ----
-  // Ownership: while tissue_done_ == tissue_posted_ the worker is idle and the physics thread
-  // owns fem_state_ and work_; after it posts (release) the worker owns them until it stores
-  // tissue_done_ (release). The tools' poses reach the worker inside fem_state_; its results
-  // come back in fem_state_, work_.report and step_kinetic_.
+  // Multirate (Model::fem_every > 1): the tissue steps on the Simulation's worker thread
+  // (engine/multirate_worker.hpp); the physics thread renders the tools every tick.
   bool multirate_ = false;
-  State fem_state_;                       ///< the tissue worker's state
-  TickReport haptic_report_;              ///< the physics thread's tick report
-  std::atomic<uint64_t> tissue_posted_{0}, tissue_done_{0};
-  std::atomic<bool> tissue_stop_{false};
-  int64_t tissue_deadline_ = 0;           ///< the posted step's deadline (0: none)
-  int64_t ticks_since_post_ = 0;
-  uint64_t ticks_since_frame_ = 0;
-  bool tissue_reset_ = false;             ///< a Reset waits for the worker to be idle
-  double step_kinetic_ = 0;               ///< the worker's: kinetic energy after its step
-  double tissue_kinetic_ = 0;             ///< the physics thread's copy, for status frames
+  uint64_t ticks_since_frame_ = 0;  ///< ticks since the last state frame of a finished step
 };
 
 }  // namespace stroma

@@ -40,6 +40,6 @@ bench/soak.sh 1
 stage thread sanitizer
 cmake --preset tsan >/dev/null
 cmake --build build-tsan -j "$jobs" --target stroma_thread_tests
-build-tsan/tests/stroma_thread_tests --gtest_filter='TripleBuffer*:SpscQueue*:PhysicsLoop*:CholeskyRefresher*:PreconditionerRefresh.SameTrajectory*' --gtest_brief=1
+build-tsan/tests/stroma_thread_tests --gtest_filter='TripleBuffer*:SpscQueue*:PhysicsLoop*:CholeskyRefresher*:PreconditionerRefresh.SameTrajectory*:Multirate.TheServedWorker*' --gtest_brief=1
 stage release tests
 ctest --test-dir build --output-on-failure -j "$jobs"

@@ -4,12 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 #include <cmath>
 #include <vector>
 
 #include "tests/cantilever_with_probe.hpp"
 #include "engine/model.hpp"
 #include "engine/multirate.hpp"
+#include "engine/simulation.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "haptics/tool_shape.hpp"
@@ -156,4 +159,63 @@ TEST(Multirate, LoadRejectsWhatItCannotRun) {
         }
       },
       InputError);
+}
+
+// The served pipeline (engine/multirate_worker.hpp, driven through Simulation as `serve` drives
+// it): every finished tissue step is handed off once, spanning fem_every ticks when the worker
+// keeps up, the tissue's clock advancing by fem_every ticks per step; when it kept up every
+// time, the tissue is the headless emulation's (tick()) bit for bit — the two are one pipeline.
+// A Reset returns the tissue to its initial state at the next step.
+TEST(Multirate, TheServedWorkerIsTheHeadlessPipelineWhenItKeepsUp) {
+  auto m = compile_model(beam_with_probe(4));
+  SimulationOptions o;
+  o.multirate_on_worker = true;
+  Simulation served(m, o);
+  ASSERT_NE(served.multirate(), nullptr);
+  served.multirate()->start();
+  State headless = State::initial(*m);
+  TickWorkspace w(*m);
+  int handed = 0;
+  int64_t spanned = 0;
+  const int ticks = 200;
+  for (int k = 0; k < ticks; ++k) {
+    const ToolInput in = press(0.0002 + 5e-6 * k);
+    served.commands().submit(0, in.pose, static_cast<uint64_t>(k + 1), 0, 0);
+    served.step_multirate({}, [&](const TickReport& step, const State& tissue, int64_t n, const TickReport&) {
+      ++handed;
+      spanned += n;
+      EXPECT_GE(n, m->fem_every);
+      EXPECT_EQ(tissue.step, static_cast<int64_t>(handed) * m->fem_every) << "the tissue's clock, in ticks";
+      EXPECT_TRUE(step.tissue_stepped);
+    });
+    tick(*m, headless, w, &in, 1);
+    // Give the worker its period (a served tick is 1 ms apart): a step takes well under fem_every ms.
+    std::this_thread::sleep_for(std::chrono::microseconds(1000));
+  }
+  served.multirate()->stop();
+  EXPECT_EQ(served.state().step, ticks);
+  EXPECT_GT(handed, ticks / m->fem_every / 2);
+  EXPECT_EQ(served.multirate()->steps(), static_cast<uint64_t>(handed));
+  if (served.multirate()->steps_late() == 0) {
+    // Every step on time: the worker's tissue after its last step is the emulation's at that tick.
+    State replay = State::initial(*m);
+    TickWorkspace w2(*m);
+    const int64_t at = served.tissue_state().step;
+    for (int64_t k = 0; k < at; ++k) {  // its last step at tick at − fem_every, the ones after hold
+      const ToolInput in = press(0.0002 + 5e-6 * static_cast<double>(k));
+      tick(*m, replay, w2, &in, 1);
+    }
+    EXPECT_EQ(replay.tissue.x, served.tissue_state().tissue.x);
+  }
+  // Reset: the haptic-rate state at once, the tissue at the next step.
+  ASSERT_TRUE(served.reset());
+  EXPECT_EQ(served.state().step, 0);
+  served.multirate()->start();
+  served.step_multirate({}, [](const TickReport&, const State&, int64_t, const TickReport&) {});
+  for (int k = 0; k < 50 && served.multirate()->steps() == static_cast<uint64_t>(handed); ++k) {
+    std::this_thread::sleep_for(std::chrono::microseconds(1000));
+    served.step_multirate({}, [](const TickReport&, const State&, int64_t, const TickReport&) {});
+  }
+  served.multirate()->stop();
+  EXPECT_EQ(served.tissue_state().step, m->fem_every) << "the tissue started again from its initial state";
 }
