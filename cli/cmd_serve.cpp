@@ -14,37 +14,37 @@ void add_serve(CLI::App& app, std::vector<Command>& out) {
   serve->add_option("scenario", srv->scenario, "Scenario YAML file or SOFA scene .scn (a dynamic one: static scenarios have no time to serve)")
       ->required()
       ->check(CLI::ExistingFile);
-  serve->add_option("--security", srv->security_dir, "Run a protected domain (DDS Security) with the identity 'server' of this 'stroma security init' directory: only permitted clients command tools, state and feedback are encrypted")->check(CLI::ExistingDirectory);
-  serve->add_option("--dds-config", srv->dds_config, "Cyclone DDS XML configuration (default: CYCLONEDDS_URI, else built-in loopback-only)")
+  serve->add_option("--security", srv->dds.security_dir, "Run a protected domain (DDS Security) with the identity 'server' of this 'stroma security init' directory: only permitted clients command tools, state and feedback are encrypted")->check(CLI::ExistingDirectory);
+  serve->add_option("--dds-config", srv->dds.dds_config, "Cyclone DDS XML configuration (default: CYCLONEDDS_URI, else built-in loopback-only)")
       ->check(CLI::ExistingFile);
-  serve->add_option("--domain", srv->domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
-  serve->add_option("--realtime", srv->realtime, "auto: try SCHED_FIFO + mlockall, warn and go on if denied; fifo: required; off")
+  serve->add_option("--domain", srv->dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
+  serve->add_option("--realtime", srv->timing.realtime, "auto: try SCHED_FIFO + mlockall, warn and go on if denied; fifo: required; off")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "fifo", "off"}));
-  serve->add_option("--cpu", srv->cpu, "Pin the physics thread to this CPU")->check(CLI::NonNegativeNumber);
-  serve->add_option("--duration", srv->duration, "Stop after this many wall seconds (default: until Ctrl-C or Control SHUTDOWN)")
+  serve->add_option("--cpu", srv->timing.cpu, "Pin the physics thread to this CPU")->check(CLI::NonNegativeNumber);
+  serve->add_option("--duration", srv->timing.duration, "Stop after this many wall seconds (default: until Ctrl-C or Control SHUTDOWN)")
       ->check(CLI::NonNegativeNumber);
-  serve->add_option("--stats", srv->stats_file, "Write timing statistics (JSON) here at exit");
-  serve->add_option("--publish-hz", srv->publish_hz, "TissueState rate")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
-  serve->add_flag("--paused", srv->start_paused, "Start paused (resume or step with stroma_Control)");
+  serve->add_option("--stats", srv->outputs.stats_file, "Write timing statistics (JSON) here at exit");
+  serve->add_option("--publish-hz", srv->dds.publish_hz, "TissueState rate")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
+  serve->add_flag("--paused", srv->timing.start_paused, "Start paused (resume or step with stroma_Control)");
   serve->add_flag("--converge", srv->converge,
                   "Leave the solver to the engine at the scenario's tolerance (preconditioner, refresh and cap policy "
                   "auto, cap >= 1000): for SOFA scenes, which reproduce SOFA's capped unpreconditioned CG otherwise");
-  serve->add_option("--spin-us", srv->spin_us, "Wake this many microseconds early and spin to each deadline (0: sleep only)")
+  serve->add_option("--spin-us", srv->timing.spin_us, "Wake this many microseconds early and spin to each deadline (0: sleep only)")
       ->capture_default_str()
       ->check(CLI::Range(0, 900));
-  serve->add_option("--record", srv->record_file, "Log every accepted tool command and control with its tick (replay: stroma run --replay)");
-  serve->add_option("--final-state", srv->final_state_file, "Write the final state (node,x,y,z CSV) at exit");
-  serve->add_option("--budget-margin-ms", srv->budget_margin_ms,
+  serve->add_option("--record", srv->outputs.record_file, "Log every accepted tool command and control with its tick (replay: stroma run --replay)");
+  serve->add_option("--final-state", srv->outputs.final_state_file, "Write the final state (node,x,y,z CSV) at exit");
+  serve->add_option("--budget-margin-ms", srv->timing.budget_margin_ms,
                     "Each tick's engine work must end this long before the next deadline: its time budget is the "
                     "period minus this (or solver.time_budget if smaller); what does not fit degrades stably")
       ->capture_default_str();
-  serve->add_option("--phase-lead-us", srv->phase_lead_us,
+  serve->add_option("--phase-lead-us", srv->timing.phase_lead_us,
                     "Follow the tool commands' phase: shift the tick schedule (at most 2 % of a period per tick) "
                     "so that commands arrive this long before the tick that takes them; 0: fixed schedule")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  serve->add_flag("--crtk", srv->crtk,
+  serve->add_flag("--crtk", srv->dds.crtk,
                   "Also expose each tool as a CRTK device in ROS 2's DDS conventions: rt/<tool>/servo_cp, "
                   "state_command in; measured_cp, measured_cf, operating_state out (docs/CRTK.md)");
   serve->footer(

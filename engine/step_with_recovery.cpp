@@ -104,6 +104,60 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
   return sane_step(t, h, m.max_step_displacement);
 }
 
+/// How a tick's step ended, as the recovery policy left it (accounted by account_outcome).
+enum class StepOutcome {
+  FullStep,         ///< the full step, sane
+  SubSteps,         ///< redone in r.substeps sane sub-steps
+  SubStepsPartWay,  ///< out of time part-way up a level: the sane sub-steps done are kept
+  Held,             ///< out of time with no sane step: rolled back, velocities zeroed
+  RolledBack        ///< no sub-step division gave a sane step: rolled back, not advanced
+};
+
+/// The recovery policy after a failed full step: roll back and redo the tick in 2, 4, …
+/// kMaxSubsteps sub-steps (a smaller step is both more stable and better conditioned), warm start
+/// cleared; from kKeepCappedSubsteps on a capped solve is kept (a finite, advanced state beats
+/// none); every level stops at the deadline. Without a sane level: hold still if out of time,
+/// else roll back. Says what it did; the report's status and degradation are accounting's.
+StepOutcome recover(const Model& m, State& s, TickWorkspace& w, TickReport& r, Deadline& deadline, bool cap_fails) {
+  const double h = m.fem_step;
+  for (int k = 2; k <= kMaxSubsteps; k *= 2) {
+    if (deadline.past()) break;  // (a failed level that ran out of time ends here too)
+    restore(s.tissue, w);
+    bool ok = true;
+    int done = 0;  // sane sub-steps of this level
+    for (int i = 0; i < k && ok; ++i) {
+      if (deadline.past()) break;
+      ok = step(m, s, w, h / k, r, false, cap_fails && k < kKeepCappedSubsteps, deadline);
+      done += ok;
+    }
+    r.substeps = k;
+    if (ok) return done < k ? StepOutcome::SubStepsPartWay : StepOutcome::SubSteps;
+  }
+  restore(s.tissue, w);
+  if (deadline.past()) {
+    std::fill(s.tissue.v.begin(), s.tissue.v.end(), 0.0);
+    return StepOutcome::Held;
+  }
+  return StepOutcome::RolledBack;
+}
+
+/// The step's accounting: its status and worst degradation from how it ended.
+void account_outcome(StepOutcome o, TickReport& r) {
+  switch (o) {
+    case StepOutcome::FullStep: break;
+    case StepOutcome::SubSteps: r.status = TickStatus::Recovered; break;
+    case StepOutcome::SubStepsPartWay:  // maybe none done: then the tissue keeps its start state
+      degrade(r, Degradation::LadderStopped);
+      r.status = TickStatus::Recovered;
+      break;
+    case StepOutcome::Held:
+      degrade(r, Degradation::Held);
+      r.status = TickStatus::Recovered;
+      break;
+    case StepOutcome::RolledBack: r.status = TickStatus::NonFinite; break;
+  }
+}
+
 }  // namespace
 
 void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& r, Deadline& deadline) {
@@ -127,38 +181,7 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
     restore(s.tissue, w);
     ok = step(m, s, w, h, r, false, cap_fails, deadline);
   }
-  if (ok) return;
-  // The engine defends itself: roll back and redo the tick in 2, 4, … sub-steps (a smaller step
-  // is both more stable and better conditioned), warm start cleared.
-  for (int k = 2; k <= kMaxSubsteps && !ok; k *= 2) {
-    if (deadline.past()) break;  // (a failed level that ran out of time ends here too)
-    restore(s.tissue, w);
-    ok = true;
-    int done = 0;  // sane sub-steps of this level
-    // From kKeepCappedSubsteps on a capped solve is kept: a finite, advanced state beats none.
-    for (int i = 0; i < k && ok; ++i) {
-      if (deadline.past()) break;
-      ok = step(m, s, w, h / k, r, false, cap_fails && k < kKeepCappedSubsteps, deadline);
-      done += ok;
-    }
-    r.substeps = k;
-    if (ok && done < k) {  // out of time part-way: keep the sane sub-steps done (maybe none:
-      degrade(r, Degradation::LadderStopped);  // then the tissue keeps its start state for the tick)
-      break;
-    }
-  }
-  if (ok) {
-    r.status = TickStatus::Recovered;
-    return;
-  }
-  restore(s.tissue, w);
-  if (deadline.past()) {  // out of time with no sane step: hold still for this tick
-    std::fill(s.tissue.v.begin(), s.tissue.v.end(), 0.0);
-    degrade(r, Degradation::Held);
-    r.status = TickStatus::Recovered;
-    return;
-  }
-  r.status = TickStatus::NonFinite;
+  account_outcome(ok ? StepOutcome::FullStep : recover(m, s, w, r, deadline, cap_fails), r);
 }
 
 }  // namespace stroma

@@ -39,6 +39,7 @@ std::string_view stage_name(Stage s) {
     case Stage::Integrate: return "integrate";
     case Stage::Damage: return "damage";
     case Stage::HandOff: return "hand_off";
+    case Stage::Cut: return "cut";
     case Stage::Count: break;
   }
   return "?";
@@ -96,11 +97,11 @@ StepInputs step_inputs(const Model& m, const State& s, const TickWorkspace& w) {
 /// this tick's step inputs.
 namespace {
 
-/// Cutting (in the collide stage): each cutting blade's edge, swept from where it was at the end
-/// of the last tick to where it is now, cuts the uncut edges it crosses (s.edge_cut; the
-/// runner swaps in the new topology: engine/cut_swap.hpp). Its resistance — toughness × the
-/// area cut (estimated from the edges: CutSupport::edges_per_area) per unit of blade travel,
-/// against the travel — is smoothed over kCutForceTime into the tool's state.
+/// cut stage (after collide): each cutting blade's edge, swept from where it was at the end of
+/// the last tick to where it is now (tissue/cut_blade.hpp, blade_step), cuts the uncut edges it
+/// crosses (s.edge_cut; the Simulation's cut stage swaps in the new topology:
+/// engine/cut_swap.hpp). Its resistance (cut_resistance) is smoothed over kCutForceTime into the
+/// tool's state.
 void cut_with_blades(const Model& m, State& s, TickWorkspace& w) {
   const CutSupport& cs = *m.cutting;
   for (size_t k = 0; k < m.tools.size(); ++k) {
@@ -119,48 +120,17 @@ void cut_with_blades(const Model& m, State& s, TickWorkspace& w) {
     const Vec3 a{cap[0].a[0], cap[0].a[1], cap[0].a[2]}, b{cap[0].b[0], cap[0].b[1], cap[0].b[2]};
     Vec3 f_now{0, 0, 0};
     if (ts.has_blade) {
-      // Only the sharp edge cuts, and in the blade's plane: the travel's component along the
-      // blade's normal (its local y) is the flat pushing the tissue aside (contact on the lips,
-      // no cut), and a blade drawn backwards (against its local +z, the way its edge faces) or
-      // along its own edge sweeps nothing. So the last edge position is moved sideways into the
-      // blade's current plane, and the sweep counts only when it goes forward.
+      // The blade's frame: its normal (local y) and the way its edge faces (local z).
       double R[9];
       quaternion_to_matrix(ts.pose.orientation, R);
       const double normal[3] = {R[1], R[4], R[7]}, forward[3] = {R[2], R[5], R[8]};
-      Vec3 pa = ts.blade_a, pb = ts.blade_b;
-      double travel[3], len2 = 0, sideways = 0, ahead = 0;
-      for (int i = 0; i < 3; ++i) sideways += 0.5 * (a[i] + b[i] - pa[i] - pb[i]) * normal[i];
-      for (int i = 0; i < 3; ++i) {
-        pa[i] += sideways * normal[i];
-        pb[i] += sideways * normal[i];
-        travel[i] = 0.5 * (a[i] + b[i] - pa[i] - pb[i]);
-        len2 += travel[i] * travel[i];
-        ahead += travel[i] * forward[i];
-      }
-      // The swept surface starts behind where the edge was — by its half-thickness or half a
-      // tick's travel, whichever is more: each tick tests the mesh where it is now, so tissue
-      // that moved back across the edge's last position between two ticks would fall between
-      // two sweeps (measured: a node of a sagging beam 0.1 mm behind the edge left the beam
-      // joined). An edge is cut once: the overlap cuts nothing twice.
-      Vec3 a0 = pa, b0 = pb;
-      if (len2 > 0) {
-        const double back = std::max(spec.radius / std::sqrt(len2), 0.5);
-        for (int i = 0; i < 3; ++i) {
-          a0[i] -= back * travel[i];
-          b0[i] -= back * travel[i];
-        }
-      }
-      const SweptBlade sweep{a0, b0, a, b};
-      const int n = ahead > 0 ? cut_edges(s.tissue.x.data(), cs.base.adj, m.cut_edge_dofs, sweep, s.edge_cut,
+      const BladeStep st = blade_step(ts.blade_a, ts.blade_b, a, b, normal, forward, spec.radius);
+      const int n = st.forward ? cut_edges(s.tissue.x.data(), cs.base.adj, m.cut_edge_dofs, st.sweep, s.edge_cut,
                                            cs.base.min_fraction.data())
-                                : 0;
+                               : 0;
       out.cut_edges = n;
       w.report.cut_edges += n;
-      if (n > 0 && spec.cut_toughness > 0 && cs.edges_per_area > 0 && len2 > 0) {
-        const double area = n / cs.edges_per_area;
-        const double len = std::sqrt(len2);
-        for (int i = 0; i < 3; ++i) f_now[i] = -spec.cut_toughness * area / len * (travel[i] / len);
-      }
+      f_now = cut_resistance(n, cs.edges_per_area, spec.cut_toughness, st.travel, st.travel_len2);
     }
     const double alpha = std::min(1.0, m.fem_step / kCutForceTime);
     for (int i = 0; i < 3; ++i) ts.cut_force[i] += alpha * (f_now[i] - ts.cut_force[i]);
@@ -197,7 +167,6 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   if (m.body_contact)
     body_contact(*m.body_contact, surf, w.bvh, px, pv, m.fem_step, m.fem.gravity.data(), w.body_boxes.data(),
                  w.springs, w.body_pairs, w.report.body_contact);
-  if (m.cutting) cut_with_blades(m, s, w);
 }
 
 namespace {
@@ -279,6 +248,10 @@ bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, 
   if (m.has_contact) {
     StageTimer t(r, Stage::Collide);
     collide(m, s, w);
+  }
+  if (m.cutting) {
+    StageTimer t(r, Stage::Cut);
+    cut_with_blades(m, s, w);
   }
   // The step's own work stops early enough to leave the energy guard its time.
   if (deadline.at_ns > 0) deadline.at_ns = std::max<int64_t>(1, deadline.at_ns - (w.guard_ns + w.guard_ns / 4));

@@ -27,7 +27,10 @@ namespace stroma {
 /// iterations' included), `Solve` the linear solves; `HandOff` is the tick's outputs for
 /// clients (end-of-step tool forces and device feedback) and, in `stroma serve`, the copies
 /// into the lock-free buffers that follow the tick.
-enum class Stage : int { ReadInputs, Collide, Assemble, Solve, Integrate, Damage, HandOff, Count };
+/// The tick's stages, in the order their times are reported (summary.json, metrics.csv, SimStatus
+/// stage_ms). `Cut` runs right after `Collide` but is numbered last: it joined later (issue 40),
+/// and DDS clients index stage_ms by these numbers.
+enum class Stage : int { ReadInputs, Collide, Assemble, Solve, Integrate, Damage, HandOff, Cut, Count };
 inline constexpr int kStageCount = static_cast<int>(Stage::Count);
 /// snake_case stage name, as used in summary.json, metrics.csv and SimStatus.
 std::string_view stage_name(Stage s);

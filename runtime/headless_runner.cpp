@@ -270,30 +270,36 @@ void RunOutputs::finish(RunResult& res) {
   if (!f) throw std::runtime_error(fmt::format("cannot write '{}'", (dir / "summary.json").string()));
 }
 
-/// Each scripted tool sampled at time t (tools without a script keep their pose).
-std::vector<ToolPose> scripted_poses(const CompiledScenario& sc, const State& s, double t) {
-  std::vector<ToolPose> poses;
-  for (size_t k = 0; k < s.tools.size(); ++k)
-    poses.push_back(sc.tool_scripts[k].keys.empty() ? s.tools[k].pose : sc.tool_scripts[k].sample(t));
-  return poses;
+/// Each scripted tool's pose at time t through the commands port, as a dynamic run's (checked
+/// against the tool's limits, clamped or refused by its on_invalid, counted): `poses` gets each
+/// accepted (or clamped) command; a refused one, or a tool without a script, keeps its pose.
+void scripted_poses(const CompiledScenario& sc, Simulation& sim, double t, std::vector<ToolPose>& poses) {
+  sim.submit_scripts(sc.tool_scripts, nullptr, t);
+  sim.take_commands();
+  for (const ToolInput& in : sim.inputs()) poses[static_cast<size_t>(in.tool)] = in.pose;
 }
 
 /// Static run: the equilibrium at t = 0 from rest, then (quasi-static) one per tick time.
-void run_static(const CompiledScenario& sc, const RunOptions& o, long steps, State& s, TickWorkspace& w,
-                RunOutputs& out, RunLog& log, RunResult& res) {
+void run_static(const CompiledScenario& sc, const RunOptions& o, long steps, Simulation& sim, RunOutputs& out,
+                RunLog& log, RunResult& res) {
   const Model& m = *sc.model;
+  State& s = sim.state();
+  TickWorkspace& w = sim.workspace();
   for (size_t t = 0; t < m.tools.size(); ++t)
     if (!sc.tool_scripts[t].keys.empty()) {
       s.tools[t].last_command_time = 0;
       s.tools[t].active = true;
     }
-  StaticParameters from{0.0, 0.0, scripted_poses(sc, s, 0.0)};
+  std::vector<ToolPose> poses(s.tools.size());
+  for (size_t t = 0; t < poses.size(); ++t) poses[t] = s.tools[t].pose;
+  scripted_poses(sc, sim, 0.0, poses);
+  StaticParameters from{0.0, 0.0, poses};
   StaticParameters to{1.0, 1.0, from.tool_poses};
   res.static_converged = true;
   for (long k = 0; k <= steps; ++k) {
     if (k > 0) {
       from = to;
-      to.tool_poses = scripted_poses(sc, s, static_cast<double>(k) * m.time_step);
+      scripted_poses(sc, sim, static_cast<double>(k) * m.time_step, to.tool_poses);
     }
     const auto t0 = Clock::now();
     const StaticOutcome so = solve_equilibrium(m, s, w, from, to);
@@ -463,10 +469,6 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, Si
   res.topology_swaps = sim.topology_swaps();
   res.cut_build_ms_total = sim.cut_build_ms_total();
   res.cut_build_ms_max = sim.cut_build_ms_max();
-  const CommandCounters& c = sim.commands().counters();
-  res.commands_accepted = c.accepted.load();
-  res.commands_clamped = c.clamped.load();
-  res.commands_rejected = c.rejected.load();
   res.steps = s.step;
 }
 
@@ -483,8 +485,13 @@ RunResult run_headless(const CompiledScenario& sc, const RunOptions& o) {
   log.step_ms_without_refresh_waits.reserve(log.step_ms.capacity());
   RunOutputs out(sc, o, log);
   const auto wall0 = Clock::now();
-  if (m.stepper.integrator == Integrator::Static) run_static(sc, o, steps, s, sim.workspace(), out, log, res);
+  if (m.stepper.integrator == Integrator::Static) run_static(sc, o, steps, sim, out, log, res);
   else run_dynamic(sc, o, steps, sim, out, log, res);
+  // Every scripted command of either kind of run, checked as a client's (engine/tool_commands.hpp).
+  const CommandCounters& c = sim.commands().counters();
+  res.commands_accepted = c.accepted.load();
+  res.commands_clamped = c.clamped.load();
+  res.commands_rejected = c.rejected.load();
   TickWorkspace& w = sim.workspace();
   res.final_model = sim.model_ptr();
   res.wall_seconds = std::chrono::duration<double>(Clock::now() - wall0).count();

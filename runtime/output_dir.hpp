@@ -8,7 +8,8 @@
 namespace stroma {
 
 /// Creates `dir` (and its parents) and checks that a file can be written in it. Throws
-/// InputError(dir, 0, option, reason) otherwise; `option` names the flag (e.g. "--out").
+/// OptionError(option, "DIR: reason") otherwise (runtime/option_error.hpp); `option` names the
+/// flag (e.g. "--out").
 void ensure_writable_dir(const std::string& dir, const std::string& option = "--out");
 
 }  // namespace stroma

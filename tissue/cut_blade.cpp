@@ -97,4 +97,39 @@ int cut_edges(const double* x, const TetAdjacency& adj, const std::vector<std::a
   return cut;
 }
 
+BladeStep blade_step(const Vec3& last_a, const Vec3& last_b, const Vec3& a, const Vec3& b, const double normal[3],
+                     const double forward[3], double half_thickness) {
+  BladeStep st;
+  Vec3 pa = last_a, pb = last_b;
+  double sideways = 0, ahead = 0;
+  for (int i = 0; i < 3; ++i) sideways += 0.5 * (a[i] + b[i] - pa[i] - pb[i]) * normal[i];
+  for (int i = 0; i < 3; ++i) {
+    pa[i] += sideways * normal[i];
+    pb[i] += sideways * normal[i];
+    st.travel[i] = 0.5 * (a[i] + b[i] - pa[i] - pb[i]);
+    st.travel_len2 += st.travel[i] * st.travel[i];
+    ahead += st.travel[i] * forward[i];
+  }
+  Vec3 a0 = pa, b0 = pb;
+  if (st.travel_len2 > 0) {
+    const double back = std::max(half_thickness / std::sqrt(st.travel_len2), 0.5);
+    for (int i = 0; i < 3; ++i) {
+      a0[i] -= back * st.travel[i];
+      b0[i] -= back * st.travel[i];
+    }
+  }
+  st.sweep = SweptBlade{a0, b0, a, b};
+  st.forward = ahead > 0;
+  return st;
+}
+
+Vec3 cut_resistance(int edges, double edges_per_area, double toughness, const Vec3& travel, double travel_len2) {
+  Vec3 f{0, 0, 0};
+  if (edges <= 0 || toughness <= 0 || edges_per_area <= 0 || travel_len2 <= 0) return f;
+  const double area = edges / edges_per_area;
+  const double len = std::sqrt(travel_len2);
+  for (int i = 0; i < 3; ++i) f[i] = -toughness * area / len * (travel[i] / len);
+  return f;
+}
+
 }  // namespace stroma

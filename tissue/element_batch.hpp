@@ -61,4 +61,22 @@ inline void batch_gradient(const double (&d)[9][kBatch], const double (&g)[9][kB
         G[3 * i + j][l] = d[i][l] * g[j][l] + d[3 + i][l] * g[3 + j][l] + d[6 + i][l] * g[6 + j][l];
 }
 
+/// Deformation gradient F = Σ_{a=1..3} (x_a − x_0) ⊗ g_a of element e.
+inline void deformation_gradient(const double* __restrict x, const ElementParams& ep,
+                                 double* F, double* d1, double* d2) {
+  const double* x0 = x + 3 * ep.node[0];
+  double d[3][3];
+  for (int a = 0; a < 3; ++a) {
+    const double* xa = x + 3 * ep.node[a + 1];
+    for (int i = 0; i < 3; ++i) d[a][i] = xa[i] - x0[i];
+  }
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      F[3 * i + j] = d[0][i] * ep.g[j] + d[1][i] * ep.g[3 + j] + d[2][i] * ep.g[6 + j];
+  for (int i = 0; i < 3; ++i) {
+    d1[i] = d[0][i];
+    d2[i] = d[1][i];
+  }
+}
+
 }  // namespace stroma::element_batch

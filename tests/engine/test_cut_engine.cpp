@@ -184,6 +184,16 @@ TEST(CutEngine, ACutModelKeepsEveryConstantAndRebuildsItsTopologyPart) {
   EXPECT_GT(run.m->fem.num_nodes, uncut->fem.num_nodes);
   EXPECT_EQ(run.m->topology_version, run.swaps);
   EXPECT_EQ(run.m->probes.size(), uncut->probes.size());
+  // The blade ran as its own timed stage (engine/tick.cpp: `cut`, after collide); a scene whose
+  // tools do not cut skips it.
+  EXPECT_TRUE(run.w->report.stage_ran[static_cast<int>(Stage::Cut)]);
+  EXPECT_EQ(stage_name(Stage::Cut), "cut");
+  ScenarioSpec probe = beam_with_scalpel();
+  probe.tools[0].spec.cuts = false;
+  CutRun plain(probe);
+  plain.step();
+  EXPECT_FALSE(plain.w->report.stage_ran[static_cast<int>(Stage::Cut)]);
+  EXPECT_EQ(plain.w->report.stage_ns[static_cast<int>(Stage::Cut)], 0);
   // and the other way round: a constant changed is seen by the constants' fingerprint
   Model other = *uncut;
   other.tools[0].max_force = 8;

@@ -613,3 +613,36 @@ TEST(CutTopology, CutPointsStayWithinAFifthOfTheShortestEdgeOfTheBlade) {
   EXPECT_GE(smallest, 0.9 * kCutMinFractionFloor * kCutMinFractionFloor * kCutMinFractionFloor);
   RecordProperty("worst_shift_over_h_min", std::to_string(worst));
 }
+
+// A blade's step (blade_step): only the travel within its plane and ahead of its edge counts;
+// the swept surface starts behind the last edge by max(half-thickness, half the travel); the
+// resistance is toughness × the area cut per unit of travel, against the travel.
+TEST(BladeStep, CountsOnlyTheForwardTravelInTheBladesPlane) {
+  const double normal[3] = {0, 1, 0}, forward[3] = {0, 0, 1};
+  const Vec3 la{0, 0, 0}, lb{1, 0, 0};
+  // Forward by 2 mm and sideways by 5 mm: the sideways part is the flat pushing, not cutting.
+  const Vec3 a{0, 0.005, 0.002}, b{1, 0.005, 0.002};
+  const BladeStep st = blade_step(la, lb, a, b, normal, forward, 0.0005);
+  EXPECT_TRUE(st.forward);
+  EXPECT_NEAR(st.travel[0], 0, 1e-15);
+  EXPECT_NEAR(st.travel[1], 0, 1e-15);
+  EXPECT_NEAR(st.travel[2], 0.002, 1e-15);
+  EXPECT_NEAR(st.travel_len2, 4e-6, 1e-18);
+  // Behind the last edge (moved into the current plane) by max(0.5 mm, half of 2 mm) = 1 mm.
+  EXPECT_NEAR(st.sweep.a0[1], 0.005, 1e-15);
+  EXPECT_NEAR(st.sweep.a0[2], -0.001, 1e-15);
+  EXPECT_EQ(st.sweep.a1, a);
+  EXPECT_EQ(st.sweep.b1, b);
+  // A thick blade: behind by its half-thickness (3 mm > 1 mm).
+  EXPECT_NEAR(blade_step(la, lb, a, b, normal, forward, 0.003).sweep.b0[2], -0.003, 1e-15);
+  // Drawn backwards, or only sideways: nothing is swept forward.
+  EXPECT_FALSE(blade_step(la, lb, Vec3{0, 0, -0.002}, Vec3{1, 0, -0.002}, normal, forward, 0.0005).forward);
+  const BladeStep side = blade_step(la, lb, Vec3{0, 0.01, 0}, Vec3{1, 0.01, 0}, normal, forward, 0.0005);
+  EXPECT_FALSE(side.forward);
+  EXPECT_EQ(side.travel_len2, 0);
+  // 10 edges at 1000 edges/m² cut 0.01 m²; × 200 J/m² over 2 mm of travel: 1000 N against it.
+  const Vec3 f = cut_resistance(10, 1000, 200, st.travel, st.travel_len2);
+  EXPECT_NEAR(f[2], -200 * 0.01 / 0.002, 1e-9);
+  EXPECT_EQ(f[0], 0);
+  EXPECT_EQ(cut_resistance(0, 1000, 200, st.travel, st.travel_len2)[2], 0);
+}
