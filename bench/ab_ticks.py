@@ -47,7 +47,10 @@ def main():
         fig = {"before": [], "after": []}
         last = {}
         for r in range(a.runs):
-            for side, exe in (("before", a.before), ("after", a.after)):
+            # Which binary goes first alternates by round: the second run of a pair measured up to
+            # 1.15x slower whichever binary it was (2026-12-05, liver.yaml, 15 rounds each way).
+            order = (("before", a.before), ("after", a.after))
+            for side, exe in order if r % 2 == 0 else order[::-1]:
                 s = run(exe, scene, os.path.join(a.out, scene.replace("/", "_")[:-5], f"{side}_{r}"), a.steps)
                 fig[side].append((s["step_ms"]["p50"], s["step_ms"]["p99"], s["step_ms"]["mean"], s["cg_iterations"]["mean"]))
                 last[side] = s
