@@ -18,6 +18,7 @@
 #include "runtime/headless_runner.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
@@ -148,7 +149,7 @@ double engine_bending_omega(const Model& m) {
 // 1/sqrt(1 + (ω dt)²) per step and advances the phase by atan(ω dt) per step
 // (refs/d_cantilever_dynamic). The engine must reproduce both for its own ω.
 TEST(Cantilever, ImplicitEulerPeriodAndDecayMatchBackwardEulerTheory) {
-  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.solver.tolerance = 1e-10;
   spec.solver.max_iterations = 2000;
   auto m = compile_model(spec);
@@ -209,7 +210,7 @@ TEST(Cantilever, ImplicitEulerPeriodAndDecayMatchBackwardEulerTheory) {
 // gravity) never increases from one tick to the next.
 TEST(Cantilever, UndampedImplicitEulerNeverGainsEnergy) {
   for (ElementModel model : {ElementModel::Linear, ElementModel::Corotational}) {
-    ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+    ScenarioSpec spec = test_scenarios::cantilever_dynamic();
     spec.solver.tolerance = 1e-10;
     spec.solver.max_iterations = 2000;
     spec.bodies[0].material.model = model;
@@ -247,7 +248,7 @@ TEST(Cantilever, UndampedImplicitEulerNeverGainsEnergy) {
 TEST(Cantilever, WarpedCholeskyPreconditionerMatchesJacobiInFewIterations) {
   for (double E : {1e7, 3e5}) {
     auto run = [&](Preconditioner pc, int& max_iters) {
-      ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+      ScenarioSpec spec = test_scenarios::cantilever_dynamic();
       spec.bodies[0].material.young_modulus = E;
       spec.solver.preconditioner = pc;
       spec.solver.tolerance = 1e-10;

@@ -16,6 +16,7 @@
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "tests/test_labels.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
@@ -81,7 +82,7 @@ struct LiverProbe {
   State s;
   std::unique_ptr<TickWorkspace> w;
   LiverProbe() {
-    ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+    ScenarioSpec spec = test_scenarios::liver();
     spec.tools.at(0).spec.timeout = 100;
     spec.tools.at(0).spec.max_speed = 1e3;
     m = compile_model(spec);
@@ -159,7 +160,7 @@ double grasped_mean_height(const Model& m, const State& s, const ToolState& held
 
 // Grasp-and-lift keeps hold; opening the jaws lets go.
 TEST(Contact, GraspAndLiftHoldsAndReleaseLetsGo) {
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  ScenarioSpec spec = test_scenarios::liver();
   spec.tools.at(0).spec.timeout = 100;
   spec.tools.at(0).spec.max_speed = 1e3;
   spec.tools.at(0).spec.can_grasp = true;
@@ -200,7 +201,7 @@ TEST(Contact, GraspAndLiftHoldsAndReleaseLetsGo) {
 // and the tissue's push on the shaft gives the torque r × F about the tip.
 TEST(Contact, ProbeShaftContactsAndTorque) {
   auto run = [](ToolShape shape) {
-    ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+    ScenarioSpec spec = test_scenarios::liver();
     ToolSpec& t = spec.tools.at(0).spec;
     t.timeout = 100;
     t.max_speed = 1e3;
@@ -233,7 +234,7 @@ TEST(Contact, ProbeShaftContactsAndTorque) {
 // simulated tool) stays near the surface instead of sinking through, and at rest the device
 // feels the coupling spring, which balances the tissue's push on the proxy.
 TEST(Contact, VirtualCouplingProxyDoesNotSinkAndBalancesTheTissue) {
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  ScenarioSpec spec = test_scenarios::liver();
   ToolSpec& t = spec.tools.at(0).spec;
   t.timeout = 100;
   t.max_speed = 1e3;
@@ -268,7 +269,7 @@ TEST(Contact, VirtualCouplingProxyDoesNotSinkAndBalancesTheTissue) {
 // touch nothing. An open grasper spans wider than a closed one.
 TEST(Contact, BladeAndGrasperShapesTouchTheSurface) {
   auto press = [](ToolShape shape, double jaw, double y_end, double* x_extent) {
-    ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+    ScenarioSpec spec = test_scenarios::liver();
     ToolSpec& t = spec.tools.at(0).spec;
     t.timeout = 100;
     t.max_speed = 1e3;
@@ -315,7 +316,7 @@ TEST(Contact, BladeAndGrasperShapesTouchTheSurface) {
 // μ times the normal force (slip); without friction the drag is much smaller.
 TEST(Contact, CoulombFrictionResistsSliding) {
   auto drag = [](double mu, double* fx_mean, double* fy_mean) {
-    ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+    ScenarioSpec spec = test_scenarios::liver();
     ToolSpec& t = spec.tools.at(0).spec;
     t.timeout = 100;
     t.max_speed = 1e3;
@@ -359,7 +360,7 @@ TEST(Contact, CoulombFrictionResistsSliding) {
 // The grasper holds what is between its jaws: jaws pointing down into the surface, closing
 // grasps, lifting pulls the tissue up.
 TEST(Contact, GrasperJawsGraspBetweenThemAndLift) {
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  ScenarioSpec spec = test_scenarios::liver();
   ToolSpec& t = spec.tools.at(0).spec;
   t.timeout = 100;
   t.max_speed = 1e3;

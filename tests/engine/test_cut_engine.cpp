@@ -28,6 +28,7 @@
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "tissue/input_error.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
@@ -41,7 +42,7 @@ constexpr double kToughness = 200;  // J/m², liver-like
 /// ν 0.45, ρ 1000, undamped, a scalpel (0.5 mm half-thickness, 30 mm edge along z) and a tip
 /// probe.
 ScenarioSpec beam_with_scalpel(bool gravity = true, double young = 1e6) {
-  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  ScenarioSpec s = test_scenarios::cantilever_dynamic();
   if (!gravity) s.gravity = {0, 0, 0};
   s.bodies[0].material.young_modulus = young;
   s.bodies[0].material.poisson_ratio = 0.45;

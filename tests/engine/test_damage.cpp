@@ -10,6 +10,7 @@
 #include "engine/tick.hpp"
 #include "runtime/headless_runner.hpp"
 #include "scene/compiled_scenario.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
@@ -17,7 +18,7 @@ namespace {
 const std::string kDir = std::string(STROMA_SOURCE_DIR) + "/scenarios/";
 
 ScenarioSpec beam_with_damage(DamageMeasure measure, double warning, double onset, double rupture) {
-  ScenarioSpec s = load_scenario(kDir + "cantilever_dynamic.yaml");
+  ScenarioSpec s = test_scenarios::cantilever_dynamic();
   s.gravity = {0, 0, 0};
   DamageSpec& d = s.bodies[0].material.damage;
   d.enabled = true;

@@ -59,7 +59,7 @@ TEST(Feedback, ClampScalesForceAndTorqueTogether) {
 // feedback the headless tick computes for the same commands; under coupling the torque is the
 // coupling spring's about the device point, (proxy − device) × F, not the contacts' torque.
 TEST(Feedback, ServedAndHeadlessGiveTheSameFeedbackAndTheCouplingsTorque) {
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  ScenarioSpec spec = test_scenarios::liver();
   spec.bodies[0].visual.reset();
   ToolSpec& t = spec.tools.at(0).spec;
   t.timeout = 100;

@@ -177,7 +177,7 @@ namespace {
 
 /// The dynamic cantilever's beam (SI, 0.1 m) with a hyperelastic material, optionally fibres.
 std::shared_ptr<const Model> fibre_beam(ElementModel model, std::optional<FibreSpec> fibres) {
-  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  ScenarioSpec s = test_scenarios::cantilever_dynamic();
   s.bodies[0].material.model = model;
   s.bodies[0].material.young_modulus = 1e4;
   s.bodies[0].material.poisson_ratio = 0.45;

@@ -10,6 +10,7 @@
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
 #include "tissue/demand.hpp"
+#include "tests/test_scenarios.hpp"
 
 namespace stroma {
 namespace {
@@ -50,7 +51,7 @@ TEST(ModelCheck, CompiledModelsKeepTheirInvariantsAndABrokenOneIsNamed) {
 TEST(ModelCheck, ATickOnAStateOfAnotherModelStopsAtTheDemandInCheckedBuilds) {
   if (!STROMA_DEMANDS_ON) GTEST_SKIP() << "STROMA_DEMAND is compiled out in Release (on in debug and sanitizer builds)";
   const CompiledScenario a = compile_scenario(load_scenario(kDir + "liver.yaml"));
-  const CompiledScenario b = compile_scenario(load_scenario(kDir + "cantilever_dynamic.yaml"));
+  const CompiledScenario b = compile_scenario(test_scenarios::cantilever_dynamic());
   TickWorkspace w(*a.model);
   State wrong = State::initial(*b.model);
   EXPECT_DEATH(tick(*a.model, wrong, w), "STROMA_DEMAND\\(state_sized_for\\(m, s\\)\\) failed");

@@ -16,6 +16,7 @@
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
 #include "tests/test_labels.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
@@ -23,7 +24,7 @@ namespace {
 
 /// A soft, near-incompressible cantilever at a large step: one linearisation is poor here.
 ScenarioSpec soft_beam(int newton_iterations) {
-  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  ScenarioSpec s = test_scenarios::cantilever_dynamic();
   s.bodies[0].material.young_modulus = 1e4;
   s.bodies[0].material.poisson_ratio = 0.49;
   s.time_step = 0.033;
@@ -83,7 +84,7 @@ TEST(Newton, IterationsStopTheEnergyGainOfLargeSteps) {
   STROMA_LONG_TEST();
   double growth[2];
   for (int run = 0; run < 2; ++run) {
-    ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+    ScenarioSpec spec = test_scenarios::cantilever_dynamic();
     spec.bodies[0].material.young_modulus = 1e4;
     spec.bodies[0].material.poisson_ratio = 0.499;
     spec.time_step = 0.033;

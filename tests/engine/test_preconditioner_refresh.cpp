@@ -232,7 +232,7 @@ RunTrace run(const ScenarioSpec& spec, int ticks) {
 // every 4 ticks the trajectory is the same to the solver's tolerance, CG needs fewer iterations
 // than with the rest-pose factor, and two runs agree bit for bit (deterministic hand-over).
 TEST(PreconditionerRefresh, SameTrajectoryFewerIterationsAndDeterministic) {
-  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.bodies[0].material.young_modulus = 3e5;
   spec.solver.tolerance = 1e-10;
   spec.solver.max_iterations = 5000;
@@ -324,7 +324,7 @@ TEST(PreconditionerRefresh, CappedWarpedSolveFallsBackToJacobi) {
 // Sub-steps keep the factor made for the tick's step: a tick redone in sub-steps does not
 // refactor the rest pose for h/2 and back (two factorisations on the physics thread).
 TEST(PreconditionerRefresh, SubStepsKeepTheTicksFactor) {
-  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.bodies[0].material.young_modulus = 3e5;
   spec.solver.max_iterations = 2;  // capped every tick: the ladder runs
   spec.solver.tolerance = 1e-12;
@@ -378,7 +378,7 @@ TEST(PreconditionerRefresh, RunSummaryCountsFallbacksAndRefreshes) {
 // factorisation over ~1.5 ms ticks; the 543-unknown cantilever: ~1 ms over ~0.05 ms ticks), so
 // that a headless run rarely waits for the worker. Never fewer than kMinRefreshPeriod steps.
 TEST(PreconditionerRefresh, AutoPeriodFollowsTheRunsPace) {
-  ScenarioSpec small = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+  ScenarioSpec small = test_scenarios::cantilever_dynamic();
   small.solver.preconditioner_refresh = -1;
   auto m = compile_model(small);
   EXPECT_GE(m->stepper.preconditioner_refresh, kMinRefreshPeriod);
@@ -425,7 +425,7 @@ TEST(PreconditionerRefresh, AutoRefreshesLargeSystems) {
 /// The dynamic cantilever softened to 300 kPa so it swings (the refreshed factors matter),
 /// the warped factor refreshed every 6 steps, CG to 1e-6.
 CompiledScenario swinging_cantilever() {
-  ScenarioSpec spec = load_scenario(kScenarios + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.bodies[0].material.young_modulus = 3e5;
   spec.solver.preconditioner_refresh = 6;
   spec.solver.tolerance = 1e-6;

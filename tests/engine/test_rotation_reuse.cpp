@@ -19,13 +19,14 @@
 #include "scene/scenario_spec.hpp"
 #include "tests/test_labels.hpp"
 #include "tissue/fem_forces.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
 namespace {
 
 std::shared_ptr<const Model> cantilever() {
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   return compile_model(spec);
 }
 
@@ -115,7 +116,7 @@ TEST(RotationReuse, GivenRotationsGiveTheSamePassAndAreUsed) {
 // fresh stepper computes there. Moved positions (here: by 1e-12 m at one node) are never
 // served from the cache.
 TEST(RotationReuse, TheNextAssembleTakesTheGuardsRotationsOnlyWherePositionsAreTheGuards) {
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.solver.max_iterations = 2;
   spec.solver.tolerance = 1e-12;
   auto m = compile_model(spec);
@@ -175,7 +176,7 @@ TEST(RotationReuse, TheNextAssembleTakesTheGuardsRotationsOnlyWherePositionsAreT
 // the reuse happened in one run and not in the other.
 TEST(RotationReuse, TicksWithAndWithoutReuseFollowTheSameTrajectory) {
   STROMA_LONG_TEST();
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   BodySpec second = spec.bodies[0];
   second.name = "neo_hookean";
   second.material.model = ElementModel::StableNeoHookean;

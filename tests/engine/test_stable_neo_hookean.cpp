@@ -21,6 +21,7 @@
 #include "tissue/fem_forces.hpp"
 #include "tissue/mesh_prepare.hpp"
 #include "tissue/stable_neo_hookean.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 using test_fem::dense_stiffness;
@@ -29,7 +30,7 @@ using test_fem::energy_and_force;
 namespace {
 
 std::shared_ptr<const Model> beam(ElementModel model) {
-  ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  ScenarioSpec s = test_scenarios::cantilever_dynamic();
   s.bodies[0].material.model = model;
   s.bodies[0].material.young_modulus = 1e4;
   s.bodies[0].material.poisson_ratio = 0.45;
@@ -111,7 +112,7 @@ TEST(StableNeoHookean, SoftBeamUnderItsOwnWeightEndsWithNoElementInverted) {
   // The stability suite's failing corotational case: a 1 kPa beam hanging under gravity (ρgL ≈
   // E). Corotational ends with inverted elements; stable Neo-Hookean must not.
   auto run = [](ElementModel model) {
-    ScenarioSpec s = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+    ScenarioSpec s = test_scenarios::cantilever_dynamic();
     s.bodies[0].material.model = model;
     s.bodies[0].material.young_modulus = 1e3;
     s.bodies[0].material.poisson_ratio = 0.49;

@@ -10,6 +10,7 @@
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
@@ -45,7 +46,7 @@ TEST(Tick, SceneWithoutToolsSkipsInputAndCollisionStages) {
 // With Newton iterations the element passes of the iterations are counted under assemble and
 // only their linear solves under solve.
 TEST(Tick, NewtonElementPassesCountAsAssembly) {
-  ScenarioSpec spec = load_scenario(kDir + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.time_step = 0.01;
   spec.solver.newton_iterations = 4;
   spec.solver.newton_tolerance = 1e-12;  // always iterate
@@ -134,7 +135,7 @@ TEST(Tick, DivergedStepIsRolledBackAndRedoneInSubsteps) {
 // A stiff body at a huge explicit step explodes within a few ticks; every tick either advances
 // finitely (possibly in sub-steps) or is rolled back: no NaN/Inf ever reaches the state.
 TEST(Tick, ExplicitBlowUpNeverPutsANaNInTheState) {
-  ScenarioSpec spec = load_scenario(kDir + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.solver.integrator = Integrator::SymplecticEuler;
   spec.time_step = 5e-3;  // ~50x the explicit stability limit of this beam
   auto m = compile_model(spec);
@@ -154,7 +155,7 @@ TEST(Tick, ExplicitBlowUpNeverPutsANaNInTheState) {
 // solver.on_cg_cap: `substep` (the default) redoes a capped tick in sub-steps (each better
 // conditioned, so fewer iterations suffice); `continue` keeps the capped step.
 TEST(Tick, CappedSolveIsRedoneInSubstepsWhenTold) {
-  ScenarioSpec spec = load_scenario(kDir + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.solver.preconditioner = Preconditioner::Jacobi;
   spec.solver.max_iterations = 12;
   spec.solver.tolerance = 1e-8;

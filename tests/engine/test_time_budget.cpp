@@ -12,6 +12,7 @@
 #include "runtime/headless_runner.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "tissue/input_error.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
@@ -44,7 +45,7 @@ TEST(TimeBudget, LoaderTakesSecondsOrNoneAndRejectsTheRest) {
 // solve is cut after its first iteration: every tick degrades (SolveTruncated), none stops the
 // run, the state stays finite, and the counts reach summary.json's fields.
 TEST(TimeBudget, TinyBudgetTruncatesEverySolveAndTheRunGoesOn) {
-  ScenarioSpec spec = load_scenario(kDir + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.solver.preconditioner = Preconditioner::Jacobi;
   spec.solver.max_iterations = 1000;
   spec.solver.time_budget = 2e-6;
@@ -98,7 +99,7 @@ TEST(TimeBudget, NoSaneStepInTimeHoldsTheTissueStill) {
 // Budgets the Newton iterations too: a large step with four Newton iterations asked for and a
 // spent budget keeps the linearised step (its first solve is truncated as well).
 TEST(TimeBudget, NewtonIterationsStopAtTheBudget) {
-  ScenarioSpec spec = load_scenario(kDir + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.time_step = 0.01;
   spec.solver.newton_iterations = 4;
   spec.solver.newton_tolerance = 1e-12;
@@ -122,7 +123,7 @@ TEST(TimeBudget, NewtonIterationsStopAtTheBudget) {
 // at which it did (TickReport::deadline_check, a session log's `deadline` event), and the replay
 // expires that tick's deadline at the same check whatever its own clock says.
 TEST(TimeBudget, BudgetCutsReplayBitForBit) {
-  ScenarioSpec spec = load_scenario(kDir + "cantilever_dynamic.yaml");
+  ScenarioSpec spec = test_scenarios::cantilever_dynamic();
   spec.solver.preconditioner = Preconditioner::Jacobi;
   spec.solver.max_iterations = 1000;
   spec.solver.time_budget = 80e-6;  // cuts CG somewhere in its ~220 iterations, differently each tick

@@ -81,7 +81,7 @@ TEST(ToolCheck, WorkspaceAndSpeedRejectOrClamp) {
 }
 
 TEST(ScriptedTool, HeadlessRunFollowsTheTrajectoryAndGoesIdleAfterTimeout) {
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  ScenarioSpec spec = test_scenarios::liver();
   spec.tools.at(0).script = std::string(STROMA_SOURCE_DIR) + "/scenarios/trajectories/liver_press.yaml";
   const CompiledScenario sc_m = compile_scenario(spec);
   RunOptions o;

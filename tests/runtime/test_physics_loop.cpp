@@ -19,6 +19,7 @@
 #include "scene/compiled_scenario.hpp"
 #include "tests/test_labels.hpp"
 #include "tissue/clock.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
@@ -46,7 +47,7 @@ TEST(SpscQueue, FifoOrderCapacityAndConcurrentTransfer) {
 }
 
 TEST(PhysicsLoop, TicksAtTheStepRateAndObeysControlsFromAnotherThread) {
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  ScenarioSpec spec = test_scenarios::liver();
   auto m = compile_model(spec);
   PhysicsLoopOptions opt;
   opt.status_every = 20;
@@ -186,7 +187,7 @@ TEST(PhysicsLoop, PhaseLockMakesCommandsArriveTheLeadBeforeTheirTick) {
 // Multirate served (solver.fem_every = 4): the tissue steps on a worker thread while the
 // physics thread ticks and sends feedback every tick from the last finished step's model.
 TEST(PhysicsLoop, MultirateStepsTheTissueOnAWorkerAndRendersEveryTick) {
-  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/liver.yaml");
+  ScenarioSpec spec = test_scenarios::liver();
   spec.solver.fem_every = 4;
   auto m = compile_model(spec);
   PhysicsLoopOptions opt;
