@@ -19,6 +19,7 @@
 
 #include "bench/bench_stats.hpp"
 #include "engine/model.hpp"
+#include "engine/simulation.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
@@ -83,13 +84,12 @@ int main(int argc, char** argv) {
   std::vector<double> p50s, p99s, maxs, cgs, asm_ms, solve_ms;
   int cg_max = 0;
   for (int r = 0; r < runs; ++r) {
-    State s = State::initial(*m);
-    TickWorkspace w(*m);
+    Simulation sim(m);  // as every front end drives the engine (engine/simulation.hpp)
     std::vector<double> t;
     t.reserve(steps);
     double cg = 0, as = 0, so = 0;
     for (long k = 0; k < steps; ++k) {
-      const TickReport& rep = tick(*m, s, w);
+      const TickReport& rep = sim.advance();
       t.push_back(static_cast<double>(rep.total_ns) * 1e-6);
       cg += rep.solve.iterations;
       cg_max = std::max(cg_max, rep.solve.iterations);

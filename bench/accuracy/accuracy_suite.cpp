@@ -18,6 +18,7 @@
 #include "bench/accuracy/quarter_block_mesh.hpp"
 #include "bench/accuracy/thick_ring.hpp"
 #include "engine/model.hpp"
+#include "engine/simulation.hpp"
 #include "engine/state.hpp"
 #include "engine/static_run.hpp"
 #include "engine/tick.hpp"
@@ -231,10 +232,9 @@ bodies:
   auto m = compile_model(parse_scenario(yaml, "block_tick (accuracy suite)", src));
   std::vector<double> p50s;
   for (int r = 0; r < std::max(runs, 3); ++r) {
-    State s = State::initial(*m);
-    TickWorkspace w(*m);
+    Simulation sim(m);
     std::vector<double> t;
-    for (int k = 0; k < 300; ++k) t.push_back(static_cast<double>(tick(*m, s, w).total_ns) * 1e-6);
+    for (int k = 0; k < 300; ++k) t.push_back(static_cast<double>(sim.advance().total_ns) * 1e-6);
     p50s.push_back(median(t));
   }
   return median(p50s);

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "engine/model.hpp"
+#include "engine/simulation.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "haptics/contact.hpp"
@@ -115,14 +116,21 @@ StabilityResult run_case(const CaseSetup& c) {
     res.why = std::string("did not load: ") + e.what();
     return res;
   }
-  State s = State::initial(*m);
+  State start = State::initial(*m);
   if (c.init) {
-    c.init(*m, s);
+    c.init(*m, start);
     // The body was put there instantaneously: visco-elastic branches take the step at h = 0
     // (their overstress gᵢ·σ₀), so the start's free energy counts them.
-    viscous_update(m->fem, s.tissue.x.data(), nullptr, 0.0, s.tissue.visco_q.data(), s.tissue.visco_s0.data());
+    viscous_update(m->fem, start.tissue.x.data(), nullptr, 0.0, start.tissue.visco_q.data(),
+                   start.tissue.visco_s0.data());
   }
-  TickWorkspace w(*m);
+  // Driven as every front end drives the engine (engine/simulation.hpp): the case's start state
+  // restored, its drive's commands passed as a replay's (trusted: the suite tests the solver on
+  // poses beyond any device's limits, not the commands port).
+  Simulation sim(m);
+  sim.restore(m, start);
+  State& s = sim.state();
+  TickWorkspace& w = sim.workspace();
   double ke, ee, pe, ce;
   const double e0 = total_energy(*m, w, s, &ke, &ee, &pe, &ce);
   double scale = std::max({std::abs(e0), ke, ee, std::abs(pe), ce});
@@ -136,7 +144,7 @@ StabilityResult run_case(const CaseSetup& c) {
   for (int k = 0; k < ticks; ++k) {
     int n_in = 0;
     if (driving) last_command = !c.drive(*m, s, inputs, &n_in);
-    const TickReport& r = tick(*m, s, w, inputs, n_in);
+    const TickReport& r = sim.step({}, inputs, n_in);
     ++res.ticks;
     res.max_cg_iterations = std::max(res.max_cg_iterations, r.solve.iterations);
     res.cg_capped += r.status == TickStatus::SolverNotConverged;
