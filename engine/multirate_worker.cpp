@@ -27,30 +27,33 @@ void MultirateWorker::start(std::function<void()> on_start) {
 void MultirateWorker::stop() {
   if (!thread_.joinable()) return;
   stop_.store(true);
-  posted_.fetch_add(1, std::memory_order_release);
-  posted_.notify_one();
-  thread_.join();
-  // That post only woke the thread: no step is outstanding (a step in progress finished first).
-  done_.store(posted_.load(std::memory_order_relaxed), std::memory_order_relaxed);
+  bell_.fetch_add(1, std::memory_order_release);
+  bell_.notify_one();
+  thread_.join();  // (a posted step runs first: done == posted after)
 }
 
 void MultirateWorker::run() {
-  uint64_t seen = 0;
+  uint64_t rang = 0;
   for (;;) {
-    posted_.wait(seen, std::memory_order_acquire);
-    seen = posted_.load(std::memory_order_acquire);
+    bell_.wait(rang, std::memory_order_acquire);
+    rang = bell_.load(std::memory_order_acquire);
+    const uint64_t posted = posted_.load(std::memory_order_acquire);
+    if (done_.load(std::memory_order_relaxed) != posted) run_step(posted);
     if (stop_.load()) return;
-    TickReport& r = w_.report;
-    begin_report(r);
-    const int64_t t0 = steady_now_ns();
-    Deadline d;
-    d.at_ns = deadline_ns_;
-    r.budget_ns = d.at_ns > 0 ? d.at_ns - t0 : 0;
-    step_tissue(m_, tissue_, w_, d, m_.fem_every);
-    close_report(r, t0, deadline_ns_);  // the tick's accounting (engine/tick_types.hpp)
-    kinetic_step_ = w_.stepper().kinetic_energy(tissue_.tissue);  // O(n): here, not in a tick
-    done_.store(seen, std::memory_order_release);
   }
+}
+
+void MultirateWorker::run_step(uint64_t posted) {
+  TickReport& r = w_.report;
+  begin_report(r);
+  const int64_t t0 = steady_now_ns();
+  Deadline d;
+  d.at_ns = deadline_ns_;
+  r.budget_ns = d.at_ns > 0 ? d.at_ns - t0 : 0;
+  step_tissue(m_, tissue_, w_, d, m_.fem_every);
+  close_report(r, t0, deadline_ns_);  // the tick's accounting (engine/tick_types.hpp)
+  kinetic_step_ = w_.stepper().kinetic_energy(tissue_.tissue);  // O(n): here, not in a tick
+  done_.store(posted, std::memory_order_release);
 }
 
 int64_t MultirateWorker::begin_tick(State& s, const ToolInput* inputs, int n) {
@@ -100,7 +103,8 @@ void MultirateWorker::post_step(const State& s, int64_t deadline_ns) {
   deadline_ns_ = deadline_ns;
   ticks_since_post_ = 0;
   posted_.fetch_add(1, std::memory_order_release);
-  posted_.notify_one();
+  bell_.fetch_add(1, std::memory_order_release);  // (the worker waits on the bell: posts and stop ring it)
+  bell_.notify_one();
 }
 
 const TickReport& MultirateWorker::end_tick(State& s, int64_t t0) {

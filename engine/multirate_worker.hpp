@@ -41,7 +41,8 @@ class MultirateWorker {
   /// Starts the worker thread; `on_start` runs first on it (its priority and CPU:
   /// runtime/realtime.hpp's setup_worker_thread under `serve`).
   void start(std::function<void()> on_start = {});
-  /// Stops and joins the thread (a step in progress finishes first). Idempotent.
+  /// Stops and joins the thread (a posted step runs to its end first, so done == posted after:
+  /// start() again goes on where it stopped). Idempotent.
   void stop();
 
   /// One haptic-rate tick on the calling thread: the tools' commands into s (read_inputs), and
@@ -82,6 +83,7 @@ class MultirateWorker {
   void post_step(const State& s, int64_t deadline_ns);
   const TickReport& end_tick(State& s, int64_t t0);
   void run();
+  void run_step(uint64_t posted);
 
   const Model& m_;
   TickWorkspace& w_;
@@ -90,6 +92,7 @@ class MultirateWorker {
   TickReport report_;    ///< the calling thread's tick report
   std::thread thread_;
   std::atomic<uint64_t> posted_{0}, done_{0};
+  std::atomic<uint64_t> bell_{0};  ///< rung by every post and by stop(): what the worker waits on
   std::atomic<bool> stop_{false};
   int64_t deadline_ns_ = 0;  ///< the posted step's deadline (0: none)
   int64_t ticks_since_post_;
