@@ -25,6 +25,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// A CRTK device's topics under rt/<tool>/ (server/crtk_bridge.cpp): what a client writes, what
+/// the server writes.
+const char* const kCrtkDeviceIn[] = {"servo_cp", "state_command"};
+const char* const kCrtkDeviceOut[] = {"measured_cp", "measured_cf", "operating_state"};
+
 /// Server → client topics (the server writes them; readers as permitted).
 const char* const kServerTopics[] = {"stroma_ToolFeedback", "stroma_TissueMesh", "stroma_TissueState",
                                      "stroma_ToolState",    "stroma_Scene",      "stroma_DamageEvent",
@@ -218,9 +223,12 @@ void init_security_dir(const SecurityInitOptions& o) {
     sign(tmp, "governance.xml", "governance.p7s");
 
     std::vector<std::string> server_pub(std::begin(kServerTopics), std::end(kServerTopics));
+    std::vector<std::string> server_sub{"stroma_ToolCommand", "stroma_Control"};
+    // `serve --crtk` (docs/CRTK.md): every tool as a CRTK device in ROS 2's topic names.
+    for (const char* leaf : kCrtkDeviceOut) server_pub.push_back(fmt::format("rt/*/{}", leaf));
+    for (const char* leaf : kCrtkDeviceIn) server_sub.push_back(fmt::format("rt/*/{}", leaf));
     make_identity(tmp, "server", o.days);
-    write_file(tmp / "permissions_server.xml",
-               permissions_xml(o, "server", allow_rule(o, server_pub, {}, {"stroma_ToolCommand", "stroma_Control"})));
+    write_file(tmp / "permissions_server.xml", permissions_xml(o, "server", allow_rule(o, server_pub, {}, server_sub)));
     sign(tmp, "permissions_server.xml", "permissions_server.p7s");
 
     make_identity(tmp, "renderer", o.days);
@@ -234,6 +242,13 @@ void init_security_dir(const SecurityInitOptions& o) {
       // Commands only in its tools' partitions; Control (pause, step, reset, stop) only for an
       // operator: a trainee's client cannot stop the session.
       std::string rules = allow_rule(o, {"stroma_ToolCommand"}, c.tools, {"stroma_ToolFeedback", "stroma_SimStatus"});
+      // The same tools as CRTK devices (`serve --crtk`): command them, read what they measure.
+      std::vector<std::string> crtk_pub, crtk_sub;
+      for (const std::string& t : c.tools) {
+        for (const char* leaf : kCrtkDeviceIn) crtk_pub.push_back(fmt::format("rt/{}/{}", t, leaf));
+        for (const char* leaf : kCrtkDeviceOut) crtk_sub.push_back(fmt::format("rt/{}/{}", t, leaf));
+      }
+      rules += allow_rule(o, crtk_pub, {}, crtk_sub);
       if (c.control) rules += allow_rule(o, {"stroma_Control"}, {}, {});
       write_file(tmp / ("permissions_" + c.name + ".xml"), permissions_xml(o, c.name, rules));
       sign(tmp, "permissions_" + c.name + ".xml", "permissions_" + c.name + ".p7s");

@@ -160,6 +160,7 @@ double grasped_mean_height(const Model& m, const State& s, const ToolState& held
 
 // Grasp-and-lift keeps hold; opening the jaws lets go.
 TEST(Contact, GraspAndLiftHoldsAndReleaseLetsGo) {
+  STROMA_LONG_TEST();  // 22-27 s under ASan; the shorter cut and contact tests cover its code there
   ScenarioSpec spec = test_scenarios::liver();
   spec.tools.at(0).spec.timeout = 100;
   spec.tools.at(0).spec.max_speed = 1e3;
@@ -315,6 +316,7 @@ TEST(Contact, BladeAndGrasperShapesTouchTheSurface) {
 // Friction: dragging the probe along the surface, the tissue resists the motion with about
 // μ times the normal force (slip); without friction the drag is much smaller.
 TEST(Contact, CoulombFrictionResistsSliding) {
+  STROMA_LONG_TEST();  // 22-27 s under ASan; the shorter cut and contact tests cover its code there
   auto drag = [](double mu, double* fx_mean, double* fy_mean) {
     ScenarioSpec spec = test_scenarios::liver();
     ToolSpec& t = spec.tools.at(0).spec;

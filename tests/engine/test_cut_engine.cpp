@@ -29,6 +29,7 @@
 #include "scene/compiled_scenario.hpp"
 #include "tissue/input_error.hpp"
 #include "tests/test_scenarios.hpp"
+#include "tests/test_labels.hpp"
 
 using namespace stroma;
 
@@ -442,6 +443,7 @@ INSTANTIATE_TEST_SUITE_P(CutEngine, CutEnergy,
 // the block (body contact over the cut surfaces), the grasp still holds (re-attached), damage is
 // carried per copy, mass is conserved, and everything stays finite.
 TEST(CutEngine, CuttingWithDamageGraspingAndBodyContact) {
+  STROMA_LONG_TEST();  // 22-27 s under ASan; the shorter cut and contact tests cover its code there
   ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/drop_on_block.yaml");
   DamageSpec& d = spec.bodies[1].material.damage;
   d.enabled = true;

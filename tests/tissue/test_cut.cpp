@@ -32,6 +32,7 @@
 #include "io/mesh_io.hpp"
 #include "tissue/mesh_prepare.hpp"
 #include "tissue/time_stepper.hpp"
+#include "tests/test_labels.hpp"
 
 using namespace stroma;
 using test_meshes::body_input;
@@ -434,6 +435,7 @@ TEST(CutModel, StateCarriesOverToARefinedTopology) {
 // edges and faces, grazing the surface, re-cutting a cut. Each cut is followed by a few
 // implicit steps of the cut model from the carried-over state.
 TEST(CutStress, ThousandRandomBladePathsStayClosedFiniteAndMassConserving) {
+  STROMA_LONG_TEST();  // 22-27 s under ASan; the shorter cut and contact tests cover its code there
   int failures = 0, total_splits = 0;
   for (uint64_t seed = 1; seed <= 1000 && failures < 5; ++seed) {
     std::mt19937_64 rng(seed);
