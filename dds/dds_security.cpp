@@ -29,6 +29,11 @@ namespace {
 /// the server writes.
 const char* const kCrtkDeviceIn[] = {"servo_cp", "state_command"};
 const char* const kCrtkDeviceOut[] = {"measured_cp", "measured_cf", "operating_state"};
+/// What every ROS 2 node (rclcpp/rclpy on rmw_cyclonedds_cpp) writes and reads besides its own
+/// topics: the graph's discovery info, its log, parameter events and its parameter services. A
+/// client identity gets them so that an SROS2-enforced node built on it can start (docs/CRTK.md);
+/// the server reads none of them.
+const char* const kRos2NodeTopics[] = {"ros_discovery_info", "rt/rosout", "rt/parameter_events", "rq/*", "rr/*"};
 
 /// Server → client topics (the server writes them; readers as permitted).
 const char* const kServerTopics[] = {"stroma_ToolFeedback", "stroma_TissueMesh", "stroma_TissueState",
@@ -247,6 +252,10 @@ void init_security_dir(const SecurityInitOptions& o) {
       for (const std::string& t : c.tools) {
         for (const char* leaf : kCrtkDeviceIn) crtk_pub.push_back(fmt::format("rt/{}/{}", t, leaf));
         for (const char* leaf : kCrtkDeviceOut) crtk_sub.push_back(fmt::format("rt/{}/{}", t, leaf));
+      }
+      for (const char* t : kRos2NodeTopics) {
+        crtk_pub.emplace_back(t);
+        crtk_sub.emplace_back(t);
       }
       rules += allow_rule(o, crtk_pub, {}, crtk_sub);
       if (c.control) rules += allow_rule(o, {"stroma_Control"}, {}, {});

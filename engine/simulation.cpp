@@ -21,8 +21,7 @@ Simulation::Simulation(std::shared_ptr<const Model> model, SimulationOptions opt
   if (opt_.realtime) work_->stepper().set_realtime(true);
   const size_t n = model_->tools.size();
   inputs_.reserve(2 * n + 16);
-  held_.resize(n);
-  has_held_.assign(n, 0);
+  held_.reserve(n);
   if (model_->cutting && opt_.cut_builds == CutBuilds::OnWorker)
     cutter_ = std::make_unique<CutWorker>(model_, model_->cut_edge_dofs.size(), opt_.registry);
   if (opt_.multirate_on_worker && model_->fem_every > 1)
@@ -50,22 +49,25 @@ int Simulation::take_commands() {
   int n = port_.take(inputs_.data(), static_cast<int>(model_->tools.size()));
   inputs_.resize(static_cast<size_t>(n));
   if (opt_.hold == ToolHold::Repeat) {
-    // A tool with a new command holds it from now on; the others repeat theirs (as a pose set
-    // from Python stays set), in tool order.
+    // A tool with a new command takes it; every other tool commanded before repeats the pose
+    // its state holds (the last command applied) — read from the state, so a restored state
+    // repeats what it held (a pose set from Python stays set across a snapshot), in tool order.
     size_t taken = 0;
-    for (size_t t = 0; t < held_.size(); ++t) {
+    held_.clear();
+    for (size_t t = 0; t < state_.tools.size(); ++t) {
       if (taken < static_cast<size_t>(n) && inputs_[taken].tool == static_cast<int32_t>(t)) {
-        held_[t] = inputs_[taken++];
-        has_held_[t] = 1;
+        held_.push_back(inputs_[taken++]);
+      } else if (state_.tools[t].last_command_time >= 0) {
+        const ToolState& ts = state_.tools[t];
+        ToolInput in;
+        in.tool = static_cast<int32_t>(t);
+        in.pose = ts.pose;
+        in.client_time_ns = ts.client_time_ns;
+        in.seq = static_cast<uint64_t>(state_.step + 1);
+        held_.push_back(in);
       }
     }
-    inputs_.clear();
-    for (size_t t = 0; t < held_.size(); ++t)
-      if (has_held_[t]) {
-        ToolInput in = held_[t];
-        in.seq = static_cast<uint64_t>(state_.step + 1);
-        inputs_.push_back(in);
-      }
+    inputs_.assign(held_.begin(), held_.end());  // within the reserved capacity
   }
   return static_cast<int>(inputs_.size());
 }
@@ -132,7 +134,6 @@ bool Simulation::reset() {
   }
   state_ = initial_;  // a copy into arrays at least as large: no allocation
   if (multirate_) multirate_->reset();
-  std::fill(has_held_.begin(), has_held_.end(), 0);
   if (!opt_.commands_from_another_thread) port_.seed(state_.tools);
   return true;
 }

@@ -49,7 +49,8 @@ enum class CutBuilds : uint8_t {
 /// What a tool does in a tick with no new command.
 enum class ToolHold : uint8_t {
   Timeout,  ///< holds its last pose, goes idle after its `timeout` (a live device: serve, run)
-  Repeat    ///< its last accepted command is applied again (a pose set from Python stays set)
+  Repeat    ///< the pose its state holds is applied again, once commanded (a pose set from Python
+            ///< stays set, across a snapshot and restore too: it is read from the state)
 };
 
 struct SimulationOptions {
@@ -166,8 +167,7 @@ class Simulation {
   std::unique_ptr<TickWorkspace> work_;
   ToolCommandPort port_;
   std::vector<ToolInput> inputs_;   ///< capacity: every tool, twice (held + trusted)
-  std::vector<ToolInput> held_;     ///< ToolHold::Repeat: each tool's last accepted command
-  std::vector<uint8_t> has_held_;
+  std::vector<ToolInput> held_;     ///< ToolHold::Repeat: this tick's inputs (capacity: every tool)
   CutBuild retired_;                ///< Synchronous: the last swap's old model, workspace and state
   std::unique_ptr<CutWorker> cutter_;
   std::unique_ptr<MultirateWorker> multirate_;  ///< after work_ and state_: it refers to them

@@ -53,6 +53,7 @@ struct State {
       h.pending_rot.assign(rot, 0.0);
     }
     s.tools.assign(m.tools.size(), ToolState{});
+    for (size_t k = 0; k < m.tools.size(); ++k) s.tools[k].pose = m.tools[k].rest_pose;
     if (m.cutting) s.edge_cut.assign(m.cut_edge_dofs.size(), kEdgeUncut);
     if (m.has_damage) {
       s.damage.assign(m.fem.elements.size(), 0.0f);

@@ -12,7 +12,7 @@ namespace {
 
 constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
 /// 2: the solver's history (SolverHistory) after the step counter.
-constexpr uint32_t kVersion = 2;
+constexpr uint32_t kVersion = 3;  // 3: ToolState.posed
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
@@ -118,6 +118,8 @@ void hash_tool(Fnv& f, const ToolSpec& t) {
                          t.coupling_stiffness, t.coupling_damping, t.grasp_close, t.grasp_open, t.grasp_reach,
                          t.grasp_stiffness, t.cut_toughness, t.blade_height})
     f.value(v);
+  for (const double v : t.rest_pose.position) f.value(v);
+  for (const double v : t.rest_pose.orientation) f.value(v);
   f.value(static_cast<int>(t.on_invalid));
   f.value(static_cast<int>(t.shape));
   f.value(static_cast<uint8_t>(t.can_grasp));

@@ -14,6 +14,7 @@ ToolCheck validate_tool_command(const ToolSpec& spec, const ToolPose& last, doub
   for (double v : cmd.orientation) finite = finite && std::isfinite(v);
   if (!finite) {
     c.result = ToolCheck::Rejected;
+    c.cause = ToolCheck::Malformed;
     c.reason = "non-finite value";
     return c;
   }
@@ -21,6 +22,7 @@ ToolCheck validate_tool_command(const ToolSpec& spec, const ToolPose& last, doub
   const double qn = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   if (!(std::fabs(qn - 1.0) <= 1e-3)) {
     c.result = ToolCheck::Rejected;  // not a rotation: nothing sensible to clamp to
+    c.cause = ToolCheck::Malformed;
     c.reason = "orientation is not a unit quaternion";
     return c;
   }
@@ -30,6 +32,7 @@ ToolCheck validate_tool_command(const ToolSpec& spec, const ToolPose& last, doub
   for (int k = 0; k < 3; ++k)
     outside = outside || cmd.position[k] < spec.workspace_min[k] || cmd.position[k] > spec.workspace_max[k];
   if (outside) {
+    c.cause = ToolCheck::Limit;
     if (!clamp) {
       c.result = ToolCheck::Rejected;
       c.reason = "position outside the tool workspace";
@@ -46,6 +49,7 @@ ToolCheck validate_tool_command(const ToolSpec& spec, const ToolPose& last, doub
     const double dist = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     const double limit = spec.max_speed * dt;
     if (dist > limit) {
+      c.cause = ToolCheck::Limit;
       if (!clamp) {
         c.result = ToolCheck::Rejected;
         c.reason = "jump faster than the tool's max_speed";

@@ -46,6 +46,11 @@ enum class ToolShape {
 /// (0 stiffness) is resolved.
 struct ToolSpec {
   std::string name;
+  /// Where the tool is before its first command (`pose:` of the scenario's tool; default the
+  /// first keyframe of its script, else the origin with the identity orientation). The initial
+  /// state holds it, so every front end reports the tool's true pose from the first tick
+  /// (CRTK's measured_cp, Python's tool poses). An idle tool touches nothing wherever it is.
+  ToolPose rest_pose;
   Vec3 workspace_min{-1e3, -1e3, -1e3};
   Vec3 workspace_max{1e3, 1e3, 1e3};
   double max_speed = 5.0;        ///< m/s: faster jumps are rejected or clamped
@@ -99,6 +104,10 @@ inline constexpr double kCutForceTime = 0.005;
 /// Outcome of validating one command.
 struct ToolCheck {
   enum Result : uint8_t { Accepted, Clamped, Rejected } result = Accepted;
+  /// Why a command was rejected or clamped: Malformed (a non-finite value, a quaternion that is
+  /// not a unit one: the data is not a pose) or Limit (the workspace, max_speed: a valid pose the
+  /// tool may not take). CRTK faults on a Limit only (docs/CRTK.md).
+  enum Cause : uint8_t { None, Malformed, Limit } cause = None;
   const char* reason = "";  ///< static string, for counters and logs
   ToolPose pose;            ///< the pose to apply (clamped if Clamped)
 };
@@ -138,6 +147,9 @@ struct ToolState {
   int64_t client_time_ns = 0;    ///< its client timestamp (echoed in feedback)
   double last_command_time = -1; ///< sim time of the last applied command (−1: never)
   bool active = false;           ///< a client is driving it (false after `timeout`)
+  /// A front end posed it directly (Python's set_pose): its scenario script no longer drives it.
+  /// State, not front-end bookkeeping, so a snapshot restores who drives the tool.
+  bool posed = false;
   // The tissue's force on the tool at the end of the last tick and its stiffness dF/dx: the
   // virtual coupling's next quasi-static step starts from them (so they are state, not output).
   Vec3 force{0, 0, 0};

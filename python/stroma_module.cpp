@@ -6,10 +6,13 @@
 /// (or poses set from Python), one tick, and after a tick whose blade cut edges the cut model
 /// built and swapped in. So a step in Python is a step of `stroma run`, bit for bit.
 ///
-/// Invariants: `positions` / `velocities` are read-only NumPy views of the engine's state (no
-/// copy), valid until the next topology change (a cut) or reset(); the GIL is released while
-/// the engine steps; load errors raise ValueError with the engine's "file:line: field: what"
-/// message.
+/// Invariants: `positions`, `velocities` and `damage` are read-only NumPy arrays the module
+/// owns (never views of engine memory, which a reset or a cut frees): each is refreshed in place
+/// after every step, reset, restore and set_positions while its length stays; when a cut or a
+/// restore changes the node or element count, a new array is made and the old one keeps its last
+/// values (its shape tells: a length that differs from num_nodes). So no array ever reads freed
+/// memory. The GIL is released while the engine steps; load errors raise ValueError with the
+/// engine's "file:line: field: what" message.
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -81,19 +84,29 @@ class PySimulation {
     o.hold = ToolHold::Repeat;  // a pose set from Python stays set
     sim_ = std::make_unique<Simulation>(sc_.model, o);
     posed_.assign(sc_.model->tools.size(), 0);
+    refresh_views();
   }
 
   /// n ticks; returns the number done (fewer only when a tick could not advance).
   int step(int n) {
     if (n < 0) throw py::value_error("step: n must be >= 0");
-    py::gil_scoped_release release;
-    for (int k = 0; k < n; ++k) {
-      sim_->submit_scripts(sc_.tool_scripts, &posed_);
-      const TickReport& r = sim_->advance();
-      if (k == n - 1 || r.status == TickStatus::NonFinite) last_ = r;
-      if (r.status == TickStatus::NonFinite) return k;
+    int done = n;
+    {
+      py::gil_scoped_release release;
+      for (int k = 0; k < n; ++k) {
+        const State& s = sim_->state();
+        for (size_t t = 0; t < posed_.size(); ++t) posed_[t] = s.tools[t].posed ? 1 : 0;
+        sim_->submit_scripts(sc_.tool_scripts, &posed_);
+        const TickReport& r = sim_->advance();
+        if (k == n - 1 || r.status == TickStatus::NonFinite) last_ = r;
+        if (r.status == TickStatus::NonFinite) {
+          done = k;
+          break;
+        }
+      }
     }
-    return n;
+    refresh_views();
+    return done;
   }
 
   /// Checked as every front end's commands are (engine/tool_commands.hpp): "accepted",
@@ -110,7 +123,7 @@ class PySimulation {
     const int64_t t_ns = std::llround(s.time * 1e9);  // takes effect at the next tick's start
     const ToolCheck c = sim_->commands().submit(tool, p, static_cast<uint64_t>(s.step + 1), t_ns, t_ns);
     if (c.result == ToolCheck::Rejected) return "rejected";
-    posed_[tool] = 1;
+    sim_->state().tools[tool].posed = true;  // state: a snapshot keeps who drives the tool
     return c.result == ToolCheck::Clamped ? "clamped" : "accepted";
   }
 
@@ -172,15 +185,13 @@ class PySimulation {
     std::string why;
     if (!state_fits_model(snap.state, *m, &why)) throw py::value_error("restore: the snapshot does not fit the model: " + why);
     sim_->restore(std::move(m), snap.state);
+    refresh_views();
   }
 
-  /// A read-only (n, 3) view of v, kept alive by `owner`.
-  static py::array view(std::vector<double>& v, py::handle owner) {
-    const py::ssize_t n = static_cast<py::ssize_t>(v.size() / 3);
-    py::array a(py::dtype::of<double>(), {n, py::ssize_t{3}}, {py::ssize_t{24}, py::ssize_t{8}}, v.data(), owner);
-    a.attr("setflags")(py::arg("write") = false);
-    return a;
-  }
+  /// The module's read-only arrays of the state (see the file comment), made on first use.
+  py::array positions() { return mirror(x_, sim_->state().tissue.x, 3); }
+  py::array velocities() { return mirror(v_, sim_->state().tissue.v, 3); }
+  py::array damage() { return mirror(d_, sim_->state().damage, 1); }
 
   void write_vtu_file(const std::string& path) const { write_vtu(path, sim_->model(), sim_->state()); }
 
@@ -193,20 +204,34 @@ class PySimulation {
     for (py::ssize_t i = 0; i < 3 * n; ++i)
       if (!std::isfinite(p[i])) throw py::value_error("positions: entry " + std::to_string(i / 3) + " is not finite");
     std::copy(p, p + 3 * n, sim_->state().tissue.x.begin());
-  }
-
-  /// Per element damage d ∈ [0, 1] (float32, read-only view; empty without a damage model).
-  static py::array damage_view(py::object self) {
-    State& s = self.cast<PySimulation&>().state();
-    py::array a(py::dtype::of<float>(), {static_cast<py::ssize_t>(s.damage.size())}, {py::ssize_t{4}},
-                s.damage.data(), self);
-    a.attr("setflags")(py::arg("write") = false);
-    return a;
+    refresh_views();
   }
   /// Elements that reached warned, damaged and ruptured (cumulative).
   std::array<int64_t, 3> damage_counts() const {
     const State& s = sim_->state();
     return {s.damage_count[1], s.damage_count[2], s.damage_count[3]};
+  }
+
+  /// Each tool's name, shape size, limits and rest pose (the model's ToolSpec), for front ends
+  /// that build on them (the Gymnasium environment's spaces).
+  py::list tools() const {
+    py::list out;
+    for (const ToolSpec& t : sim_->model().tools) {
+      py::dict d;
+      d["name"] = t.name;
+      d["radius"] = t.radius;
+      d["max_speed"] = t.max_speed;
+      d["max_force"] = t.max_force;
+      d["on_invalid"] = t.on_invalid == InvalidCommandPolicy::Clamp ? "clamp" : "reject";
+      py::dict ws;
+      ws["min"] = std::array<double, 3>{t.workspace_min[0], t.workspace_min[1], t.workspace_min[2]};
+      ws["max"] = std::array<double, 3>{t.workspace_max[0], t.workspace_max[1], t.workspace_max[2]};
+      d["workspace"] = ws;
+      d["rest_position"] = t.rest_pose.position;
+      d["rest_orientation"] = t.rest_pose.orientation;
+      out.append(d);
+    }
+    return out;
   }
 
   double time() const { return sim_->state().time; }
@@ -235,10 +260,34 @@ class PySimulation {
     return b.changed ? b.model : sc_.model;
   }
 
+  /// `arr` (made, or made anew when the length changed) holding `src`, read-only to Python.
+  template <typename T>
+  static py::array mirror(py::object& slot, const std::vector<T>& src, py::ssize_t width) {
+    const py::ssize_t rows = static_cast<py::ssize_t>(src.size()) / width;
+    if (!slot || py::reinterpret_borrow<py::array>(slot).size() != static_cast<py::ssize_t>(src.size())) {
+      const std::vector<py::ssize_t> shape = width == 1 ? std::vector<py::ssize_t>{rows} : std::vector<py::ssize_t>{rows, width};
+      py::array a(py::dtype::of<T>(), shape);
+      a.attr("setflags")(py::arg("write") = false);
+      slot = a;
+    }
+    py::array arr = py::reinterpret_borrow<py::array>(slot);
+    // The module writes what Python may only read (the flag guards Python, not us).
+    std::copy(src.begin(), src.end(), static_cast<T*>(const_cast<void*>(arr.data())));
+    return arr;
+  }
+  /// After every change of the state: the arrays handed out follow it (only those made).
+  void refresh_views() {
+    const State& s = sim_->state();
+    if (x_) mirror(x_, s.tissue.x, 3);
+    if (v_) mirror(v_, s.tissue.v, 3);
+    if (d_) mirror(d_, s.damage, 1);
+  }
+
+  py::object x_, v_, d_;  ///< positions, velocities, damage arrays (null until first asked for)
   CompiledScenario sc_;
   uint64_t fingerprint_ = 0;
   std::unique_ptr<Simulation> sim_;
-  std::vector<uint8_t> posed_;  ///< per tool: Python posed it (its script is left alone)
+  std::vector<uint8_t> posed_;  ///< per tool: the state's ToolState::posed, as submit_scripts' skip list
   std::optional<TickReport> last_;
 };
 
@@ -289,16 +338,20 @@ PYBIND11_MODULE(_stroma, mod) {
       .def_property_readonly("time_step", &PySimulation::time_step, "Tick length (s)")
       .def_property_readonly("num_nodes", &PySimulation::num_nodes)
       .def_property_readonly("num_tools", &PySimulation::num_tools)
-      .def_property_readonly(
-          "positions", [](py::object self) { return PySimulation::view(self.cast<PySimulation&>().state().tissue.x, self); },
-          "Node positions (m), an (n, 3) read-only view of the engine's memory")
+      .def_property_readonly("tools", &PySimulation::tools,
+                             "Per tool: name, radius, max_speed, max_force, on_invalid, workspace {min, max}, "
+                             "rest_position and rest_orientation (where it is before its first command)")
+      .def_property_readonly("positions", &PySimulation::positions,
+                             "Node positions (m), an (n, 3) read-only array the module keeps up to date after every "
+                             "step, reset, restore and set_positions (a cut that adds nodes makes a new one; one "
+                             "taken before keeps its last values)")
       .def("set_positions", &PySimulation::set_positions, py::arg("x"),
            "Moves the nodes to x, an (n, 3) array of finite numbers (velocities stay)")
-      .def_property_readonly("damage", &PySimulation::damage_view,
-                             "Per-element damage in [0, 1], a read-only float32 view (empty: no damage model)")
+      .def_property_readonly("damage", &PySimulation::damage,
+                             "Per-element damage in [0, 1], a read-only float32 array kept up to date as positions "
+                             "is (empty: no damage model)")
       .def_property_readonly("damage_counts", &PySimulation::damage_counts,
                              "Elements that reached warned, damaged, ruptured")
-      .def_property_readonly(
-          "velocities", [](py::object self) { return PySimulation::view(self.cast<PySimulation&>().state().tissue.v, self); },
-          "Node velocities (m/s), an (n, 3) read-only view of the engine's memory");
+      .def_property_readonly("velocities", &PySimulation::velocities,
+                             "Node velocities (m/s), an (n, 3) read-only array kept up to date as positions is");
 }

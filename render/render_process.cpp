@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -46,6 +47,9 @@ namespace {
 /// The readers of the render process.
 struct Readers {
   dds_entity_t mesh = 0, state = 0, tool = 0, scene = 0, damage = 0;
+  /// Built-in discovery topics, to say why no server was found: participants seen whose
+  /// endpoints are not (a protected domain hides them from a participant without an identity).
+  dds_entity_t participants = 0, publications = 0;
 };
 
 Readers create_readers(dds_entity_t pp) {
@@ -71,7 +75,28 @@ Readers create_readers(dds_entity_t pp) {
   r.tool = dds_check(dds_create_reader(pp, topic(&stroma_ToolState_desc, "stroma_ToolState"), q_fast, nullptr), "reader stroma_ToolState");
   r.damage = dds_check(dds_create_reader(pp, topic(&stroma_DamageEvent_desc, "stroma_DamageEvent"), q_all, nullptr), "reader stroma_DamageEvent");
   for (dds_qos_t* q : {q_late, q_fast, q_all}) dds_delete_qos(q);
+  r.participants = dds_create_reader(pp, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, nullptr);
+  r.publications = dds_create_reader(pp, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr);
   return r;
+}
+
+/// How many instances a built-in reader holds that are not this participant's own.
+int remote_instances(dds_entity_t reader, dds_entity_t pp, bool by_participant) {
+  if (reader <= 0) return 0;
+  dds_guid_t own{};
+  dds_get_guid(pp, &own);
+  void* samples[64] = {nullptr};
+  dds_sample_info_t infos[64];
+  const dds_return_t n = dds_read(reader, samples, infos, 64, 64);
+  int count = 0;
+  for (dds_return_t i = 0; i < n; ++i) {
+    if (!infos[i].valid_data) continue;
+    const dds_guid_t& key = by_participant ? static_cast<dds_builtintopic_participant_t*>(samples[i])->key
+                                           : static_cast<dds_builtintopic_endpoint_t*>(samples[i])->participant_key;
+    if (std::memcmp(key.v, own.v, 12) != 0) ++count;  // the GUID prefix names the participant
+  }
+  if (n > 0) dds_return_loan(reader, samples, n);
+  return count;
 }
 
 /// Takes every available sample of `reader` and calls f(sample) for the valid ones.
@@ -406,8 +431,17 @@ WaitResult wait_for_server(Follower& f, const sigset_t& stop_signals) {
     if (stop_requested(stop_signals)) return WaitResult::Stopped;
     const int64_t now = monotonic_ns();
     if (f.o.wait > 0 && static_cast<double>(now - wait_start) * 1e-9 >= f.o.wait) {
-      spdlog::error("no server's {} after {} s on DDS domain {} (is `stroma serve` running with the same domain and DDS configuration?)",
-                    f.st.have_mesh ? "state" : "mesh", f.o.wait, f.o.domain);
+      const dds_entity_t pp = dds_get_participant(f.rd.mesh);
+      const int peers = remote_instances(f.rd.participants, pp, true);
+      const int endpoints = remote_instances(f.rd.publications, pp, false);
+      if (peers > 0 && endpoints == 0 && f.o.security_dir.empty())
+        spdlog::error("no server's {} after {} s on DDS domain {}: {} participant(s) are on the domain but show this "
+                      "renderer none of their topics — the domain looks protected (`serve --security`): pass "
+                      "--security DIR, the directory `stroma security init` made (the renderer's identity)",
+                      f.st.have_mesh ? "state" : "mesh", f.o.wait, f.o.domain, peers);
+      else
+        spdlog::error("no server's {} after {} s on DDS domain {} (is `stroma serve` running with the same domain and DDS configuration?)",
+                      f.st.have_mesh ? "state" : "mesh", f.o.wait, f.o.domain);
       return WaitResult::TimedOut;
     }
     if (now - last_note > 5'000'000'000LL) {

@@ -506,7 +506,12 @@ void compile_tools(const ScenarioSpec& spec, Model& model, std::vector<Trajector
       if (ts.contact_stiffness == 0) ts.contact_stiffness = 100.0 * e_max / (ts.cuts ? ts.blade_height : ts.radius);
       if (ts.can_grasp && ts.grasp_stiffness == 0) ts.grasp_stiffness = 0.25 * ts.contact_stiffness * ts.radius * ts.radius;
     }
-    model.tools.push_back(ts);
+    if (t.has_pose)
+      for (int k = 0; k < 3; ++k)
+        if (ts.rest_pose.position[k] < ts.workspace_min[k] || ts.rest_pose.position[k] > ts.workspace_max[k])
+          throw InputError(t.where.file, t.where.line, fmt::format("tools[{}].pose", ti),
+                           fmt::format("position[{}] = {} is outside the tool's workspace [{}, {}]", k,
+                                       ts.rest_pose.position[k], ts.workspace_min[k], ts.workspace_max[k]));
     Trajectory tr;
     if (!t.script.empty()) {
       try {
@@ -514,7 +519,9 @@ void compile_tools(const ScenarioSpec& spec, Model& model, std::vector<Trajector
       } catch (const InputError& e) {
         throw InputError(t.where.file, t.where.line, fmt::format("tools[{}].script", ti), e.what());
       }
+      if (!t.has_pose && !tr.keys.empty()) ts.rest_pose = tr.keys.front().pose;  // where the script starts
     }
+    model.tools.push_back(ts);
     scripts.push_back(std::move(tr));
   }
 }

@@ -643,6 +643,23 @@ ToolEntry parse_tool(const MapReader& m, const Context& ctx) {
     t.spec.workspace_min = b.min;
     t.spec.workspace_max = b.max;
   }
+  if (auto f = m.opt("pose")) {
+    const MapReader pm = f->map({"position", "orientation"});
+    t.has_pose = true;
+    if (auto p = pm.opt("position")) t.spec.rest_pose.position = p->vec3();
+    if (auto o = pm.opt("orientation")) {
+      const std::vector<Field> q = o->list();
+      if (q.size() != 4) o->fail("expected a unit quaternion [w, x, y, z] (4 numbers), got " + std::to_string(q.size()));
+      double n2 = 0;
+      for (int k = 0; k < 4; ++k) {
+        t.spec.rest_pose.orientation[k] = q[k].number();
+        n2 += t.spec.rest_pose.orientation[k] * t.spec.rest_pose.orientation[k];
+      }
+      if (!(std::fabs(std::sqrt(n2) - 1.0) <= 1e-3))
+        o->fail("|q| = " + format_number(std::sqrt(n2)) + ": orientation must be a unit quaternion [w, x, y, z]");
+      for (double& v : t.spec.rest_pose.orientation) v /= std::sqrt(n2);
+    }
+  }
   m.read("max_speed", t.spec.max_speed, physical_range(1e-9, 1e9, "a speed: hands move ~0.01..1 m/s (10..1000 mm/s)"));
   m.read("timeout", t.spec.timeout, physical_range(1e-6, 1e6, "s: how long a silent client's pose is held"));
   m.read("on_invalid", t.spec.on_invalid, kInvalidPolicies);
@@ -756,7 +773,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
 
   std::map<std::string, int> tool_names;
   for (const auto& item : m.list("tools")) {
-    const MapReader tm = item.map({"name", "script", "workspace", "max_speed", "timeout", "on_invalid",
+    const MapReader tm = item.map({"name", "script", "pose", "workspace", "max_speed", "timeout", "on_invalid",
                                    "shape", "contact", "max_force", "grasp", "coupling", "cut"});
     s.tools.push_back(parse_tool(tm, ctx));
     check_unique_name(tool_names, s.tools.back().spec.name, tm.req("name"), "tool");

@@ -262,6 +262,7 @@ struct ProbeSpec {
 struct ToolEntry {
   ToolSpec spec;
   std::string script;  ///< trajectory file (YAML or CSV) driving it in headless runs; may be empty
+  bool has_pose = false;  ///< `pose:` given (else the rest pose is the script's first keyframe)
   SourceLocation where;
 };
 

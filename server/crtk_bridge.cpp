@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 
 #include <spdlog/spdlog.h>
 
@@ -20,6 +21,9 @@ using OperatingState = crtk_msgs_msg_dds__OperatingState_;
 using StringStamped = crtk_msgs_msg_dds__StringStamped_;
 
 char kWorldFrame[] = "world";
+
+/// servo_cp reader history: 64 poses, 64 ms of a 1 kHz device between two takes of the input thread.
+constexpr int kServoDepth = 64;
 
 /// ROS time: the system clock (what a ROS 2 node's stamps are).
 builtin_interfaces_msg_dds__Time_ ros_now() {
@@ -61,7 +65,10 @@ struct CrtkBridge::Tool {
 };
 
 CrtkBridge::CrtkBridge(dds_entity_t pp, const Model& model, dds_entity_t waitset) : model_(model) {
-  dds_qos_t* q_servo = qos(false, false, 1);       // pre-emptive: only the newest pose matters
+  // Pre-emptive (only the newest pose is applied), but deep enough that the input thread takes
+  // every pose that arrived since it last looked, so each is counted (applied, superseded or
+  // refused) — a keep-last-1 reader overwrites unseen poses uncounted.
+  dds_qos_t* q_servo = qos(false, false, kServoDepth);
   dds_qos_t* q_command = qos(true, false, 16);     // state commands are few and must not be lost
   dds_qos_t* q_measured = qos(true, false, 1);     // reliable keep-last 1: matches ROS 2's default
                                                    // (reliable) and sensor-data (best effort) readers
@@ -72,7 +79,12 @@ CrtkBridge::CrtkBridge(dds_entity_t pp, const Model& model, dds_entity_t waitset
     const std::string ns = "rt/" + spec.name + "/";
     auto topic = [&](const dds_topic_descriptor_t* d, const char* leaf) {
       const std::string name = ns + leaf;
-      return dds_check(dds_create_topic(pp, d, name.c_str(), nullptr, nullptr), "CRTK topic");
+      const dds_entity_t e = dds_create_topic(pp, d, name.c_str(), nullptr, nullptr);
+      if (e == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
+        throw std::runtime_error("CRTK topic " + name + ": not allowed by the security directory's permissions for "
+                                 "'server' (a directory made by `stroma security init` before it covered --crtk): run "
+                                 "`stroma security init NEW_DIR` with the same clients and serve with --security NEW_DIR");
+      return dds_check(e, "CRTK topic");
     };
     const dds_entity_t servo = topic(&geometry_msgs_msg_dds__PoseStamped__desc, "servo_cp");
     const dds_entity_t command = topic(&crtk_msgs_msg_dds__StringStamped__desc, "state_command");
@@ -130,61 +142,100 @@ void CrtkBridge::take_commands(Tool& t) {
     const auto* c = static_cast<const StringStamped*>(samples[i]);
     const std::string cmd = c->string ? c->string : "";
     const CrtkState s = t.state.load();
+    CrtkState next = s;
     bool ok = stamp_ns(c->header.stamp) != 0;
     if (ok) {
-      if (cmd == "enable") set_state(t, CrtkState::Enabled);
-      else if (cmd == "disable") set_state(t, CrtkState::Disabled);
-      else if (cmd == "pause" && (s == CrtkState::Enabled || s == CrtkState::Paused)) set_state(t, CrtkState::Paused);
-      else if (cmd == "resume" && (s == CrtkState::Paused || s == CrtkState::Enabled)) set_state(t, CrtkState::Enabled);
+      if (cmd == "enable") next = CrtkState::Enabled;
+      else if (cmd == "disable") next = CrtkState::Disabled;
+      else if (cmd == "pause" && s == CrtkState::Enabled) next = CrtkState::Paused;
+      else if (cmd == "resume" && s == CrtkState::Paused) next = CrtkState::Enabled;
+      else if (cmd == "home" || cmd == "unhome") next = s;  // always homed: nothing to do
       else ok = false;
     }
     if (ok) {
       cnt_.commands_accepted.fetch_add(1);
     } else {
       cnt_.commands_refused.fetch_add(1);
-      spdlog::debug("CRTK: tool '{}' state command '{}' refused in state {}", t.name, cmd, crtk_state_name(s));
+      refusals_.refused("CRTK: tool '{}' state command '{}' refused in state {} ({})", t.name, cmd,
+                        crtk_state_name(s),
+                        stamp_ns(c->header.stamp) == 0 ? "header stamp 0: invalid data"
+                        : (cmd == "pause" || cmd == "resume")
+                            ? "allowed from ENABLED (pause) or PAUSED (resume) only"
+                            : "known: enable, disable, pause, resume, home, unhome");
     }
+    // The state after every command, accepted or refused: a client waits on it (CRTK devices
+    // answer each command with their operating state).
+    if (next != s) set_state(t, next);
+    else publish_state(t);
   }
   if (n > 0) dds_return_loan(t.command_reader, samples, n);
+}
+
+void CrtkBridge::refuse_servo(Tool& t, std::atomic<uint64_t>& counter, ToolCommandPort& port, const char* why) {
+  counter.fetch_add(1);
+  port.count_rejected();  // as any refused tool command (SimStatus, --stats tool_commands)
+  refusals_.refused("CRTK: tool '{}' servo_cp refused: {}", t.name, why);
 }
 
 void CrtkBridge::take_servo(Tool& t, int index, ToolCommandPort& port) {
   void* samples[16] = {nullptr};
   dds_sample_info_t infos[16];
-  const dds_return_t n = dds_take(t.servo_reader, samples, infos, 16, 16);
-  for (dds_return_t i = 0; i < n; ++i) {
-    if (!infos[i].valid_data) continue;
-    const auto* c = static_cast<const PoseStamped*>(samples[i]);
-    const int64_t stamp = stamp_ns(c->header.stamp);
-    const auto& p = c->pose.position;
-    const auto& q = c->pose.orientation;
-    if (stamp == 0) {
-      cnt_.servo_invalid.fetch_add(1);
-      continue;
+  bool have = false;  // the newest valid pose of this take, to apply
+  ToolPose newest;
+  int64_t newest_stamp = 0;
+  uint64_t valid = 0;
+  for (;;) {  // every pose waiting: the reader holds up to kServoDepth
+    const dds_return_t n = dds_take(t.servo_reader, samples, infos, 16, 16);
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      cnt_.servo_received.fetch_add(1);
+      const auto* c = static_cast<const PoseStamped*>(samples[i]);
+      const int64_t stamp = stamp_ns(c->header.stamp);
+      const auto& p = c->pose.position;
+      const auto& q = c->pose.orientation;
+      if (stamp == 0) {
+        refuse_servo(t, cnt_.servo_invalid, port, "header stamp 0 (invalid data)");
+        continue;
+      }
+      bool finite = true;
+      for (double v : {p.x, p.y, p.z, q.x, q.y, q.z, q.w}) finite = finite && std::isfinite(v);
+      if (!finite) {
+        refuse_servo(t, cnt_.servo_non_finite, port, "a non-finite position or orientation");
+        continue;
+      }
+      const double qn = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+      if (!(std::fabs(qn - 1.0) <= 1e-3)) {
+        refuse_servo(t, cnt_.servo_not_unit, port, "the orientation is not a unit quaternion");
+        continue;
+      }
+      if (t.state.load() != CrtkState::Enabled) {
+        refuse_servo(t, cnt_.servo_not_enabled, port, t.state.load() == CrtkState::Fault
+                                                          ? "the tool is in FAULT (send enable)"
+                                                          : "the tool is not ENABLED");
+        continue;
+      }
+      ++valid;
+      have = true;
+      newest.position = {p.x, p.y, p.z};
+      newest.orientation = {q.w, q.x, q.y, q.z};  // ROS (x, y, z, w) -> Stroma (w, x, y, z)
+      newest_stamp = stamp;
     }
-    bool finite = true;
-    for (double v : {p.x, p.y, p.z, q.x, q.y, q.z, q.w}) finite = finite && std::isfinite(v);
-    if (!finite) {
-      cnt_.servo_non_finite.fetch_add(1);
-      continue;
-    }
-    if (t.state.load() != CrtkState::Enabled) {
-      cnt_.servo_not_enabled.fetch_add(1);
-      continue;
-    }
-    ToolPose pose;
-    pose.position = {p.x, p.y, p.z};
-    pose.orientation = {q.w, q.x, q.y, q.z};  // ROS (x, y, z, w) -> Stroma (w, x, y, z)
-    const ToolCheck chk = port.submit(index, pose, ++t.seq, stamp, steady_now_ns());
-    if (chk.result == ToolCheck::Rejected) {
-      cnt_.servo_limits.fetch_add(1);
-      spdlog::warn("CRTK: tool '{}' servo_cp rejected ({}): FAULT until enabled again", t.name, chk.reason);
-      set_state(t, CrtkState::Fault);
-    } else {
-      cnt_.servo_accepted.fetch_add(1);
-    }
+    if (n > 0) dds_return_loan(t.servo_reader, samples, n);
+    if (n < 16) break;
   }
-  if (n > 0) dds_return_loan(t.servo_reader, samples, n);
+  if (!have) return;
+  if (valid > 1) {  // pre-emptive: the newest wins, the older are superseded unchecked
+    cnt_.servo_superseded.fetch_add(valid - 1);
+    port.count_superseded(valid - 1);
+  }
+  const ToolCheck chk = port.submit(index, newest, ++t.seq, newest_stamp, steady_now_ns());
+  if (chk.result == ToolCheck::Rejected) {
+    cnt_.servo_limits.fetch_add(1);
+    spdlog::warn("CRTK: tool '{}' servo_cp rejected ({}): FAULT until enabled again", t.name, chk.reason);
+    set_state(t, CrtkState::Fault);
+  } else {
+    cnt_.servo_accepted.fetch_add(1);
+  }
 }
 
 void CrtkBridge::take_inputs(ToolCommandPort& port) {
@@ -216,11 +267,20 @@ void CrtkBridge::publish_feedback(const FeedbackBatch& b) {
 
 nlohmann::ordered_json CrtkBridge::stats_json() const {
   nlohmann::ordered_json j;
-  j["servo_cp"] = {{"accepted", cnt_.servo_accepted.load()},
+  uint64_t lost = 0;  // samples the DDS layer saw missing in transit (never received: not in received)
+  for (const auto& t : tools_) {
+    dds_sample_lost_status_t st{};
+    if (dds_get_sample_lost_status(t->servo_reader, &st) == DDS_RETCODE_OK) lost += st.total_count;
+  }
+  j["servo_cp"] = {{"received", cnt_.servo_received.load()},
+                   {"accepted", cnt_.servo_accepted.load()},
+                   {"superseded", cnt_.servo_superseded.load()},
                    {"refused_invalid_stamp", cnt_.servo_invalid.load()},
                    {"refused_non_finite", cnt_.servo_non_finite.load()},
+                   {"refused_not_unit_quaternion", cnt_.servo_not_unit.load()},
                    {"refused_not_enabled", cnt_.servo_not_enabled.load()},
-                   {"refused_limits", cnt_.servo_limits.load()}};
+                   {"refused_limits", cnt_.servo_limits.load()},
+                   {"lost_in_transit", lost}};
   j["state_command"] = {{"accepted", cnt_.commands_accepted.load()}, {"refused", cnt_.commands_refused.load()}};
   nlohmann::ordered_json states;
   for (const auto& t : tools_) states[t->name] = crtk_state_name(t->state.load());

@@ -1,5 +1,7 @@
 #include "server/serve_dds.hpp"
 
+#include "server/refusal_log.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -263,6 +265,7 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
   void* samples[16] = {nullptr};
   dds_sample_info_t infos[16];
   WriterSeqs seqs;
+  RefusalLog refusals;  // every refused command logged, at most a line a second (counts: --stats)
   while (!stop.load() && !loop.finished.load()) {
     dds_waitset_wait(ep.waitset, nullptr, 0, DDS_MSECS(100));
     dds_return_t n = dds_take(ep.control_reader, samples, infos, 16, 16);
@@ -295,14 +298,14 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
           if (m.tools[t].name == c->tool) tool = static_cast<int>(t);
         if (tool < 0) {
           port.count_rejected();
-          spdlog::debug("command for unknown tool '{}' rejected", c->tool);
+          refusals.refused("ToolCommand for unknown tool '{}' refused (this scenario's tools are in --stats)", c->tool);
           continue;
         }
         if (ep.command_reader_tool[r] >= 0 && ep.command_reader_tool[r] != tool) {
           // Protected domain: the writer was permitted this reader's tool partition only.
           port.count_rejected();
-          spdlog::debug("command for tool '{}' in the partition of '{}' rejected", c->tool,
-                        m.tools[ep.command_reader_tool[r]].name);
+          refusals.refused("ToolCommand for tool '{}' in the partition of '{}' refused (SECURITY.md)", c->tool,
+                           m.tools[ep.command_reader_tool[r]].name);
           continue;
         }
         ToolPose pose;
@@ -312,7 +315,7 @@ void input_thread(PhysicsLoop& loop, const Endpoints& ep, const std::atomic<bool
         pose.buttons = c->buttons;
         const ToolCheck chk = port.submit(tool, pose, c->seq, c->client_time_ns, steady_now_ns());
         if (chk.result == ToolCheck::Rejected)
-          spdlog::debug("tool '{}' command {} rejected: {}", c->tool, c->seq, chk.reason);
+          refusals.refused("ToolCommand for tool '{}' (seq {}) refused: {}", c->tool, c->seq, chk.reason);
       }
       if (n > 0) dds_return_loan(reader, samples, n);
     }

@@ -1,19 +1,22 @@
-"""Presses the liver to a target force with a proportional controller on ProbePressEnv
+"""Presses the liver to a target force with an integral controller on ProbePressEnv
 (docs/PYTHON.md). Run: PYTHONPATH=build/python python3 examples/python/press_to_force.py"""
 import sys
+
+import numpy as np
 
 from stroma.env import ProbePressEnv
 
 
-def main(target=1.0, gain=0.05, approach=1.0):
+def main(target=1.0, gain=1e-3, approach=0.02):
     env = ProbePressEnv(target_force=target)
-    obs, _ = env.reset()
+    obs, _ = env.reset(seed=0)
     total = 0.0
+    a = -1.0  # the action is the target height: -1 the start, +1 the bottom of the travel
     for _ in range(env.max_steps):
-        # Down at `approach` until the probe touches, then speed ∝ the force error (units/s per
-        # unit of force: the contact is stiff, a large gain makes the press oscillate).
-        action = -approach if obs[1] <= 0 else -gain * (target - obs[1])
-        obs, reward, terminated, truncated, info = env.step([action])
+        # Down by `approach` per action until the probe touches, then by the force error (the
+        # contact is stiff: a large gain makes the press oscillate).
+        a = float(np.clip(a + (approach if obs[1] <= 0 else gain * (target - obs[1])), -1.0, 1.0))
+        obs, reward, terminated, truncated, info = env.step([a])
         total += reward
         if terminated or truncated:
             break

@@ -29,5 +29,10 @@ assert s["accepted"] >= 500, s               # ~2,000 sent at 1 kHz; fewer on a 
 assert c["state_command"]["refused"] == 2, c
 assert c["state_command"]["accepted"] == 4, c   # enable, pause, resume, enable (out of FAULT)
 assert c["operating_state"]["probe"] == "ENABLED", c
+# Every pose received is counted once (docs/CRTK.md), and the commands port agrees.
+parts = sum(s[k] for k in ("accepted", "superseded", "refused_invalid_stamp", "refused_non_finite",
+                           "refused_not_unit_quaternion", "refused_not_enabled", "refused_limits"))
+assert parts == s["received"], s
+assert json.load(open(sys.argv[1]))["tool_commands"]["received"] == s["received"], s
 print("crtk counters ok")
 PY

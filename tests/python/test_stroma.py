@@ -2,7 +2,7 @@
 
 Asserted: a step in Python is a step of `stroma run`, bit for bit (positions after N ticks
 equal final_state.csv, whose %.17g round-trips doubles); positions/velocities are read-only
-views of the engine's memory that follow the state; snapshot/restore replays bit for bit;
+arrays that follow the state and never read freed memory; snapshot/restore replays bit for bit;
 a bad scenario raises ValueError with the engine's file:line message; a scripted probe pressing
 the liver feels it push back, and set_pose lifts it off; bad tool indices raise IndexError.
 Run by ctest (test `python.pytest`) with PYTHONPATH=build/python and STROMA_BUILD_DIR set.
@@ -65,20 +65,42 @@ def test_the_solver_says_what_runs_and_who_chose_it(tmp_path):
         assert run_solver[key] == s[key], key
 
 
-def test_positions_and_velocities_are_read_only_views_of_the_engine():
+def test_positions_and_velocities_are_read_only_arrays_that_follow_the_state():
     sim = stroma.Simulation(str(SCENARIOS / "cantilever_dynamic.yaml"))
     x, v = sim.positions, sim.velocities
     assert x.shape == (sim.num_nodes, 3) and v.shape == (sim.num_nodes, 3)
     assert not x.flags.writeable and not v.flags.writeable
-    assert not x.flags.owndata
     before = x.copy()
     sim.step(10)
-    assert not np.array_equal(x, before), "the old view shows the new state: no copy was made"
-    assert np.shares_memory(x, sim.positions)
-    assert np.array_equal(x, sim.positions)
+    assert not np.array_equal(x, before), "an array taken before a step shows the new state"
+    assert x is sim.positions and np.array_equal(x, sim.positions)
     assert np.abs(v).max() > 0
     with pytest.raises(ValueError):
         x[0, 0] = 1.0
+
+
+def test_arrays_taken_before_a_reset_or_a_cut_never_read_freed_memory():
+    # Issue 41 §5: a view taken before reset() read freed memory (a cube summed to 2.6e-306).
+    sim = stroma.Simulation(str(SCENARIOS / "cantilever_dynamic.yaml"))
+    x, v = sim.positions, sim.velocities
+    rest = x.copy()
+    sim.step(30)
+    sim.reset()
+    assert np.array_equal(x, rest) and np.array_equal(x, sim.positions), "after reset: the initial state"
+    assert np.abs(v).max() == 0
+    for _ in range(3):  # resets that rebuild the engine's state many times over
+        sim.step(5)
+        sim.reset()
+    assert np.array_equal(x, rest)
+    # Across a cut the node count grows: the old array keeps the last values of the old mesh.
+    cut = stroma.Simulation(str(SCENARIOS / "regression" / "liver_incision.yaml"))
+    n0 = cut.num_nodes
+    old = cut.positions
+    span = np.ptp(old, axis=0).max()
+    cut.step(2500)
+    assert cut.num_nodes > n0, "the scalpel cut"
+    assert old.shape == (n0, 3) and cut.positions.shape == (cut.num_nodes, 3), "the shape tells a stale array"
+    assert np.isfinite(old).all() and np.abs(old - cut.positions[:n0]).max() < span, "real positions, not freed memory"
 
 
 def test_snapshot_and_restore_replay_bit_for_bit():
@@ -275,25 +297,108 @@ def test_step_releases_the_gil():
 def test_the_press_environment_reaches_its_target_force_and_ends_on_damage():
     from stroma.env import ProbePressEnv
     env = ProbePressEnv(target_force=1.0)
-    obs, info = env.reset()
+    obs, info = env.reset(seed=0)
     assert obs.shape == (4,) and isinstance(info, dict)
+    a = -1.0
     for _ in range(env.max_steps):
-        action = [-1.0] if obs[1] <= 0 else [-0.05 * (1.0 - obs[1])]
-        obs, reward, terminated, truncated, info = env.step(action)
+        # An integral controller on the target height: down until touching, then on the force error.
+        a = float(np.clip(a + (0.02 if obs[1] <= 0 else 1e-3 * (1.0 - obs[1])), -1, 1))
+        obs, reward, terminated, truncated, info = env.step([a])
         assert not terminated
         if truncated:
             break
     assert truncated
     assert abs(obs[1] - 1.0) < 0.2, "pressed to the target force"
     assert obs[2] == 0, "without damage"
-    # Pushed straight in at full speed, it damages the liver and the episode ends.
+    # Pushed to the bottom of its travel, it damages the liver and the episode ends.
     obs, _ = env.reset()
     terminated = False
     for _ in range(env.max_steps):
-        obs, reward, terminated, truncated, info = env.step([-env.max_speed])
+        obs, reward, terminated, truncated, info = env.step([1.0])
         if terminated:
             break
     assert terminated and reward <= -10 and obs[2] > 0
+
+
+def check_env_rules(env):
+    """What gymnasium.utils.env_checker.check_env checks, for where gymnasium is not installed:
+    spaces, reset(seed) determinism, observations inside their space with its dtype, the step
+    tuple's types, and that an action sampled from the space is accepted."""
+    for space in (env.action_space, env.observation_space):
+        assert hasattr(space, "low") and hasattr(space, "high") and space.low.shape == space.shape
+        assert np.all(space.low <= space.high)
+    obs1, info1 = env.reset(seed=42)
+    obs2, _ = env.reset(seed=42)
+    assert isinstance(info1, dict)
+    assert np.array_equal(obs1, obs2), "reset(seed) is deterministic"
+    assert obs1.dtype == env.observation_space.dtype and env.observation_space.contains(obs1), obs1
+    a = env.action_space.sample()
+    assert env.action_space.contains(a) and a.dtype == env.action_space.dtype
+    out = env.step(a)
+    assert len(out) == 5
+    obs, reward, terminated, truncated, info = out
+    assert env.observation_space.contains(obs) and obs.dtype == env.observation_space.dtype
+    assert isinstance(reward, float) and isinstance(terminated, bool) and isinstance(truncated, bool)
+    assert isinstance(info, dict)
+    env.reset(seed=7)
+    first = [env.action_space.sample() for _ in range(5)]
+    env.reset(seed=7)
+    assert all(np.array_equal(p, q) for p, q in zip(first, [env.action_space.sample() for _ in range(5)])), \
+        "the action space is seeded by reset(seed)"
+
+
+def test_the_environment_follows_gymnasium_s_rules():
+    from stroma.env import ProbePressEnv
+    env = ProbePressEnv()
+    check_env_rules(env)
+    try:
+        from gymnasium.utils.env_checker import check_env
+    except ImportError:
+        return  # gymnasium is optional (not a Debian package): the rules above are its checks
+    check_env(env, skip_render_check=True)
+
+
+def test_invalid_actions_are_refused_and_a_random_policy_touches_the_tissue():
+    from stroma.env import ProbePressEnv
+    env = ProbePressEnv()
+    obs, _ = env.reset(seed=1)
+    for bad in ([np.nan], [np.inf], [2.0], [[0.1, 0.2]]):  # reject policy: out of the box is refused too
+        obs, reward, terminated, truncated, info = env.step(bad)
+        assert np.isfinite(obs).all() and np.isfinite(reward), f"a refused action {bad} poisoned the observation"
+        assert obs[0] == 0, "refused: the probe holds its height"
+    assert info["refused_actions"] == 4
+    obs, reward, *_ = env.step([0.0])
+    assert np.isfinite(obs).all() and obs[0] < 0, "a valid action after refused ones moves the probe"
+    # Uniform random actions reach the tissue and move the reward (issue 41 §4: they never did).
+    env.reset(seed=3)
+    forces, rewards = [], []
+    for _ in range(200):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        forces.append(obs[1])
+        rewards.append(reward)
+        if terminated or truncated:
+            break
+    assert max(forces) > 0.05, "a random policy never touched the tissue"
+    assert np.ptp(rewards) > 0.05, "the reward never moved"
+    assert info["refused_actions"] == 0
+
+
+def test_a_snapshot_keeps_the_poses_set_from_python():
+    # Issue 41 §5: a restored simulation followed the tool's script again (0.28 units off).
+    scenario = str(SCENARIOS / "regression" / "liver_probe_press.yaml")
+    sim = stroma.Simulation(scenario)
+    sim.step(20)
+    assert sim.set_pose(0, [-1.5, 6.95, 0.5]) == "accepted"  # near the script's pose (6.966): within max_speed
+    sim.step(10)
+    snap = sim.snapshot()
+    other = stroma.Simulation(scenario)
+    other.restore(pickle.loads(pickle.dumps(snap)))
+    sim.step(1500)  # the script would press the liver from t = 1.0 s on; the posed probe stays above it
+    other.step(1500)
+    assert np.array_equal(sim.positions, other.positions), "the restored run holds the pose set from Python"
+    scripted = stroma.Simulation(scenario)
+    scripted.step(1530)
+    assert not np.array_equal(scripted.positions, sim.positions), "the pose set differs from the script's"
 
 
 def test_a_pickled_snapshot_restores_in_another_simulation_bit_for_bit():

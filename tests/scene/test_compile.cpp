@@ -50,6 +50,20 @@ TEST(Compile, BoxSelectingNoNodeIsAnError) {
                        "bodies[0].fixed[0].box", "selects no node");
 }
 
+// A tool's rest pose (`pose:`) outside its workspace is an error at the tool's line; without a
+// pose, the tool rests where its script starts (every front end reports it before a command).
+TEST(Compile, ARestPoseOutsideTheWorkspaceIsAnErrorAndTheScriptStartIsTheDefault) {
+  const std::string base = beam_scenario("nodes: [0]", "[0.1, 0.005, 0.005]") + "tools:\n";
+  expect_compile_error(base + "  - name: probe\n    workspace: {min: [0, 0, 0], max: [1, 1, 1]}\n"
+                              "    pose: {position: [0.5, 2, 0.5]}\n",
+                       11, "tools[0].pose", "position[1] = 2 is outside the tool's workspace");
+  const std::string script = std::string(STROMA_SOURCE_DIR) + "/scenarios/trajectories/liver_press.yaml";
+  const CompiledScenario sc =
+      compile_scenario(parse_scenario(base + "  - name: probe\n    script: " + script + "\n", "t.yaml", kMeshDir));
+  EXPECT_EQ(sc.model->tools[0].rest_pose.position, sc.tool_scripts[0].keys.front().pose.position);
+  EXPECT_EQ(State::initial(*sc.model).tools[0].pose.position, sc.tool_scripts[0].keys.front().pose.position);
+}
+
 TEST(Compile, NodeIndexOutOfRangeIsAnError) {
   expect_compile_error(beam_scenario("nodes: [0, 191]", "[0.1, 0.005, 0.005]"), 7,
                        "bodies[0].fixed[0].nodes", "node 191 is out of range");

@@ -727,6 +727,23 @@ TEST(ScenarioLoaderTools, ToolErrors) {
                "tools[0].contact.stiffness", {"out of range"});
 }
 
+// `pose:` (issue 41 §2): where the tool is before its first command — every front end reports it
+// (CRTK's measured_cp). A quaternion of another norm or a pose outside the workspace is refused.
+TEST(ScenarioLoaderTools, ARestPoseIsReadAndCheckedAndNormalised) {
+  const ScenarioSpec s = parse(kMinimal + "tools:\n  - name: probe\n    pose: {position: [0.1, 0.2, 0.3], "
+                                          "orientation: [0.70710678, 0, 0.70710678, 0]}\n");
+  ASSERT_TRUE(s.tools[0].has_pose);
+  EXPECT_EQ(s.tools[0].spec.rest_pose.position, (Vec3{0.1, 0.2, 0.3}));
+  const auto& q = s.tools[0].spec.rest_pose.orientation;
+  EXPECT_NEAR(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0, 1e-15);
+  expect_error(kMinimal + "tools:\n  - name: probe\n    pose: {orientation: [1, 1, 0, 0]}\n", 11,
+               "tools[0].pose.orientation", {"unit quaternion"});
+  expect_error(kMinimal + "tools:\n  - name: probe\n    pose: {orientation: [1, 0, 0]}\n", 11,
+               "tools[0].pose.orientation", {"4 numbers"});
+  expect_error(kMinimal + "tools:\n  - name: probe\n    pose: {place: [1, 0, 0]}\n", 11, "tools[0].pose.place",
+               {"unknown key 'place'"});
+}
+
 // Finite but absurd tool values loaded and overflowed the contact or speed arithmetic at tick 0
 // (issue 15): every tool quantity now has a bound, with the reason in the message.
 TEST(ScenarioLoaderTools, ToolQuantitiesHaveBounds) {

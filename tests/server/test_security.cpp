@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <thread>
 #include <fstream>
@@ -183,6 +184,25 @@ TEST(Security, TheRendererWorksWithItsOwnIdentity) {
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(20), 0);
   fs::remove_all(out);
+  fs::remove(stats);
+}
+
+// A renderer started without --security against a protected server says that the domain looks
+// protected and that it needs an identity (not "check the domain or the configuration").
+TEST(Security, ARendererWithoutAnIdentitySaysTheDomainLooksProtected) {
+  const fs::path stats = fs::temp_directory_path() / ("stroma_sec_hint_" + std::to_string(getpid()) + ".json");
+  const fs::path log = fs::temp_directory_path() / ("stroma_sec_hint_" + std::to_string(getpid()) + ".log");
+  Process server = secure_server(138, stats);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const std::string cmd = fmt::format("{} render --domain 138 --out {} --wait 3 > {} 2>&1", STROMA_BINARY,
+                                      (fs::temp_directory_path() / "stroma_sec_hint_frames").string(), log.string());
+  EXPECT_NE(std::system(cmd.c_str()), 0) << "the renderer reached a protected server without an identity";
+  const std::string text = read_file(log);
+  EXPECT_NE(text.find("looks protected"), std::string::npos) << text;
+  EXPECT_NE(text.find("--security DIR"), std::string::npos) << text;
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(20), 0);
+  fs::remove(log);
   fs::remove(stats);
 }
 #endif
