@@ -10,6 +10,12 @@ works offline. It is in-tree (pyproject.toml's backend-path) and only builds wha
 The build directory is `build/pip` in the source tree, kept between installs (a second install
 only rebuilds what changed). config_settings: `build-dir=DIR`, `build-type=Release|...`,
 `jobs=N`.
+
+Progress: pip shows a build backend's output only with `pip install -v`; a first build takes
+minutes. So the metadata hook answers at once (no build behind "Preparing metadata"), and while
+the module compiles, a progress line ("stroma_build: compiling 37/107 (35 %), 2 min 10 s") goes
+to the terminal pip runs in (/dev/tty; STROMA_BUILD_PROGRESS=FILE sends it to FILE instead,
+=none switches it off), at most every 2 s, besides the full log on stderr (pip -v).
 """
 import base64
 import hashlib
@@ -21,6 +27,7 @@ import subprocess
 import sys
 import sysconfig
 import tarfile
+import time
 import zipfile
 
 SOURCE = pathlib.Path(__file__).resolve().parents[2]
@@ -60,9 +67,47 @@ def _setting(config_settings, key, default):
     return (config_settings or {}).get(key, default)
 
 
-def _run(cmd):
+def _progress_stream():
+    """Where progress lines go: the terminal pip runs in (pip hides the backend's own output)."""
+    target = os.environ.get("STROMA_BUILD_PROGRESS", "/dev/tty")
+    if target == "none":
+        return None
+    try:
+        return open(target, "a")
+    except OSError:  # no terminal (CI, a pipe): the log on stderr is all there is
+        return None
+
+
+def _run(cmd, progress=None):
+    """Runs cmd with its output on stderr; with `progress` (a stream), Ninja's [k/n] counter and
+    the elapsed time on it, at most every 2 s."""
     print("stroma_build:", " ".join(str(c) for c in cmd), file=sys.stderr, flush=True)
-    subprocess.run([str(c) for c in cmd], check=True, stdout=sys.stderr)
+    if progress is None:
+        subprocess.run([str(c) for c in cmd], check=True, stdout=sys.stderr)
+        return
+    start = last = time.monotonic()
+    step = None
+    with subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                          bufsize=1) as p:
+        for line in p.stdout:
+            sys.stderr.write(line)
+            m = re.match(r"\[(\d+)/(\d+)\]", line)
+            if m:
+                step = (int(m.group(1)), int(m.group(2)))
+            now = time.monotonic()
+            if step and now - last >= 2.0:
+                last = now
+                k, n = step
+                el = int(now - start)
+                progress.write(f"stroma_build: compiling {k}/{n} ({100 * k // n} %), {el // 60} min {el % 60} s\n")
+                progress.flush()
+        rc = p.wait()
+    if step:
+        el = int(time.monotonic() - start)
+        progress.write(f"stroma_build: compiled {step[1]} steps in {el // 60} min {el % 60} s\n")
+        progress.flush()
+    if rc != 0:
+        raise subprocess.CalledProcessError(rc, [str(c) for c in cmd])
 
 
 def _build_module(config_settings):
@@ -78,7 +123,16 @@ def _build_module(config_settings):
           f"-DCMAKE_BUILD_TYPE={_setting(config_settings, 'build-type', 'Release')}",
           "-DSTROMA_PYTHON=ON", f"-DPython3_EXECUTABLE={_interpreter()}"])
     jobs = str(_setting(config_settings, "jobs", os.cpu_count() or 1))
-    _run([cmake, "--build", build, "--target", "_stroma", "--parallel", jobs])
+    progress = _progress_stream()
+    try:
+        if progress:
+            progress.write(f"stroma_build: building the module in {build} with {jobs} jobs "
+                           "(minutes the first time; pip install -v shows the compiler's log)\n")
+            progress.flush()
+        _run([cmake, "--build", build, "--target", "_stroma", "--parallel", jobs], progress)
+    finally:
+        if progress:
+            progress.close()
     pkg = build / "python" / NAME
     if not any(pkg.glob("_stroma*.so")):
         raise RuntimeError(f"the build made no module in {pkg} (is python3-dev installed? scripts/setup.sh)")
@@ -98,6 +152,15 @@ def get_requires_for_build_wheel(config_settings=None):
 
 def get_requires_for_build_sdist(config_settings=None):
     return []
+
+
+def prepare_metadata_for_build_wheel(metadata_directory, config_settings=None):
+    """The wheel's metadata without building it (pip's "Preparing metadata" is then instant)."""
+    dist_info = pathlib.Path(metadata_directory) / f"{NAME}-{_version()}.dist-info"
+    dist_info.mkdir(parents=True, exist_ok=True)
+    (dist_info / "METADATA").write_text(_metadata())
+    (dist_info / "top_level.txt").write_text(f"{NAME}\n")
+    return dist_info.name
 
 
 def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
