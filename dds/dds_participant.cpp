@@ -9,6 +9,7 @@
 
 #include "dds/dds_security.hpp"
 #include "dds/loopback_bind.hpp"
+#include "dds/loopback_config.hpp"
 #include "runtime/realtime.hpp"
 
 namespace stroma {
@@ -67,8 +68,19 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file,
     if (receive_priority > 0) p.config_source += "; receive thread at normal priority (SCHED_FIFO denied)";
   }
   // The built-in configuration promises loopback only: its sockets are bound to loopback too
-  // (dds/loopback_bind.hpp), not just told to use "lo".
-  if (config_file.empty() && !(env_uri && *env_uri)) enable_loopback_bind();
+  // (dds/loopback_bind.hpp), not just told to use "lo". So is a user's own configuration when it
+  // keeps to the same rule (dds/loopback_config.hpp); any other is used as given.
+  if (config_file.empty() && !(env_uri && *env_uri)) {
+    enable_loopback_bind();
+  } else {
+    bool readable = true;
+    const std::string text = !config_file.empty() ? xml : cyclone_uri_text(env_uri, &readable);
+    std::string why;
+    if (readable && is_loopback_only_config(text, &why)) {
+      enable_loopback_bind();
+      p.config_source += "; " + why + ": sockets bound to loopback";
+    }
+  }
   if (!security_dir.empty()) {
     const std::string sec = security_config_element(security_dir, identity);
     if (xml.empty()) {

@@ -595,6 +595,25 @@ TEST(Serve, SocketsAreBoundToLoopbackOnly) {
   EXPECT_EQ(server.wait_exit(15), 0);
 }
 
+// The same with the user's own loopback-only configuration (issue 41 §6): the shipped template
+// passed with --dds-config. Cyclone would bind its receive sockets to 0.0.0.0; the server binds
+// them to loopback as with its built-in configuration.
+TEST(Serve, AUserLoopbackConfigurationIsBoundToLoopback) {
+  const std::string config = std::string(STROMA_SOURCE_DIR) + "/dds/cyclonedds-loopback.xml";
+  Server server(124, {"--duration", "60", "--dds-config", config});
+  Client client(124);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  const std::vector<std::string> local = udp_local_addresses(server.pid());
+  EXPECT_GE(local.size(), 2u) << "found no DDS sockets of the server";
+  for (const std::string& a : local) {
+    const std::string host = a.substr(0, a.find(':'));
+    EXPECT_TRUE(host == "0100007F" || host == "00000000000000000000000001000000")
+        << "a server socket is bound to " << a << " (not loopback) with a loopback-only --dds-config";
+  }
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+
 // A client that dies mid-run does not disturb the server.
 TEST(Serve, KillingTheToolClientLeavesTheServerHealthy) {
   Server server(116, {"--duration", "60"});
