@@ -56,6 +56,14 @@ StaticOutcome solve_equilibrium(const Model& m, State& s, TickWorkspace& w, cons
     out.newton_iterations += r.newton_iterations;
     out.linear_iterations += r.linear_iterations;
     out.relative_residual = r.relative_residual;
+    out.best_residual = r.best_residual;
+    if (!r.converged && r.stalled && r.best_residual < kStaticRoundoffLevel) {
+      // Newton reached the problem's round-off floor and stays there: a smaller increment would
+      // stall at the same level. Stop and say why.
+      std::copy(x_equilibrium.begin(), x_equilibrium.end(), s.tissue.x.begin());
+      out.roundoff_stall = true;
+      break;
+    }
     if (r.converged) {
       done = u;
       ++out.increments;

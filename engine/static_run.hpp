@@ -45,6 +45,10 @@ struct StaticOutcome {
   int linear_iterations = 0;    ///< CG iterations summed (0 with CHOLMOD)
   double relative_residual = 0; ///< of the last attempt
   double reached = 0;           ///< fraction of the path reached (1 when converged)
+  /// Failed because Newton stalled below kStaticRoundoffLevel: the static_tolerance asked is
+  /// below what round-off allows for this problem (smaller increments would not help).
+  bool roundoff_stall = false;
+  double best_residual = 0;     ///< the smallest relative residual the last attempt reached
   int64_t collide_ns = 0, solve_ns = 0;  ///< wall time in contact search, and the rest
 };
 

@@ -328,11 +328,19 @@ void run_static(const CompiledScenario& sc, const RunOptions& o, long steps, Sim
     if (!so.converged) {
       res.static_converged = false;
       res.ok = false;
-      res.failure = fmt::format(
-          "static solve did not converge at t = {:g} s: reached {:.4g} of the load/tool path in {} increments "
-          "(smallest tried {:.3g}); relative residual {:.3g} after {} Newton iterations",
-          static_cast<double>(k) * m.time_step, so.reached, so.increments, kMinStaticIncrement, so.relative_residual,
-          so.newton_iterations);
+      if (so.roundoff_stall)
+        res.failure = fmt::format(
+            "static solve did not converge at t = {:g} s: Newton stalled at relative residual {:.3g} (best reached; "
+            "{} iterations without halving it) — static_tolerance {:.3g} is below what round-off allows for this "
+            "problem (stiffness, near-incompressibility, mesh): set static_tolerance to about {:.1g} or more",
+            static_cast<double>(k) * m.time_step, so.best_residual, kStaticStallIterations,
+            m.stepper.static_tolerance, 10.0 * so.best_residual);
+      else
+        res.failure = fmt::format(
+            "static solve did not converge at t = {:g} s: reached {:.4g} of the load/tool path in {} increments "
+            "(smallest tried {:.3g}); relative residual {:.3g} after {} Newton iterations",
+            static_cast<double>(k) * m.time_step, so.reached, so.increments, kMinStaticIncrement, so.relative_residual,
+            so.newton_iterations);
       spdlog::error("{}", res.failure);
       break;
     }

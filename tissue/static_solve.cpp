@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "tissue/constraints.hpp"
 #include "tissue/fem_forces.hpp"
@@ -31,6 +32,9 @@ StaticResult TimeStepper::solve_static(TissueState& s, double load_factor,
     direct = own.get();
   }
   double first_residual = -1;
+  res.best_residual = std::numeric_limits<double>::infinity();
+  int since_gain = 0;  // iterations since the best residual last halved
+  double gain_mark = std::numeric_limits<double>::infinity();
   for (int it = 0; it <= cfg_.static_max_newton; ++it) {
     std::fill(force_.begin(), force_.end(), 0.0);
     std::fill(A_.begin(), A_.end(), 0.0);
@@ -71,6 +75,16 @@ StaticResult TimeStepper::solve_static(TissueState& s, double load_factor,
     }
     if (first_residual < 0) first_residual = res.relative_residual;
     if (res.relative_residual > kStaticDivergence * first_residual) return res;  // diverging
+    res.best_residual = std::min(res.best_residual, res.relative_residual);
+    if (res.relative_residual <= 0.5 * gain_mark) {
+      gain_mark = res.relative_residual;
+      since_gain = 0;
+    } else if (res.best_residual < kStaticRoundoffLevel && ++since_gain >= kStaticStallIterations) {
+      // No progress this close to equilibrium: the round-off floor (above it, Newton runs its
+      // iterations and the continuation halves the increment, as before).
+      res.stalled = true;
+      return res;
+    }
     if (it == cfg_.static_max_newton) break;
     // Constrained rows get the mean free diagonal: keeps CG's conditioning; rhs there is 0.
     const double scale = dcount ? dsum / dcount : 1.0;

@@ -89,7 +89,17 @@ struct StaticResult {
   int linear_iterations = 0;      ///< CG iterations summed (0 with CHOLMOD)
   double relative_residual = 0;   ///< ‖f_ext + f(x)‖ / ‖f_ext‖ on free DOFs at exit
   bool converged = false;
+  /// Newton stopped gaining below kStaticRoundoffLevel: kStaticStallIterations iterations in a
+  /// row without halving the best residual there — the round-off floor of the problem (the
+  /// tolerance asked is not attainable), not a load step too large.
+  bool stalled = false;
+  double best_residual = 0;       ///< the smallest relative residual reached
 };
+
+/// Newton iterations without halving the best residual that count as a stall.
+inline constexpr int kStaticStallIterations = 4;
+/// A stall below this relative residual is round-off: smaller load increments do not help.
+inline constexpr double kStaticRoundoffLevel = 1e-6;
 
 /// Stages of one time step over a FemModel. Not thread-safe; one per physics thread.
 ///

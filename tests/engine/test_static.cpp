@@ -116,3 +116,29 @@ TEST(Static, FailedSolveWritesNoFinalState) {
   EXPECT_NE(j["failure"].get<std::string>().find("did not converge"), std::string::npos);
   for (double x : r.final_state.tissue.x) ASSERT_TRUE(std::isfinite(x));  // the last equilibrium
 }
+
+// A static_tolerance below what round-off allows (issue 41 §7: 1e-10 at nu 0.49 ran 550 Newton
+// iterations and halved its increments to 0.001 without saying why). Newton stalls near the
+// floor; the run stops there and says the tolerance is below the attainable, with the level
+// reached — and a tolerance above that level converges.
+TEST(Static, AToleranceBelowRoundOffIsReportedWithTheLevelReached) {
+  const CompiledScenario sc = compile_scenario(
+      parse_scenario(indentation_yaml("linear", 0.001, ", static_max_newton: 200, static_tolerance: 1.0e-30"), "s.yaml", ""));
+  RunOptions o;
+  o.progress = false;
+  const RunResult r = run_headless(sc, o);
+  ASSERT_FALSE(r.ok);
+  EXPECT_NE(r.failure.find("below what round-off allows"), std::string::npos) << r.failure;
+  const size_t at = r.failure.find("stalled at relative residual ");
+  ASSERT_NE(at, std::string::npos) << r.failure;
+  const double level = std::stod(r.failure.substr(at + 29));
+  EXPECT_GT(level, 0.0);
+  EXPECT_LT(level, 1e-6) << r.failure;
+  // 10x the level reached converges.
+  char tol[32];
+  std::snprintf(tol, sizeof tol, "%.3g", 10 * level);
+  const CompiledScenario ok = compile_scenario(
+      parse_scenario(indentation_yaml("linear", 0.001, std::string(", static_tolerance: ") + tol), "s.yaml", ""));
+  const RunResult r2 = run_headless(ok, o);
+  EXPECT_TRUE(r2.ok) << r2.failure;
+}
