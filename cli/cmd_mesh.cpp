@@ -191,6 +191,8 @@ int finish(const MeshArgs& a, const meshing::MeshingResult& r, const meshing::Me
     s.made_by = a.command_line;
     parse_up(a.input, a.up.empty() ? default_up : a.up, s);
     write_text(a.scenario, starter_scenario_yaml(r.mesh, s));
+    if (const std::string w = real_time_warning(r.mesh.tets.size()); !w.empty())
+      fmt::print(stderr, "warning: {} ({}).\n", w, a.scenario);
   }
   for (const std::string& n : r.notes)
     if (!a.quiet) fmt::print("note: {}\n", n);

@@ -10,6 +10,14 @@
 
 namespace stroma {
 
+std::string real_time_warning(size_t tets) {
+  if (static_cast<int64_t>(tets) <= kFarBeyondRealTime * kRealTimeTets) return "";
+  return fmt::format("{} tetrahedra are about {:.0f}x what one core steps at 1 kHz ({}; docs/REALTIME.md): the scenario "
+                     "runs, but slower than real time, and `stroma serve` will degrade every tick; for real time, "
+                     "mesh with --tets {} (or a larger --size)",
+                     tets, double(tets) / double(kRealTimeTets), kRealTimeTets, kRealTimeTets);
+}
+
 std::string starter_scenario_yaml(const TetMesh& mesh, const StarterScenarioSpec& spec) {
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
   for (const Vec3& p : mesh.nodes)
@@ -31,6 +39,7 @@ std::string starter_scenario_yaml(const TetMesh& mesh, const StarterScenarioSpec
       if (c == '\n' || c == '\r') c = ' ';
     y += fmt::format("# Mesh made by: {}\n", one_line);
   }
+  if (const std::string w = real_time_warning(mesh.tets.size()); !w.empty()) y += "# WARNING: " + w + ".\n";
   y += "# Runs as is: `stroma run THIS_FILE` (1 s under gravity; outputs in a folder beside it).\n"
        "# Units are SI throughout: metres, seconds, kilograms, pascals. What to change:\n"
        "#   material   soft tissue defaults (liver-like: E 5 kPa, nu 0.45, 1060 kg/m^3); stiffer organs\n"

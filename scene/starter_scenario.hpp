@@ -6,11 +6,22 @@
 /// comments that say what to change. Every region of the mesh is listed (commented out) with the
 /// body's material, ready to be given its own.
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
 
 #include "tissue/tet_mesh.hpp"
 
 namespace stroma {
+
+/// About what one core steps at 1 kHz with the starter's solver (docs/REALTIME.md; `stroma mesh`'s
+/// default --tets). A mesh beyond kFarBeyondRealTime times that gets a warning in the scenario and
+/// on the terminal: it runs, slower than real time.
+inline constexpr int64_t kRealTimeTets = 5000;
+inline constexpr int64_t kFarBeyondRealTime = 4;
+
+/// Whether a mesh of `tets` elements is far beyond what 1 kHz steps; the warning says how far.
+std::string real_time_warning(size_t tets);
 
 /// What the starter scenario needs to know.
 struct StarterScenarioSpec {

@@ -9,6 +9,7 @@
 #include "engine/state.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
+#include "scene/starter_scenario.hpp"
 #include "tissue/input_error.hpp"
 
 using namespace stroma;
@@ -184,4 +185,24 @@ TEST(Compile, SurfaceSelectsTheBoundaryFacesFacingTheDirection) {
   expect_compile_error(beam_scenario("{surface: {normal: [0, -1, 0]}, box: {min: [-1, 0.5, -1], max: [1, 1, 1]}}",
                                      "[0.1, 0.005, 0.005]"),
                        7, "bodies[0].fixed[0]", "with the surface condition");
+}
+
+// The starter scenario of `stroma mesh --scenario` warns when its mesh is far beyond what one
+// core steps at 1 kHz (issue 41 §8: a 573,000-element mesh could not step 200 ticks in 90 s),
+// in the YAML and through real_time_warning; a mesh within reach gets no warning.
+TEST(StarterScenario, AMeshFarBeyondRealTimeIsWarnedAbout) {
+  TetMesh small;
+  small.nodes = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  small.tets.assign(static_cast<size_t>(kRealTimeTets), Tet{0, 1, 2, 3});
+  StarterScenarioSpec spec;
+  spec.name = "m";
+  spec.mesh_path = "m.msh";
+  EXPECT_EQ(real_time_warning(small.tets.size()), "");
+  EXPECT_EQ(starter_scenario_yaml(small, spec).find("WARNING"), std::string::npos);
+  TetMesh big = small;
+  big.tets.assign(static_cast<size_t>(kFarBeyondRealTime * kRealTimeTets + 1), Tet{0, 1, 2, 3});
+  const std::string w = real_time_warning(big.tets.size());
+  EXPECT_NE(w.find("slower than real time"), std::string::npos) << w;
+  EXPECT_NE(w.find("--tets 5000"), std::string::npos) << w;
+  EXPECT_NE(starter_scenario_yaml(big, spec).find("# WARNING: " + w), std::string::npos);
 }
