@@ -10,6 +10,9 @@
 # physical trajectories do); without it the tool holds the script's last pose.
 # SERVE_ARGS="..." passes more options to the server (e.g. "--phase-lead-us 0": the fixed
 # schedule, for an A/B of the phase lock).
+# CRTK=1 serves with --crtk and, after Stroma's own client, runs the same script for the same time
+# through the CRTK topics (`stroma tool --crtk`, docs/CRTK.md), so both round trips come from
+# one server run, side by side.
 # DDS_CONFIG=FILE passes --dds-config FILE to the server and the client (e.g.
 # dds/cyclonedds-loopback.xml: the loopback configuration without real-time receive threads,
 # for an A/B of that setting).
@@ -27,14 +30,21 @@ domain=$(( 150 + RANDOM % 50 ))
 hog=""
 dds=()
 if [ -n "${DDS_CONFIG:-}" ]; then dds=(--dds-config "$DDS_CONFIG"); fi
+crtk=()
+serve_for=$((dur + 2))
+if [ -n "${CRTK:-}" ]; then crtk=(--crtk); serve_for=$((2 * dur + 4)); fi
 if [ "$idle" != "--idle" ]; then
-  timeout $((dur + 10)) sh -c 'while :; do :; done' & hog=$!
+  timeout $((serve_for + 8)) sh -c 'while :; do :; done' & hog=$!
 fi
-./build/stroma serve "$scenario" "${dds[@]}" --domain "$domain" --duration "$((dur + 2))" \
+./build/stroma serve "$scenario" "${dds[@]}" "${crtk[@]}" --domain "$domain" --duration "$serve_for" \
   --stats "$out/stats.json" ${SERVE_ARGS:-} > "$out/serve.log" 2>&1 & srv=$!
 sleep 1
 ./build/stroma tool --name probe --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
   --duration "$dur" --domain "$domain" --out "$out/tool.csv" 2> "$out/tool.log" | tee "$out/tool_summary.txt"
+if [ -n "${CRTK:-}" ]; then
+  ./build/stroma tool --crtk --name probe --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
+    --duration "$dur" --domain "$domain" --out "$out/tool_crtk.csv" 2> "$out/tool_crtk.log" | tee -a "$out/tool_summary.txt"
+fi
 wait $srv
 [ -n "$hog" ] && kill $hog 2>/dev/null || true
 python3 - "$out/stats.json" <<'PY'

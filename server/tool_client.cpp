@@ -19,6 +19,7 @@
 #include "dds/dds_participant.hpp"
 #include "engine/trajectory.hpp"
 #include "runtime/realtime.hpp"
+#include "ros_crtk.h"
 #include "stroma.h"
 
 namespace stroma {
@@ -36,6 +37,10 @@ struct Sent {
   int64_t sent_ns = 0;
   std::atomic<int64_t> received_ns{0};
   std::atomic<double> force[3] = {0, 0, 0};
+  // CRTK: measured_cp carries no seq; a pose comes back as itself (bit for bit). Only a pose
+  // that differs from the one sent before it can be told apart, so only those are timed.
+  double position[3] = {0, 0, 0};
+  bool distinct = true;
 };
 
 /// Parses a stdin command line: "x y z [qw qx qy qz] [jaw]". False if malformed.
@@ -124,6 +129,101 @@ void receive_feedback(dds_entity_t participant, dds_entity_t reader, const std::
   }
 }
 
+/// CRTK endpoints of one device (docs/CRTK.md): servo_cp and state_command out, measured_cp and
+/// operating_state in — ROS 2's topic names and types (dds/ros_crtk.idl).
+struct CrtkEndpoints {
+  dds_entity_t servo = 0, command = 0, measured = 0, state = 0;
+};
+
+CrtkEndpoints open_crtk_endpoints(dds_entity_t pp, const std::string& tool) {
+  const std::string ns = "rt/" + tool + "/";
+  auto topic = [&](const dds_topic_descriptor_t* d, const char* leaf) {
+    return dds_check(dds_create_topic(pp, d, (ns + leaf).c_str(), nullptr, nullptr), "CRTK topic");
+  };
+  dds_qos_t* fast = dds_create_qos();  // as Stroma's own commands: the newest pose only
+  dds_qset_reliability(fast, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(fast, DDS_HISTORY_KEEP_LAST, 1);
+  dds_qos_t* reliable = dds_create_qos();
+  dds_qset_reliability(reliable, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(reliable, DDS_HISTORY_KEEP_LAST, 16);
+  dds_qos_t* latched = dds_create_qos();
+  dds_qset_reliability(latched, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_durability(latched, DDS_DURABILITY_TRANSIENT_LOCAL);
+  dds_qset_history(latched, DDS_HISTORY_KEEP_LAST, 16);
+  dds_qos_t* feedback = dds_create_qos();
+  dds_qset_reliability(feedback, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(feedback, DDS_HISTORY_KEEP_LAST, 64);
+  CrtkEndpoints ep;
+  const dds_entity_t w = dds_create_writer(pp, topic(&geometry_msgs_msg_dds__PoseStamped__desc, "servo_cp"), fast, nullptr);
+  if (w < 0)
+    throw std::runtime_error(fmt::format("writing rt/{}/servo_cp is not permitted to this identity ({})", tool,
+                                         dds_strretcode(w)));
+  ep.servo = w;
+  ep.command = dds_check(dds_create_writer(pp, topic(&crtk_msgs_msg_dds__StringStamped__desc, "state_command"), reliable, nullptr),
+                         "writer state_command");
+  ep.measured = dds_check(dds_create_reader(pp, topic(&geometry_msgs_msg_dds__PoseStamped__desc, "measured_cp"), feedback, nullptr),
+                          "reader measured_cp");
+  ep.state = dds_check(dds_create_reader(pp, topic(&crtk_msgs_msg_dds__OperatingState__desc, "operating_state"), latched, nullptr),
+                       "reader operating_state");
+  for (dds_qos_t* q : {fast, reliable, latched, feedback}) dds_delete_qos(q);
+  return ep;
+}
+
+builtin_interfaces_msg_dds__Time_ ros_time_now() {
+  timespec ts;
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return {static_cast<int32_t>(ts.tv_sec), static_cast<uint32_t>(ts.tv_nsec)};
+}
+
+/// The device's operating state once it is `want` (or "" after `seconds`).
+std::string wait_crtk_state(const CrtkEndpoints& ep, const char* want, double seconds) {
+  const int64_t end = mono_ns() + static_cast<int64_t>(seconds * 1e9);
+  std::string last;
+  while (mono_ns() < end) {
+    void* samples[16] = {nullptr};
+    dds_sample_info_t infos[16];
+    const dds_return_t n = dds_take(ep.state, samples, infos, 16, 16);
+    for (dds_return_t i = 0; i < n; ++i)
+      if (infos[i].valid_data) last = static_cast<const crtk_msgs_msg_dds__OperatingState_*>(samples[i])->state;
+    if (n > 0) dds_return_loan(ep.state, samples, n);
+    if (last == want) return last;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return "";
+}
+
+/// Receiver thread (CRTK): each measured_cp marks the newest distinct pose it carries as arrived.
+void receive_measured(dds_entity_t participant, dds_entity_t reader, std::vector<Sent>& sent,
+                      const std::atomic<uint64_t>& sent_count, const std::atomic<bool>& done,
+                      std::atomic<uint64_t>& feedback_msgs) {
+  const dds_entity_t ws = dds_create_waitset(participant);
+  const dds_entity_t rc = dds_create_readcondition(reader, DDS_ANY_STATE);
+  dds_waitset_attach(ws, rc, reader);
+  void* samples[64] = {nullptr};
+  dds_sample_info_t infos[64];
+  uint64_t acked = 0;
+  while (!done.load()) {
+    dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(50));
+    const dds_return_t n = dds_take(reader, samples, infos, 64, 64);
+    const int64_t now = mono_ns();
+    const uint64_t newest = sent_count.load(std::memory_order_acquire);
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      feedback_msgs.fetch_add(1);
+      const auto& p = static_cast<const geometry_msgs_msg_dds__PoseStamped_*>(samples[i])->pose.position;
+      // The pose applied in that tick: one of the last poses sent (the server applies the newest).
+      for (uint64_t k = newest; k > acked && k + 64 > newest; --k) {
+        if (sent[k].position[0] == p.x && sent[k].position[1] == p.y && sent[k].position[2] == p.z) {
+          if (sent[k].distinct && sent[k].received_ns.load() == 0) sent[k].received_ns.store(now);
+          acked = k;
+          break;
+        }
+      }
+    }
+    if (n > 0) dds_return_loan(reader, samples, n);
+  }
+}
+
 /// Writes the CSV log and prints the summary line; returns the number of commands echoed.
 uint64_t report(const ToolClientOptions& o, const std::vector<Sent>& sent, uint64_t seq, int64_t t0,
                 uint64_t feedback_msgs) {
@@ -132,7 +232,9 @@ uint64_t report(const ToolClientOptions& o, const std::vector<Sent>& sent, uint6
   std::FILE* csv = o.out_csv.empty() ? nullptr : std::fopen(o.out_csv.c_str(), "w");
   if (!o.out_csv.empty() && !csv) spdlog::error("cannot write '{}'", o.out_csv);
   if (csv) std::fputs("seq,sent_s,received_s,round_trip_ms,fx,fy,fz\n", csv);
+  uint64_t timed = 0;  // commands that can come back told apart (all, but for CRTK's repeated poses)
   for (uint64_t k = 1; k <= seq; ++k) {
+    timed += sent[k].distinct;
     const int64_t r = sent[k].received_ns.load();
     if (r) {
       ++echoed;
@@ -153,10 +255,10 @@ uint64_t report(const ToolClientOptions& o, const std::vector<Sent>& sent, uint6
     std::nth_element(v.begin(), v.begin() + k, v.end());
     return v[k];
   };
-  fmt::print("tool '{}': {} commands sent, {} feedback messages, {} commands echoed ({} superseded or lost, {:.2f} %); "
+  fmt::print("tool '{}'{}: {} commands sent, {} feedback messages, {} commands echoed ({} superseded or lost, {:.2f} %); "
              "round trip ms p50 {:.3f} p99 {:.3f} max {:.3f}\n",
-             o.name, seq, feedback_msgs, echoed, seq - echoed,
-             seq ? 100.0 * static_cast<double>(seq - echoed) / static_cast<double>(seq) : 0.0, pct(0.5), pct(0.99),
+             o.name, o.crtk ? " (CRTK)" : "", seq, feedback_msgs, echoed, timed - echoed,
+             timed ? 100.0 * static_cast<double>(timed - echoed) / static_cast<double>(timed) : 0.0, pct(0.5), pct(0.99),
              pct(1.0));
   return echoed;
 }
@@ -172,16 +274,33 @@ int run_tool_client(const ToolClientOptions& o) {
       create_participant(o.domain, o.dds_config, o.realtime ? 55 : 0, o.security_dir, o.identity);
   spdlog::info("DDS domain {}: {}", o.domain, pp.config_source);
   ToolEndpoints ep;
+  CrtkEndpoints cep;
   try {
-    ep = open_endpoints(pp.participant, o.security_dir.empty() ? "" : o.name);
+    if (o.crtk) cep = open_crtk_endpoints(pp.participant, o.name);
+    else ep = open_endpoints(pp.participant, o.security_dir.empty() ? "" : o.name);
   } catch (...) {
     close_dds(pp);
     throw;
   }
-  if (!wait_for_server(ep.writer, o.wait_server)) {
-    spdlog::error("no server is reading stroma_ToolCommand on domain {} after {:.0f} s", o.domain, o.wait_server);
+  if (!wait_for_server(o.crtk ? cep.command : ep.writer, o.wait_server)) {
+    spdlog::error("no server is reading {} on domain {} after {:.0f} s",
+                  o.crtk ? "rt/" + o.name + "/state_command (serve --crtk)" : std::string("stroma_ToolCommand"), o.domain,
+                  o.wait_server);
     close_dds(pp);
     return 1;
+  }
+  if (o.crtk) {  // enable the device (docs/CRTK.md) and wait until it says ENABLED
+    crtk_msgs_msg_dds__StringStamped_ c{};
+    c.header.stamp = ros_time_now();
+    c.header.frame_id = const_cast<char*>("");
+    c.string = const_cast<char*>("enable");
+    dds_write(cep.command, &c);
+    if (wait_crtk_state(cep, "ENABLED", o.wait_server).empty()) {
+      spdlog::error("CRTK device '{}' did not become ENABLED after 'enable' within {:.0f} s", o.name, o.wait_server);
+      close_dds(pp);
+      return 1;
+    }
+    spdlog::info("CRTK device '{}' ENABLED", o.name);
   }
 
   const double duration = o.duration > 0 ? o.duration : traj.keys.empty() ? 0.0 : traj.end_time();
@@ -189,6 +308,7 @@ int run_tool_client(const ToolClientOptions& o) {
   std::vector<Sent> sent(capacity + 1);
   std::atomic<bool> done{false};
   std::atomic<uint64_t> feedback_msgs{0};
+  std::atomic<uint64_t> sent_count{0};  // CRTK: published after each pose is recorded
 
   // A haptic bridge is a real-time client: ask for SCHED_FIFO (silently best effort if denied)
   // so the round trips measure the server, not the client's scheduling. Memory stays unlocked:
@@ -197,7 +317,8 @@ int run_tool_client(const ToolClientOptions& o) {
   const RealtimeMode rt = o.realtime ? RealtimeMode::Auto : RealtimeMode::Off;
   std::thread receiver([&] {
     setup_realtime_thread(rt, -1, 55, 64 * 1024, false);
-    receive_feedback(pp.participant, ep.reader, o.name, sent, done, feedback_msgs);
+    if (o.crtk) receive_measured(pp.participant, cep.measured, sent, sent_count, done, feedback_msgs);
+    else receive_feedback(pp.participant, ep.reader, o.name, sent, done, feedback_msgs);
   });
 
   setup_realtime_thread(rt, -1, 55, 64 * 1024, false);
@@ -205,8 +326,24 @@ int run_tool_client(const ToolClientOptions& o) {
   std::snprintf(msg.tool, sizeof(msg.tool), "%s", o.name.c_str());
   uint64_t seq = 0;
   const int64_t t0 = mono_ns();
+  geometry_msgs_msg_dds__PoseStamped_ pose_msg{};
+  pose_msg.header.frame_id = const_cast<char*>("world");
   auto send = [&](const ToolPose& p) {
     if (seq >= capacity) return;
+    if (o.crtk) {
+      ++seq;
+      Sent& e = sent[seq];
+      for (int k = 0; k < 3; ++k) e.position[k] = p.position[k];
+      e.distinct = seq == 1 || sent[seq - 1].position[0] != p.position[0] || sent[seq - 1].position[1] != p.position[1] ||
+                   sent[seq - 1].position[2] != p.position[2];
+      pose_msg.header.stamp = ros_time_now();
+      pose_msg.pose.position = {p.position[0], p.position[1], p.position[2]};
+      pose_msg.pose.orientation = {p.orientation[1], p.orientation[2], p.orientation[3], p.orientation[0]};
+      e.sent_ns = mono_ns();
+      sent_count.store(seq, std::memory_order_release);
+      dds_write(cep.servo, &pose_msg);
+      return;
+    }
     msg.seq = ++seq;
     msg.client_time_ns = mono_ns();
     for (int k = 0; k < 3; ++k) msg.position[k] = p.position[k];

@@ -2,6 +2,10 @@
 /// \file tool_client.hpp
 /// `stroma tool`: a DDS tool client. Publishes stroma_ToolCommand from a timed trajectory
 /// (YAML/CSV, interpolated) or from stdin lines, receives stroma_ToolFeedback, logs round trips.
+/// With `crtk`, it is a CRTK client of `serve --crtk` instead (docs/CRTK.md): enables the device
+/// through rt/NAME/state_command, sends rt/NAME/servo_cp, and times each pose's round trip to the
+/// first rt/NAME/measured_cp that carries it — the same measure as Stroma's own path, to compare
+/// the two in one run (bench/realtime.sh CRTK=1).
 
 #include <string>
 
@@ -23,6 +27,7 @@ struct ToolClientOptions {
   /// Script mode: replay the script from its start each time it ends (for --duration longer
   /// than the script; a script meant to loop ends where it starts).
   bool loop = false;
+  bool crtk = false;         ///< --crtk: CRTK topics (ROS 2 wire format) instead of Stroma's own
 };
 
 /// Runs the client; returns the exit code (0 ok, 1 no server / no feedback, 2 bad input).
