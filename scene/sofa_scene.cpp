@@ -39,8 +39,21 @@ const std::set<std::string> kFem = {"TetrahedronFEMForceField", "TetrahedralCoro
 const std::set<std::string> kMasses = {"UniformMass", "DiagonalMass", "MeshMatrixMass"};
 const std::set<std::string> kFixed = {"FixedConstraint", "FixedProjectiveConstraint"};
 const std::set<std::string> kTopology = {"TetrahedronSetTopologyContainer", "MeshTopology"};
+// SOFA's collision pipeline: what makes bodies and tools touch. Stroma's contact (tools against
+// each body's boundary, a BVH and penalty springs: docs/TISSUE.md) is always on, so these carry
+// no setting of Stroma's; accepted and listed in the notes (--explain).
+const std::set<std::string> kCollisionPipeline = {
+    "CollisionPipeline", "DefaultPipeline", "BruteForceBroadPhase", "BruteForceDetection", "BVHNarrowPhase",
+    "DiscreteIntersection", "MinProximityIntersection", "NewProximityIntersection", "LocalMinDistance",
+    "CollisionResponse", "DefaultContactManager", "DefaultCollisionGroupManager", "CollisionGroupManager"};
+// Collision models: a body's collision surface. Stroma's is the body's boundary (its tetrahedra's
+// outer faces) whatever the model's primitives (triangles, lines, points, spheres).
+const std::set<std::string> kCollisionModels = {"TriangleCollisionModel", "LineCollisionModel", "PointCollisionModel",
+                                                "SphereCollisionModel", "TTriangleModel", "TLineModel", "TPointModel"};
 // Attributes every component may have that change nothing simulated.
-const std::set<std::string> kGeneric = {"name", "printLog", "listening", "tags", "componentState"};
+const std::set<std::string> kGeneric = {"name", "printLog", "listening", "tags", "componentState", "bbox"};
+// Node attributes that change nothing simulated: drawing, and `depend` (a no-op ordering hint).
+const std::set<std::string> kNodeNoEffect = {"showBoundingTree", "depend", "activated"};
 // Drawing-only attributes of the mechanical components.
 const std::set<std::string> kDrawing = {"showObject", "showObjectScale", "showIndices", "showIndicesScale", "drawMode",
                                         "showColor", "showVectors", "drawSize", "drawBoxes", "drawTetrahedra",
@@ -80,7 +93,7 @@ class Translator {
     if (!root) throw InputError(file_, 0, "", "no root element: a SOFA scene is a <Node>");
     if (std::string(root->Name()) != "Node")
       fail(root, "", fmt::format("the root element is <{}>; a SOFA scene's root is a <Node>", root->Name()));
-    allow(root, {"gravity", "dt", "bbox"});  // bbox: the viewer's bounding box
+    allow(root, {"gravity", "dt", "showBoundingTree", "depend", "activated"});  // (bbox: generic)
     gravity_ = {0, -9.81, 0};
     if (root->Attribute("gravity")) {
       const auto g = numbers(root, "gravity");
@@ -99,6 +112,13 @@ class Translator {
     walk(root, Solvers{});
     if (bodies_.empty())
       fail(root, "", "no body: Stroma simulates nodes with a MechanicalObject, a tetrahedral FEM force field and a mass");
+    int colliding = 0;
+    for (const Body& b : bodies_) colliding += b.collision_models > 0;
+    if (colliding >= 2)
+      fail(root, "", fmt::format("{} bodies have collision models: in SOFA they would collide with each other; the "
+                                 "translation does not make bodies touch (Stroma's body_contact is frictionless "
+                                 "penalty, not SOFA's response): remove the models, or write the scene in YAML with "
+                                 "body_contact (docs/TISSUE.md)", colliding));
     return {emit(), notes_};
   }
 
@@ -119,7 +139,11 @@ class Translator {
     std::vector<std::vector<int>> fixed_nodes;
     std::vector<std::array<double, 6>> fixed_boxes;
     std::vector<int> fixed_lines;
+    int collision_models = 0;  ///< SOFA collision models on it (notes only: its boundary is the surface)
   };
+
+  /// Each node's named components (filled as walk() reaches the node, before its subtree).
+  std::map<const XMLElement*, std::map<std::string, const XMLElement*>> scopes_;
 
   [[noreturn]] void fail(const XMLElement* e, const std::string& attr, const std::string& what) const {
     std::string field = e->Name();
@@ -201,23 +225,31 @@ class Translator {
   }
 
   void walk(const XMLElement* node, Solvers solvers) {
-    allow(node, node->Parent() == node->GetDocument() ? std::set<std::string>{"gravity", "dt", "bbox"} : std::set<std::string>{});
+    node_attributes(node);
     std::map<std::string, const XMLElement*> named;
     const XMLElement *mo = nullptr, *fem = nullptr, *mass = nullptr, *topology = nullptr;
     const XMLElement *own_ode = nullptr, *own_linear = nullptr;
-    std::vector<const XMLElement*> fixed, loaders, children;
+    std::vector<const XMLElement*> fixed, loaders, children, collision_models;
     for (const XMLElement* e = node->FirstChildElement(); e; e = e->NextSiblingElement()) {
-      const std::string kind = e->Name();
       if (const char* n = e->Attribute("name")) {
         if (named.count(n)) fail(e, "name", fmt::format("'{}' is already the name of a component of this node", n));
         named[n] = e;
       }
+    }
+    scopes_[node] = named;  // links from the subtree ("@../name") resolve here
+    for (const XMLElement* e = node->FirstChildElement(); e; e = e->NextSiblingElement()) {
+      const std::string kind = e->Name();
       auto one = [&](const XMLElement*& slot, const char* what) {
         if (slot) fail(e, "", fmt::format("a second {} in this node (line {}): one per node", what, slot->GetLineNum()));
         slot = e;
       };
       if (kind == "Node") children.push_back(e);
       else if (kNoEffect.count(kind)) notes_.push_back(fmt::format("line {}: {}: no effect on the simulation", e->GetLineNum(), kind));
+      else if (kCollisionPipeline.count(kind))
+        notes_.push_back(fmt::format("line {}: {}: SOFA's collision pipeline; Stroma's contact (tools against each "
+                                     "body's boundary: BVH, penalty) is always on, this component's settings are not "
+                                     "carried", e->GetLineNum(), kind));
+      else if (kCollisionModels.count(kind)) collision_models.push_back(e);
       else if (kind == "EulerImplicitSolver") one(own_ode, "ODE solver");
       else if (kind == "CGLinearSolver" || kind == "SparseLDLSolver") one(own_linear, "linear solver");
       else if (kVolumeLoaders.count(kind) || kind == "MeshOBJLoader") loaders.push_back(e);
@@ -245,15 +277,52 @@ class Translator {
     if (own_ode) solvers.ode = own_ode;
     if (own_linear) solvers.linear = own_linear;
     if (mo) {
-      body(node, mo, fem, mass, topology, fixed, loaders, named, solvers, children);
+      body(node, mo, fem, mass, topology, fixed, loaders, named, solvers, children, collision_models);
     } else {
       for (const XMLElement* e : {fem, mass, topology})
         if (e) fail(e, "", "no MechanicalObject in this node: it has nothing to act on");
+      if (!collision_models.empty())
+        fail(collision_models[0], "", "a collision model of no body (no MechanicalObject in this node): an obstacle "
+                                      "that is not a Stroma body is not translated");
       if (!fixed.empty()) fail(fixed[0], "", "no MechanicalObject in this node: it has nothing to act on");
       for (const XMLElement* c : children)
         if (!is_visual_node(c)) walk(c, solvers);
         else fail(c, "", "a visual node (OglModel + BarycentricMapping) needs a body in its parent node");
     }
+  }
+
+  /// A node's attributes: the root's gravity and dt (read in run()), a child's gravity only when
+  /// it is the root's (SOFA gives a subtree its own gravity; Stroma has one), drawing and `depend`.
+  void node_attributes(const XMLElement* node) {
+    const bool root = node->Parent() == node->GetDocument();
+    std::set<std::string> ok = kNodeNoEffect;
+    ok.insert("gravity");
+    if (root) ok.insert("dt");
+    allow(node, ok);
+    if (!root && node->Attribute("gravity")) {
+      const auto g = numbers(node, "gravity");
+      if (g.size() != 3 || g[0] != gravity_[0] || g[1] != gravity_[1] || g[2] != gravity_[2])
+        fail(node, "gravity",
+             fmt::format("'{}' differs from the root's gravity ({} {} {}): Stroma has one gravity for the scene",
+                         node->Attribute("gravity"), num(gravity_[0]), num(gravity_[1]), num(gravity_[2])));
+    }
+    for (const char* a : {"showBoundingTree", "depend"})
+      if (node->Attribute(a))
+        notes_.push_back(fmt::format("line {}: Node {}: no effect on the simulation", node->GetLineNum(), a));
+  }
+
+  /// A child node that only holds a collision model of its parent's body (a loader, a
+  /// MechanicalObject, the model, a mapping): SOFA's usual "Surf" node.
+  static bool is_collision_node(const XMLElement* n) {
+    bool model = false;
+    for (const XMLElement* e = n->FirstChildElement(); e; e = e->NextSiblingElement()) {
+      const std::string k = e->Name();
+      if (kCollisionModels.count(k)) model = true;
+      else if (k != "SphereLoader" && k != "MeshOBJLoader" && k != "MeshTopology" && k != "MechanicalObject" &&
+               k != "BarycentricMapping" && k != "IdentityMapping" && k != "RequiredPlugin" && k != "Node")
+        return false;
+    }
+    return model;
   }
 
   static bool is_visual_node(const XMLElement* n) {
@@ -262,17 +331,36 @@ class Translator {
     return false;
   }
 
+  /// The component a link names: "name" in `from`'s node (`named`), "../name" in its parent node,
+  /// "../../name" in the grandparent (SOFA's relative paths), each as the scene declares it.
   const XMLElement* named_in(const std::map<std::string, const XMLElement*>& named, const XMLElement* from,
                              const char* attr, const std::string& target) const {
-    auto it = named.find(target);
-    if (it == named.end()) fail(from, attr, fmt::format("links to '{}', which is no component of this node", target));
+    std::string t = target;
+    const std::map<std::string, const XMLElement*>* scope = &named;
+    const tinyxml2::XMLNode* node = from->Parent();
+    int up = 0;
+    while (t.rfind("../", 0) == 0) {
+      t = t.substr(3);
+      ++up;
+      node = node ? node->Parent() : nullptr;
+      const auto* n = node ? node->ToElement() : nullptr;
+      auto s = n ? scopes_.find(n) : scopes_.end();
+      if (s == scopes_.end())
+        fail(from, attr, fmt::format("links to '{}': there is no node {} level{} above", target, up, up > 1 ? "s" : ""));
+      scope = &s->second;
+    }
+    auto it = scope->find(t);
+    if (it == scope->end())
+      fail(from, attr, fmt::format("links to '{}', which is no component of {}", target,
+                                   up == 0 ? std::string("this node") : fmt::format("the node {} level{} up", up, up > 1 ? "s" : "")));
     return it->second;
   }
 
   void body(const XMLElement* node, const XMLElement* mo, const XMLElement* fem, const XMLElement* mass,
             const XMLElement* topology, const std::vector<const XMLElement*>& fixed,
             const std::vector<const XMLElement*>& loaders, const std::map<std::string, const XMLElement*>& named,
-            const Solvers& solvers, const std::vector<const XMLElement*>& children) {
+            const Solvers& solvers, const std::vector<const XMLElement*>& children,
+            const std::vector<const XMLElement*>& collision_models) {
     Body b;
     b.line = node->GetLineNum();
     b.name = node->Attribute("name") ? node->Attribute("name") : fmt::format("body{}", bodies_.size());
@@ -349,8 +437,10 @@ class Translator {
 
     mass_of(mass, b);
     for (const XMLElement* f : fixed) fixed_of(f, named, b);
+    for (const XMLElement* e : collision_models) collision_model(e, b);
     for (const XMLElement* c : children) {
       if (is_visual_node(c)) visual_node(c, mo, b);
+      else if (is_collision_node(c)) collision_node(c, b);
       else walk(c, solvers);
     }
     if (!have_solver_) {
@@ -507,8 +597,23 @@ class Translator {
     b.fixed_nodes.push_back(std::move(nodes));
   }
 
+  /// A collision model of body b: Stroma's collision surface is the body's boundary.
+  void collision_model(const XMLElement* e, Body& b) {
+    ++b.collision_models;
+    notes_.push_back(fmt::format("line {}: {}: the body's collision surface is its boundary (Stroma's contact); the "
+                                 "model's own primitives and settings (contactStiffness, proximity) are not carried",
+                                 e->GetLineNum(), e->Name()));
+  }
+
+  /// A collision child node (is_collision_node): its models describe b's collision surface.
+  void collision_node(const XMLElement* n, Body& b) {
+    node_attributes(n);
+    for (const XMLElement* e = n->FirstChildElement(); e; e = e->NextSiblingElement())
+      if (kCollisionModels.count(e->Name())) collision_model(e, b);
+  }
+
   void visual_node(const XMLElement* n, const XMLElement* mo, Body& b) {
-    allow(n, {});
+    node_attributes(n);
     std::map<std::string, const XMLElement*> named;
     const XMLElement *ogl = nullptr, *mapping = nullptr;
     for (const XMLElement* e = n->FirstChildElement(); e; e = e->NextSiblingElement()) {
