@@ -50,6 +50,19 @@ const std::set<std::string> kCollisionPipeline = {
 // outer faces) whatever the model's primitives (triangles, lines, points, spheres).
 const std::set<std::string> kCollisionModels = {"TriangleCollisionModel", "LineCollisionModel", "PointCollisionModel",
                                                 "SphereCollisionModel", "TTriangleModel", "TLineModel", "TPointModel"};
+// Components outside the subset that SOFA users often write, with why they are not translated.
+const std::map<std::string, std::string> kWhyNot = {
+    {"RegularGridTopology", "a grid built at load is not translated: Stroma reads tetrahedral meshes from files (mesh "
+                            "the box with gmsh, or a surface with `stroma mesh surface`)"},
+    {"SparseGridTopology", "a grid built at load is not translated: Stroma reads tetrahedral meshes from files"},
+    {"Hexa2TetraTopologicalMapping", "hexahedra split into tetrahedra at load are not translated: give the tetrahedral "
+                                     "mesh as a file"},
+    {"FreeMotionAnimationLoop", "constraint-based animation (Lagrange multipliers) is not modelled: Stroma's contact is "
+                                "penalty-based"},
+    {"GenericConstraintSolver", "constraint-based animation (Lagrange multipliers) is not modelled"},
+    {"UncoupledConstraintCorrection", "constraint corrections belong to constraint-based animation, not modelled"},
+    {"LinearSolverConstraintCorrection", "constraint corrections belong to constraint-based animation, not modelled"},
+    {"SphereLoader", "spheres are read only as a body's collision model, in a collision child node of the body"}};
 // Attributes every component may have that change nothing simulated.
 const std::set<std::string> kGeneric = {"name", "printLog", "listening", "tags", "componentState", "bbox"};
 // Node attributes that change nothing simulated: drawing, and `depend` (a no-op ordering hint).
@@ -109,7 +122,8 @@ class Translator {
     } else {
       notes_.push_back(fmt::format("line {}: no dt: SOFA's default 0.01 s", root->GetLineNum()));
     }
-    walk(root, Solvers{});
+    attempt([&] { walk(root, Solvers{}); });
+    if (!errors_.empty()) throw combined_errors();
     if (bodies_.empty())
       fail(root, "", "no body: Stroma simulates nodes with a MechanicalObject, a tetrahedral FEM force field and a mass");
     int colliding = 0;
@@ -141,6 +155,29 @@ class Translator {
     std::vector<int> fixed_lines;
     int collision_models = 0;  ///< SOFA collision models on it (notes only: its boundary is the surface)
   };
+
+  /// Every error of the scene, in the order found: a component's error stops that component (a
+  /// body's, that body), not the scene, so one run reports them all.
+  std::vector<InputError> errors_;
+
+  template <class F>
+  void attempt(F&& f) {
+    try {
+      f();
+    } catch (const InputError& e) {
+      errors_.push_back(e);
+    }
+  }
+
+  /// One InputError for all of them: the first one's place, and each error on a line of its own.
+  InputError combined_errors() const {
+    const InputError& first = errors_.front();
+    if (errors_.size() == 1) return first;
+    std::string m = first.message();
+    m += fmt::format("\n  ... and {} more error{} in this scene:", errors_.size() - 1, errors_.size() > 2 ? "s" : "");
+    for (size_t k = 1; k < errors_.size(); ++k) m += "\n  " + std::string(errors_[k].what());
+    return InputError(first.file(), first.line(), first.field(), m);
+  }
 
   /// Each node's named components (filled as walk() reaches the node, before its subtree).
   std::map<const XMLElement*, std::map<std::string, const XMLElement*>> scopes_;
@@ -237,7 +274,7 @@ class Translator {
       }
     }
     scopes_[node] = named;  // links from the subtree ("@../name") resolve here
-    for (const XMLElement* e = node->FirstChildElement(); e; e = e->NextSiblingElement()) {
+    for (const XMLElement* e = node->FirstChildElement(); e; e = e->NextSiblingElement()) attempt([&] {
       const std::string kind = e->Name();
       auto one = [&](const XMLElement*& slot, const char* what) {
         if (slot) fail(e, "", fmt::format("a second {} in this node (line {}): one per node", what, slot->GetLineNum()));
@@ -264,30 +301,35 @@ class Translator {
         if (kind != "BoxROI")
           fail(e, "", "a visual surface goes in a child node of its body: MeshOBJLoader, OglModel and BarycentricMapping");
       } else {
+        const auto why = kWhyNot.find(kind);
         fail(e, "",
-             fmt::format("component not supported by the SOFA importer. Supported: Node, {}, {}, "
+             fmt::format("component not supported by the SOFA importer{}. Supported: Node, {}, {}, "
                          "MechanicalObject, {}, {}, EulerImplicitSolver, CGLinearSolver, SparseLDLSolver, {}, BoxROI, "
                          "MeshOBJLoader + OglModel + BarycentricMapping (a visual child node), and with no effect on "
                          "the simulation: {}",
-                         join_names(kVolumeLoaders), join_names(kTopology), join_names(kFem), join_names(kMasses),
+                         why == kWhyNot.end() ? std::string() : ": " + why->second, join_names(kVolumeLoaders), join_names(kTopology), join_names(kFem), join_names(kMasses),
                          join_names(kFixed), join_names(kNoEffect)));
       }
-    }
+    });
     // A node's solvers act on its whole subtree, wherever they stand among its children.
     if (own_ode) solvers.ode = own_ode;
     if (own_linear) solvers.linear = own_linear;
     if (mo) {
-      body(node, mo, fem, mass, topology, fixed, loaders, named, solvers, children, collision_models);
+      attempt([&] { body(node, mo, fem, mass, topology, fixed, loaders, named, solvers, children, collision_models); });
     } else {
       for (const XMLElement* e : {fem, mass, topology})
-        if (e) fail(e, "", "no MechanicalObject in this node: it has nothing to act on");
+        if (e) attempt([&] { fail(e, "", "no MechanicalObject in this node: it has nothing to act on"); });
       if (!collision_models.empty())
-        fail(collision_models[0], "", "a collision model of no body (no MechanicalObject in this node): an obstacle "
-                                      "that is not a Stroma body is not translated");
-      if (!fixed.empty()) fail(fixed[0], "", "no MechanicalObject in this node: it has nothing to act on");
+        attempt([&] {
+          fail(collision_models[0], "", "a collision model of no body (no MechanicalObject in this node): an obstacle "
+                                        "that is not a Stroma body is not translated");
+        });
+      if (!fixed.empty()) attempt([&] { fail(fixed[0], "", "no MechanicalObject in this node: it has nothing to act on"); });
       for (const XMLElement* c : children)
-        if (!is_visual_node(c)) walk(c, solvers);
-        else fail(c, "", "a visual node (OglModel + BarycentricMapping) needs a body in its parent node");
+        attempt([&] {
+          if (!is_visual_node(c)) walk(c, solvers);
+          else fail(c, "", "a visual node (OglModel + BarycentricMapping) needs a body in its parent node");
+        });
     }
   }
 
@@ -397,52 +439,57 @@ class Translator {
       }
     }
 
-    // Material.
-    const std::string kind = fem->Name();
-    allow(fem, kind == "TetrahedronFEMForceField"
-                   ? std::set<std::string>{"template", "method", "youngModulus", "poissonRatio", "computeGlobalMatrix",
-                                           "computeVonMisesStress", "showVonMisesStressPerElement", "showStressColorMap"}
-                   : std::set<std::string>{"template", "method", "youngModulus", "poissonRatio", "computeGlobalMatrix",
-                                           "fastMethod"},
-          true);
-    const std::string method = fem->Attribute("method") ? fem->Attribute("method") : "large";
-    if (method == "large") b.model = "corotational", b.rotation = "qr";
-    else if (method == "polar") b.model = "corotational", b.rotation = "polar";
-    else if (method == "svd" && kind == "TetrahedronFEMForceField") {
-      b.model = "corotational", b.rotation = "polar";
-      notes_.push_back(fmt::format("line {}: method svd: Stroma's polar rotation (computed by SVD, inversion-safe)",
-                                   fem->GetLineNum()));
-    } else if (method == "small") b.model = "linear";
-    else fail(fem, "method", fmt::format("'{}': supported are large, polar{}, small", method,
-                                         kind == "TetrahedronFEMForceField" ? ", svd" : ""));
-    if (!fem->Attribute("youngModulus")) fail(fem, "youngModulus", "missing (SOFA's default 5000 is rarely meant)");
-    if (!fem->Attribute("poissonRatio")) fail(fem, "poissonRatio", "missing (SOFA's default 0.45 is rarely meant)");
-    b.young = number(fem, "youngModulus");
-    b.poisson = number(fem, "poissonRatio");
-    if (!(b.young > 0)) fail(fem, "youngModulus", "must be > 0");
-    if (!(b.poisson > -1 && b.poisson < 0.5)) fail(fem, "poissonRatio", "must be in (-1, 0.5)");
+    attempt([&] {  // each part of a body is checked on its own: every error at once
+      // Material.
+      const std::string kind = fem->Name();
+      allow(fem, kind == "TetrahedronFEMForceField"
+                     ? std::set<std::string>{"template", "method", "youngModulus", "poissonRatio", "computeGlobalMatrix",
+                                             "computeVonMisesStress", "showVonMisesStressPerElement", "showStressColorMap"}
+                     : std::set<std::string>{"template", "method", "youngModulus", "poissonRatio", "computeGlobalMatrix",
+                                             "fastMethod"},
+            true);
+      const std::string method = fem->Attribute("method") ? fem->Attribute("method") : "large";
+      if (method == "large") b.model = "corotational", b.rotation = "qr";
+      else if (method == "polar") b.model = "corotational", b.rotation = "polar";
+      else if (method == "svd" && kind == "TetrahedronFEMForceField") {
+        b.model = "corotational", b.rotation = "polar";
+        notes_.push_back(fmt::format("line {}: method svd: Stroma's polar rotation (computed by SVD, inversion-safe)",
+                                     fem->GetLineNum()));
+      } else if (method == "small") b.model = "linear";
+      else fail(fem, "method", fmt::format("'{}': supported are large, polar{}, small", method,
+                                           kind == "TetrahedronFEMForceField" ? ", svd" : ""));
+      if (!fem->Attribute("youngModulus")) fail(fem, "youngModulus", "missing (SOFA's default 5000 is rarely meant)");
+      if (!fem->Attribute("poissonRatio")) fail(fem, "poissonRatio", "missing (SOFA's default 0.45 is rarely meant)");
+      b.young = number(fem, "youngModulus");
+      b.poisson = number(fem, "poissonRatio");
+      if (!(b.young > 0)) fail(fem, "youngModulus", "must be > 0");
+      if (!(b.poisson > -1 && b.poisson < 0.5)) fail(fem, "poissonRatio", "must be in (-1, 0.5)");
 
-    // Damping from the ODE solver.
-    const XMLElement* ode = solvers.ode;
-    allow(ode, {"rayleighStiffness", "rayleighMass", "vdamping", "firstOrder", "trapezoidalScheme", "solveConstraint"});
-    b.rayleigh_stiffness = ode->Attribute("rayleighStiffness") ? number(ode, "rayleighStiffness") : 0.0;
-    b.rayleigh_mass = ode->Attribute("rayleighMass") ? number(ode, "rayleighMass") : 0.0;
-    if (b.rayleigh_stiffness < 0) fail(ode, "rayleighStiffness", "must be >= 0");
-    if (b.rayleigh_mass < 0) fail(ode, "rayleighMass", "must be >= 0");
-    if (ode->Attribute("vdamping") && number(ode, "vdamping") != 0)
-      fail(ode, "vdamping", "velocity damping is not modelled (use rayleighMass)");
-    if (boolean(ode, "firstOrder", false)) fail(ode, "firstOrder", "first-order integration is not modelled");
-    if (boolean(ode, "trapezoidalScheme", false)) fail(ode, "trapezoidalScheme", "only backward (implicit) Euler");
-    if (boolean(ode, "solveConstraint", false)) fail(ode, "solveConstraint", "constraint solving is not modelled");
+    });
+    attempt([&] {
+      // Damping from the ODE solver.
+      const XMLElement* ode = solvers.ode;
+      allow(ode, {"rayleighStiffness", "rayleighMass", "vdamping", "firstOrder", "trapezoidalScheme", "solveConstraint"});
+      b.rayleigh_stiffness = ode->Attribute("rayleighStiffness") ? number(ode, "rayleighStiffness") : 0.0;
+      b.rayleigh_mass = ode->Attribute("rayleighMass") ? number(ode, "rayleighMass") : 0.0;
+      if (b.rayleigh_stiffness < 0) fail(ode, "rayleighStiffness", "must be >= 0");
+      if (b.rayleigh_mass < 0) fail(ode, "rayleighMass", "must be >= 0");
+      if (ode->Attribute("vdamping") && number(ode, "vdamping") != 0)
+        fail(ode, "vdamping", "velocity damping is not modelled (use rayleighMass)");
+      if (boolean(ode, "firstOrder", false)) fail(ode, "firstOrder", "first-order integration is not modelled");
+      if (boolean(ode, "trapezoidalScheme", false)) fail(ode, "trapezoidalScheme", "only backward (implicit) Euler");
+      if (boolean(ode, "solveConstraint", false)) fail(ode, "solveConstraint", "constraint solving is not modelled");
 
-    mass_of(mass, b);
-    for (const XMLElement* f : fixed) fixed_of(f, named, b);
+    });
+    attempt([&] { mass_of(mass, b); });
+    for (const XMLElement* f : fixed) attempt([&] { fixed_of(f, named, b); });
     for (const XMLElement* e : collision_models) collision_model(e, b);
-    for (const XMLElement* c : children) {
-      if (is_visual_node(c)) visual_node(c, mo, b);
-      else if (is_collision_node(c)) collision_node(c, b);
-      else walk(c, solvers);
-    }
+    for (const XMLElement* c : children)
+      attempt([&] {
+        if (is_visual_node(c)) visual_node(c, mo, b);
+        else if (is_collision_node(c)) collision_node(c, b);
+        else walk(c, solvers);
+      });
     if (!have_solver_) {
       body_solver_ = solvers;
       have_solver_ = true;
@@ -470,6 +517,13 @@ class Translator {
     allow(l, {"filename", "scale", "scale3d", "translation", "rotation"});
     b.mesh = resolve_file(l, "filename");
     b.mesh_line = l->GetLineNum();
+    // Read it here, so that a bad mesh file's error names the loader's line in the scene (not the
+    // translated scenario's).
+    try {
+      (void)load_tet_mesh(b.mesh);
+    } catch (const InputError& e) {
+      fail(l, "filename", std::string("the mesh cannot be read: ") + e.what());
+    }
     if (l->Attribute("scale")) b.scale = number(l, "scale");
     if (l->Attribute("scale3d")) {
       const auto s = numbers(l, "scale3d");
