@@ -252,6 +252,51 @@ TEST(LockingFree, BondedBlockWithinFivePercentOnTheTwoCoarsestMeshes) {
   EXPECT_GT(block_force("8p333", ", locking_free: {method: element_patches, patch_elements: 2}") / kConverged - 1, 0.1);
 }
 
+namespace {
+
+/// Tip deflection (u_y at the tip-face centre) of refs/a's cantilever (0.1 x 0.01 x 0.01 m,
+/// E 1e7, clamped at x = 0, gravity) at nu 0.49, static, on beam mesh `mesh`.
+double cantilever_tip(const std::string& mesh, const std::string& locking_free) {
+  const std::string yaml = R"(name: beam
+gravity: [0, -9.81, 0]
+solver: {integrator: static, linear_solver: cholmod, static_tolerance: 1.0e-6}
+bodies:
+  - name: beam
+    mesh: )" + std::string(STROMA_SOURCE_DIR) + "/scenarios/meshes/beam_tet4_h" + mesh + R"(mm.msh
+    material: {model: corotational, young_modulus: 1.0e7, poisson_ratio: 0.49, density: 1000)" + locking_free + R"(}
+    fixed:
+      - box: {min: [-1.0e-6, -1, -1], max: [1.0e-6, 1, 1]}
+probes:
+  - {name: tip, body: beam, point: [0.1, 0.005, 0.005]}
+)";
+  auto m = compile_model(parse_scenario(yaml, "beam.yaml", STROMA_SOURCE_DIR));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  EXPECT_TRUE(w.stepper().solve_static(s.tissue, 1.0).converged) << mesh << locking_free;
+  return probe_displacement(*m, s, m->probes.at(0))[1];
+}
+
+}  // namespace
+
+// Bending at nu 0.49 (issue 41 §7): a slender cantilever's deflection hardly depends on nu, so
+// refs/a's CalculiX result at nu 0.3 (-1.4735e-3 m), with Timoshenko's shear term for nu 0.49
+// (+0.15 %), is the reference to about 1 %. Node smoothing holds within 5 % from 594 nodes (what
+// docs/TISSUE.md recommends for bending-dominated near-incompressible parts); element patches
+// (k 16) stay 9-13 % too stiff there — the limit the docs state — and plain tetrahedra lock.
+TEST(LockingFree, InBendingAtNu049NodeSmoothingHoldsAndPatchesAreStiffAsDocumented) {
+  constexpr double kReference = -1.4735e-3 * 1.0015;
+  for (const std::string mesh : {"3p333", "2p000"}) {
+    SCOPED_TRACE(mesh);
+    const double plain = cantilever_tip(mesh, "") / kReference - 1;
+    const double smoothed = cantilever_tip(mesh, ", locking_free: node_smoothing") / kReference - 1;
+    const double patches = cantilever_tip(mesh, ", locking_free: element_patches") / kReference - 1;
+    EXPECT_LT(plain, -0.3) << "plain tetrahedra lock in bending";
+    EXPECT_LT(std::abs(smoothed), 0.05) << smoothed;
+    EXPECT_LT(patches, -0.05) << "element patches are stiff in bending (docs/TISSUE.md): " << patches;
+    EXPECT_GT(patches, -0.15) << patches;
+  }
+}
+
 TEST(LockingFree, ElementPatchesAreDisjointCoverEveryElementAndHoldAtLeastK) {
   PreparedMesh mesh;
   mesh.mesh = box_mesh(5, 4, 3, {0.05, 0.04, 0.03});
