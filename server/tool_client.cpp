@@ -98,35 +98,42 @@ bool wait_for_server(dds_entity_t writer, double seconds) {
   return ms.current_count > 0;
 }
 
-/// Receiver thread: every feedback of tool `name` marks the commands up to the seq it echoes
-/// as arrived (the echoed one with its force) until `done`.
-void receive_feedback(dds_entity_t participant, dds_entity_t reader, const std::string& name, std::vector<Sent>& sent,
-                      const std::atomic<bool>& done, std::atomic<uint64_t>& feedback_msgs) {
-  const uint64_t capacity = sent.size() - 1;
+/// A receiver thread's loop: waits on `reader`, takes what arrived and calls
+/// on_sample(sample, arrival_ns) for each valid sample, until `done`.
+template <class OnSample>
+void receive_until(dds_entity_t participant, dds_entity_t reader, const std::atomic<bool>& done, OnSample&& on_sample) {
   const dds_entity_t ws = dds_create_waitset(participant);
   const dds_entity_t rc = dds_create_readcondition(reader, DDS_ANY_STATE);
   dds_waitset_attach(ws, rc, reader);
   void* samples[64] = {nullptr};
   dds_sample_info_t infos[64];
-  uint64_t acked = 0;
   while (!done.load()) {
     dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(50));
     const dds_return_t n = dds_take(reader, samples, infos, 64, 64);
     const int64_t now = mono_ns();
-    for (dds_return_t i = 0; i < n; ++i) {
-      if (!infos[i].valid_data) continue;
-      const auto* f = static_cast<const stroma_ToolFeedback*>(samples[i]);
-      if (name != f->tool) continue;
-      feedback_msgs.fetch_add(1);
-      const uint64_t s = std::min<uint64_t>(f->seq, capacity);
-      if (s > acked && sent[s].sent_ns != 0) {
-        sent[s].received_ns.store(now);
-        for (int c = 0; c < 3; ++c) sent[s].force[c].store(f->force[c]);
-      }
-      acked = std::max(acked, s);
-    }
+    for (dds_return_t i = 0; i < n; ++i)
+      if (infos[i].valid_data) on_sample(samples[i], now);
     if (n > 0) dds_return_loan(reader, samples, n);
   }
+}
+
+/// Receiver thread: every feedback of tool `name` marks the commands up to the seq it echoes
+/// as arrived (the echoed one with its force) until `done`.
+void receive_feedback(dds_entity_t participant, dds_entity_t reader, const std::string& name, std::vector<Sent>& sent,
+                      const std::atomic<bool>& done, std::atomic<uint64_t>& feedback_msgs) {
+  const uint64_t capacity = sent.size() - 1;
+  uint64_t acked = 0;
+  receive_until(participant, reader, done, [&](const void* sample, int64_t now) {
+    const auto* f = static_cast<const stroma_ToolFeedback*>(sample);
+    if (name != f->tool) return;
+    feedback_msgs.fetch_add(1);
+    const uint64_t s = std::min<uint64_t>(f->seq, capacity);
+    if (s > acked && sent[s].sent_ns != 0) {
+      sent[s].received_ns.store(now);
+      for (int c = 0; c < 3; ++c) sent[s].force[c].store(f->force[c]);
+    }
+    acked = std::max(acked, s);
+  });
 }
 
 /// CRTK endpoints of one device (docs/CRTK.md): servo_cp and state_command out, measured_cp and
@@ -196,32 +203,20 @@ std::string wait_crtk_state(const CrtkEndpoints& ep, const char* want, double se
 void receive_measured(dds_entity_t participant, dds_entity_t reader, std::vector<Sent>& sent,
                       const std::atomic<uint64_t>& sent_count, const std::atomic<bool>& done,
                       std::atomic<uint64_t>& feedback_msgs) {
-  const dds_entity_t ws = dds_create_waitset(participant);
-  const dds_entity_t rc = dds_create_readcondition(reader, DDS_ANY_STATE);
-  dds_waitset_attach(ws, rc, reader);
-  void* samples[64] = {nullptr};
-  dds_sample_info_t infos[64];
   uint64_t acked = 0;
-  while (!done.load()) {
-    dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(50));
-    const dds_return_t n = dds_take(reader, samples, infos, 64, 64);
-    const int64_t now = mono_ns();
+  receive_until(participant, reader, done, [&](const void* sample, int64_t now) {
+    feedback_msgs.fetch_add(1);
     const uint64_t newest = sent_count.load(std::memory_order_acquire);
-    for (dds_return_t i = 0; i < n; ++i) {
-      if (!infos[i].valid_data) continue;
-      feedback_msgs.fetch_add(1);
-      const auto& p = static_cast<const geometry_msgs_msg_dds__PoseStamped_*>(samples[i])->pose.position;
-      // The pose applied in that tick: one of the last poses sent (the server applies the newest).
-      for (uint64_t k = newest; k > acked && k + 64 > newest; --k) {
-        if (sent[k].position[0] == p.x && sent[k].position[1] == p.y && sent[k].position[2] == p.z) {
-          if (sent[k].distinct && sent[k].received_ns.load() == 0) sent[k].received_ns.store(now);
-          acked = k;
-          break;
-        }
+    const auto& p = static_cast<const geometry_msgs_msg_dds__PoseStamped_*>(sample)->pose.position;
+    // The pose applied in that tick: one of the last poses sent (the server applies the newest).
+    for (uint64_t k = newest; k > acked && k + 64 > newest; --k) {
+      if (sent[k].position[0] == p.x && sent[k].position[1] == p.y && sent[k].position[2] == p.z) {
+        if (sent[k].distinct && sent[k].received_ns.load() == 0) sent[k].received_ns.store(now);
+        acked = k;
+        break;
       }
     }
-    if (n > 0) dds_return_loan(reader, samples, n);
-  }
+  });
 }
 
 /// Writes the CSV log and prints the summary line; returns the number of commands echoed.
