@@ -31,7 +31,7 @@ cmake --build build-asan -j "$jobs"
 stage sanitizer tests
 ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE long
 stage fuzzing
-scripts/fuzz.sh "${STROMA_FUZZ_SECONDS:-10}"
+scripts/fuzz.sh "${STROMA_FUZZ_SECONDS:-6}"
 # A 1-minute soak of the demo's three processes (server, renderer, looping tool client):
 # memory flat after warm-up, nothing dies (bench/soak.sh; the 60-minute figures: REALTIME.md).
 stage soak
