@@ -33,7 +33,7 @@ struct MeshArgs {
   double size = 0, scale = 1, min_dihedral = 5, sliver_angle = 5, facet_distance = 0;
   long tets = 5000;
   unsigned seed = 1;
-  bool quiet = false, no_png = false, repair = false;
+  bool quiet = false, no_png = false, repair = false, no_fit = false;
   double feature_angle = 0, smooth = 0.4;
   CLI::Option* size_opt = nullptr;
   std::string command_line;
@@ -41,10 +41,11 @@ struct MeshArgs {
 
 void add_common(CLI::App* c, MeshArgs& a) {
   a.size_opt = c->add_option("--size", a.size,
-                             "Target edge length H in metres (surface: in the surface's units after --scale). Default: the "
-                             "size that gives about --tets tetrahedra");
-  c->add_option("--tets", a.tets, "Without --size: aim for about this many tetrahedra (5000: what one core steps at 1 kHz)")
-      ->capture_default_str();
+                             "Mean edge length of the mesh in metres (surface: in the surface's units after --scale), met "
+                             "within 8 %; the achieved one is reported. Default: the size that gives --tets elements");
+  c->add_option("--tets", a.tets, "Without --size: this many tetrahedra, within 15 % (5000: what one core steps at 1 kHz)")
+      ->capture_default_str()
+      ->excludes(a.size_opt);
   c->add_option("--min-dihedral", a.min_dihedral,
                 "Smallest dihedral angle (degrees) the mesh must have: the optimisers aim 5 degrees higher, and a mesh "
                 "below it is reported (exit 1)")
@@ -52,8 +53,8 @@ void add_common(CLI::App* c, MeshArgs& a) {
   c->add_option("--sliver-angle", a.sliver_angle, "Report elements with a dihedral angle below this (degrees) as slivers")
       ->capture_default_str();
   c->add_option("--facet-distance", a.facet_distance,
-                "Largest distance between a boundary facet and the input surface (m). Default: H/40 (images: H/20, at "
-                "most 0.15 voxel)");
+                "Largest distance between a boundary facet and the input surface (m). Default: H/40 with H the "
+                "size control's CGAL size (images: H/20, at least a quarter voxel)");
   c->add_option("--out,-o", a.out, "Output mesh, .msh (gmsh 2.2, named regions) or .vtu. Default: INPUT's name with .msh, "
                                    "in the current folder");
   c->add_option("--report", a.report, "Quality report JSON. Default: OUT with .quality.json");
@@ -62,6 +63,9 @@ void add_common(CLI::App* c, MeshArgs& a) {
   c->add_option("--scenario", a.scenario, "Also write a starter scenario YAML (SI units, bottom fixed) that runs as is");
   c->add_option("--up", a.up, "Up axis for the starter scenario's gravity and fixed bottom: x, y, z, -x, -y or -z "
                               "(default: z for images, y for surfaces)");
+  c->add_flag("--no-fit", a.no_fit,
+              "Keep the boundary's vertices on the surface (facets as chords: curved regions lose volume) instead of "
+              "fitting the facets to straddle it");
   c->add_option("--seed", a.seed, "Seed of CGAL's random choices (same seed, same mesh)")->capture_default_str();
   c->add_flag("--quiet,-q", a.quiet, "Print only errors");
 }
@@ -155,6 +159,7 @@ meshing::MeshingOptions options_of(const MeshArgs& a) {
   o.repair_self_intersections = a.repair;
   o.feature_angle_deg = a.feature_angle;
   o.smooth_voxels = a.smooth;
+  o.fit_boundary = !a.no_fit;
   if (!a.quiet) {
     const auto t0 = std::chrono::steady_clock::now();
     o.progress = [t0](const std::string& m) {
@@ -196,6 +201,9 @@ int finish(const MeshArgs& a, const meshing::MeshingResult& r, const meshing::Me
   }
   for (const std::string& n : r.notes)
     if (!a.quiet) fmt::print("note: {}\n", n);
+  if (!a.quiet)
+    fmt::print("size: asked {}; got {} elements, mean edge {:.4g} ({} refinement{} at CGAL size {:.4g})\n", r.size_asked,
+               r.quality.tets, r.quality.edge_mean, r.size_passes, r.size_passes == 1 ? "" : "s", r.size);
   const MeshQuality& q = r.quality;
   const bool bound_met = q.dihedral_min_deg >= o.min_dihedral_deg && q.slivers == 0 && q.inverted == 0;
   if (!a.quiet) {

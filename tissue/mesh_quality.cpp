@@ -5,7 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -72,8 +75,44 @@ std::array<double, 6> tet_dihedral_angles_deg(const Vec3& p0, const Vec3& p1, co
   return out;
 }
 
+namespace {
+/// Calls f(length) once per distinct edge.
+template <class F>
+void for_each_edge_length(const TetMesh& mesh, F f) {
+  std::vector<std::pair<int32_t, int32_t>> edges;
+  edges.reserve(mesh.tets.size() * 6);
+  static constexpr int kPairs[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  for (const Tet& t : mesh.tets)
+    for (const auto& p : kPairs) edges.emplace_back(std::minmax(t[size_t(p[0])], t[size_t(p[1])]));
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  for (const auto& [a, b] : edges) {
+    const Vec3 d = sub(mesh.nodes[size_t(a)], mesh.nodes[size_t(b)]);
+    f(std::sqrt(dot(d, d)));
+  }
+}
+}  // namespace
+
+double mean_edge_length(const TetMesh& mesh) {
+  double sum = 0;
+  int64_t n = 0;
+  for_each_edge_length(mesh, [&](double l) { sum += l, ++n; });
+  return n ? sum / double(n) : 0.0;
+}
+
 MeshQuality measure_mesh_quality(const TetMesh& mesh, double sliver_angle_deg) {
   MeshQuality q;
+  {
+    double sum = 0;
+    int64_t n = 0;
+    q.edge_min = mesh.tets.empty() ? 0.0 : std::numeric_limits<double>::infinity();
+    for_each_edge_length(mesh, [&](double l) {
+      sum += l, ++n;
+      q.edge_min = std::min(q.edge_min, l);
+      q.edge_max = std::max(q.edge_max, l);
+    });
+    q.edge_mean = n ? sum / double(n) : 0.0;
+  }
   q.nodes = int64_t(mesh.nodes.size());
   q.tets = int64_t(mesh.tets.size());
   q.sliver_angle_deg = sliver_angle_deg;
@@ -124,6 +163,7 @@ std::string format_mesh_quality(const MeshQuality& q) {
   s += fmt::format("  radius ratio   min {:.3f}  mean {:.3f}  max {:.3f}\n", q.radius_ratio_min, q.radius_ratio_mean,
                    q.radius_ratio_max);
   s += fmt::format("  dihedral angle min {:.2f} deg  max {:.2f} deg\n", q.dihedral_min_deg, q.dihedral_max_deg);
+  s += fmt::format("  edge length    min {:.4g}  mean {:.4g}  max {:.4g}\n", q.edge_min, q.edge_mean, q.edge_max);
   s += fmt::format("  slivers (a dihedral angle < {:g} deg): {}   inverted: {}\n", q.sliver_angle_deg, q.slivers, q.inverted);
   auto bar = [](const Histogram& h, const char* unit, int prec) {
     std::string out;

@@ -43,6 +43,8 @@ struct MeshQuality {
   int64_t nodes = 0, tets = 0;
   double radius_ratio_min = 0, radius_ratio_max = 0, radius_ratio_mean = 0;
   double dihedral_min_deg = 0, dihedral_max_deg = 0;
+  /// Edge lengths over the mesh's distinct edges (mesh units): what `stroma mesh --size` aims at.
+  double edge_min = 0, edge_mean = 0, edge_max = 0;
   Histogram radius_ratio;  ///< per element, 20 bins over [0, 1]
   Histogram dihedral;      ///< every element's six angles, 18 bins of 10 degrees over [0, 180]
   double sliver_angle_deg = 5.0;
@@ -59,6 +61,9 @@ struct MeshQuality {
 /// Measures `mesh`. Region names come from mesh.tag_names. `sliver_angle_deg` sets the sliver
 /// threshold.
 MeshQuality measure_mesh_quality(const TetMesh& mesh, double sliver_angle_deg = 5.0);
+
+/// Mean length of the mesh's distinct edges (0 without elements).
+double mean_edge_length(const TetMesh& mesh);
 
 /// Radius ratio 3 r_in / R_circ of one tetrahedron (0 for a degenerate one).
 double tet_radius_ratio(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);

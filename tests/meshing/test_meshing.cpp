@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
+#include <utility>
 
 #include "tests/input_error_message.hpp"
 #include "tissue/input_error.hpp"
@@ -91,6 +93,8 @@ void check_phantom(const LabelImage& im) {
     }
   }
   EXPECT_GT(tagged2, 100);
+  // The element count asked for (5,000 by default), within 15 %.
+  EXPECT_NEAR(double(r.mesh.tets.size()), double(o.target_tets), 0.15 * double(o.target_tets));
   EXPECT_EQ(r.mesh.tag_names, (std::vector<std::pair<int32_t, std::string>>{{1, "liver"}, {2, "tumour"}}));
   // Interfaces conform: every interior face is shared by exactly two elements, so the only
   // boundary is the outer one, whose area is the ellipsoid's (no gaps at the inclusion).
@@ -153,6 +157,43 @@ TEST(MeshImage, EllipsoidWithInclusionAt1mm) { check_phantom(phantom(1e-3, 1e-3,
 
 TEST(MeshImage, EllipsoidWithInclusionAtAnisotropicVoxels) { check_phantom(phantom(0.8e-3, 0.8e-3, 2e-3)); }
 
+TEST(MeshImage, SizeIsTheMeanEdgeAndTetsTheCount) {
+  const LabelImage im = phantom(1e-3, 1e-3, 1e-3);
+  MeshingOptions o;
+  o.size = 2.5e-3;
+  MeshingResult r = mesh_label_image(im, {{1, "liver"}, {2, "tumour"}}, o);
+  EXPECT_NEAR(mean_edge_length(r.mesh), o.size, 0.08 * o.size);
+  EXPECT_DOUBLE_EQ(r.quality.edge_mean, mean_edge_length(r.mesh));
+  expect_quality(r, o);
+  o = MeshingOptions{};
+  o.target_tets = 15000;
+  r = mesh_label_image(im, {{1, "liver"}, {2, "tumour"}}, o);
+  EXPECT_NEAR(double(r.mesh.tets.size()), 15000.0, 0.15 * 15000.0);
+  expect_quality(r, o);
+}
+
+TEST(MeshImage, TheBoundaryFitKeepsCurvedVolumes) {
+  // Facets as chords lose volume in a curved region; the fit (facets straddling the surface)
+  // restores it. Same mesh with and without: the fitted volumes nearer the analytic ones, by at
+  // least half the chords' loss, and within 2 %.
+  const LabelImage im = phantom(1e-3, 1e-3, 1e-3);
+  MeshingOptions o;
+  o.target_tets = 3000;
+  o.fit_boundary = false;
+  const MeshingResult chords = mesh_label_image(im, {{2, "tumour"}}, o);
+  o.fit_boundary = true;
+  const MeshingResult fitted = mesh_label_image(im, {{2, "tumour"}}, o);
+  EXPECT_EQ(chords.mesh.tets, fitted.mesh.tets);  // the fit moves vertices, never reconnects
+  const double v = 4.0 / 3.0 * M_PI * kR * kR * kR;
+  const double err_chords = chords.quality.regions.at(0).volume - v, err_fitted = fitted.quality.regions.at(0).volume - v;
+  EXPECT_LT(err_chords, 0);  // chords of a convex region lie inside it
+  EXPECT_LT(std::abs(err_fitted), 0.5 * std::abs(err_chords));
+  EXPECT_LT(std::abs(err_fitted), 0.02 * v);
+  EXPECT_GT(fitted.fit.vertices_moved, 0);
+  EXPECT_EQ(fitted.quality.inverted, 0);
+  EXPECT_GE(fitted.quality.dihedral_min_deg, o.min_dihedral_deg);
+}
+
 TEST(MeshImage, OrientationOfTheImageIsApplied) {
   // The same phantom with a rotated, reflected grid: the mesh is the rotated one, positively oriented.
   LabelImage im = phantom(1e-3, 1e-3, 1e-3);
@@ -181,31 +222,34 @@ TEST(MeshSurface, SphereAndTorusAtTheDefaultSize) {
     EXPECT_NEAR(enclosed(s), analytic, 0.005 * analytic);  // the input is a fine triangulation
     EXPECT_NEAR(r.quality.regions.at(0).volume, analytic, 0.02 * analytic);
     EXPECT_NEAR(r.quality.regions.at(0).input_volume, enclosed(s), 1e-9 * analytic);
+    // The boundary fit keeps the input's volume to second order: facets straddle the surface.
+    EXPECT_NEAR(r.quality.regions.at(0).volume, enclosed(s), 0.005 * enclosed(s));
     EXPECT_LT(r.quality.hausdorff, r.size / 4);
-    // About the tetrahedra asked for (5,000), within a factor of 3 either way.
-    EXPECT_GT(r.mesh.tets.size(), 5000u / 3);
-    EXPECT_LT(r.mesh.tets.size(), 5000u * 3);
+    // The element count asked for (5,000), within 15 %.
+    EXPECT_NEAR(double(r.mesh.tets.size()), 5000.0, 750.0);
   }
 }
 
 TEST(MeshSurface, ScaleAndSizeAreHonoured) {
+  // --size is the mean edge length of the mesh (its distinct edges), met within 8 %.
   MeshingOptions o;
   o.size = 0.01;
   const MeshingResult r = mesh_surface(sphere_surface(50, 64, 32), 1e-3, o);  // mm to m
   EXPECT_NEAR(r.quality.regions.at(0).volume, 4.0 / 3.0 * M_PI * 1.25e-4, 0.03 * 4.0 / 3.0 * M_PI * 1.25e-4);
-  EXPECT_DOUBLE_EQ(r.size, 0.01);
-  // Mean edge length near the size asked for.
   double sum = 0;
-  int n = 0;
+  std::set<std::pair<int32_t, int32_t>> seen;
   for (const Tet& t : r.mesh.tets)
     for (int a = 0; a < 4; ++a)
       for (int b = a + 1; b < 4; ++b) {
+        if (!seen.insert(std::minmax(t[size_t(a)], t[size_t(b)])).second) continue;
         const Vec3 &p = r.mesh.nodes[size_t(t[size_t(a)])], &q = r.mesh.nodes[size_t(t[size_t(b)])];
         sum += std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
-        ++n;
       }
-  EXPECT_GT(sum / n, 0.5 * o.size);
-  EXPECT_LT(sum / n, 1.2 * o.size);
+  const double mean = sum / double(seen.size());
+  EXPECT_NEAR(mean, o.size, 0.08 * o.size);
+  EXPECT_NEAR(r.quality.edge_mean, mean, 1e-12);
+  EXPECT_GE(r.size_passes, 1);
+  EXPECT_LE(r.size_passes, 4);
 }
 
 TEST(MeshSurface, SameSeedSameMesh) {

@@ -214,12 +214,10 @@ MeshingResult mesh_label_image(const LabelImage& image, const std::vector<std::p
   for (const auto& [label, name] : labels) meshed_volume += double(count[label]) * image.voxel_volume();
 
   MeshingResult r;
-  const double H = options.size > 0 ? options.size : detail::size_for_tets(meshed_volume, options.target_tets);
-  r.size = H;
-  // 0.15 of the voxel's mean width: volumes of curved regions within ~1.5 % of the shape the
-  // voxels sample (a coarser distance loses volume to chords; docs/MESHING.md measures it).
   const double voxel_width = std::cbrt(image.voxel_volume());
-  const double d = options.facet_distance > 0 ? options.facet_distance : std::min(H / 20.0, 0.15 * voxel_width);
+  auto facet_distance = [&](double H) {
+    return options.facet_distance > 0 ? options.facet_distance : std::max(H / 20.0, 0.25 * voxel_width);
+  };
 
   std::unique_ptr<SmoothLabels> fn;
   {
@@ -241,27 +239,24 @@ MeshingResult mesh_label_image(const LabelImage& image, const std::vector<std::p
 
   namespace P = CGAL::parameters;
   using Criteria = CGAL::Mesh_criteria_3<Tr>;
-  Criteria criteria(P::facet_angle = 25, P::facet_size = H * 0.5773502691896258, P::facet_distance = d,
-                    P::cell_radius_edge_ratio = 3, P::cell_size = H * 0.6123724356957945);
-  CGAL::get_default_random() = CGAL::Random(options.seed);
-  C3t3 c3t3;
-  {
-    detail::StageTicker t(options, r, "seed components");
-    std::ostringstream quiet;  // CGAL narrates this step on std::cout
+  auto refine = [&](double H) {
+    Criteria criteria(P::facet_angle = 25, P::facet_size = H * 0.5773502691896258, P::facet_distance = facet_distance(H),
+                      P::cell_radius_edge_ratio = 3, P::cell_size = H * 0.6123724356957945);
+    C3t3 c;
+    std::ostringstream quiet;  // CGAL narrates the seeding on std::cout
     std::streambuf* old = std::cout.rdbuf(quiet.rdbuf());
     try {
-      ::initialize_triangulation_from_labeled_image(c3t3, domain, cgal_image, criteria, uint8_t());
+      ::initialize_triangulation_from_labeled_image(c, domain, cgal_image, criteria, uint8_t());
     } catch (...) {
       std::cout.rdbuf(old);
       throw;
     }
     std::cout.rdbuf(old);
-  }
-  {
-    detail::StageTicker t(options, r, "refine (Delaunay)");
-    CGAL::refine_mesh_3(c3t3, domain, criteria, P::no_perturb(), P::no_exude(), P::no_odt(), P::no_lloyd());
-  }
-  detail::optimise(c3t3, domain, options, r);
+    CGAL::refine_mesh_3(c, domain, criteria, P::no_perturb(), P::no_exude(), P::no_odt(), P::no_lloyd());
+    return c;
+  };
+  C3t3 c3t3 = detail::optimise_to_bound(detail::refine_to_size<C3t3>(refine, meshed_volume, options, r), domain, refine, options, r);
+  const double H = r.size;
 
   // Export in the local frame, then to world: x = origin + D p (a rotation, maybe a reflection).
   std::vector<int32_t> label_of(labels.size() + 1, 0);
@@ -269,6 +264,13 @@ MeshingResult mesh_label_image(const LabelImage& image, const std::vector<std::p
   r.mesh = detail::export_tets(c3t3, [&](int s) { return label_of[size_t(s)]; });
   r.mesh.source = src;
   r.mesh.tag_names = labels;
+  if (options.fit_boundary) {
+    detail::StageTicker t(options, r, "fit boundary");
+    r.fit = fit_boundary_to_surface(
+        r.mesh,
+        [&](const Vec3& p) { return label_of[size_t((*f)(K::Point_3(p[0], p[1], p[2])))]; },
+        4.0 * facet_distance(H), options.min_dihedral_deg + 1.0);
+  }
   std::vector<Vec3> local = r.mesh.nodes;
   const auto& D = image.direction;
   for (Vec3& x : r.mesh.nodes) {

@@ -36,6 +36,12 @@ nlohmann::json quality_report_json(const MeshingResult& r, const MeshingOptions&
   j["input"] = input;
   j["command"] = command;
   j["size"] = r.size;
+  j["size_asked"] = r.size_asked;
+  j["size_passes"] = r.size_passes;
+  j["edge_length_m"] = {{"min", q.edge_min}, {"mean", q.edge_mean}, {"max", q.edge_max}};
+  j["boundary_fit"] = {{"facets", r.fit.facets}, {"facets_measured", r.fit.facets_measured},
+                       {"vertices_moved", r.fit.vertices_moved}, {"vertices_kept", r.fit.vertices_kept},
+                       {"max_shift_m", r.fit.max_shift}};
   j["elements"] = q.tets;
   j["nodes"] = q.nodes;
   j["radius_ratio"] = {{"min", q.radius_ratio_min}, {"mean", q.radius_ratio_mean}, {"max", q.radius_ratio_max},

@@ -112,14 +112,23 @@ MeshingResult mesh_surface(const SurfaceMesh& input, double scale, const Meshing
   }
   PMP::orient_to_bound_a_volume(sm);
   const double volume = CGAL::to_double(PMP::volume(sm));
-  const double H = options.size > 0 ? options.size : detail::size_for_tets(volume, options.target_tets);
-  r.size = H;
-  const double d = options.facet_distance > 0 ? options.facet_distance : H / 40.0;
-
   Domain domain(sm);
   if (options.feature_angle_deg > 0) domain.detect_features(options.feature_angle_deg);
-  C3t3 c3t3 = detail::refine_and_optimise<C3t3>(domain, H, d, options.feature_angle_deg > 0 ? H : 0.0, options, r);
+  auto refine = [&](double H) {
+    const double d = options.facet_distance > 0 ? options.facet_distance : H / 40.0;
+    return detail::refine_only<C3t3>(domain, H, d, options.feature_angle_deg > 0 ? H : 0.0);
+  };
+  C3t3 c3t3 = detail::optimise_to_bound(detail::refine_to_size<C3t3>(refine, volume, options, r), domain, refine, options, r);
+  const double H = r.size;
   r.mesh = detail::export_tets(c3t3, [](auto) { return int32_t(1); });
+  if (options.fit_boundary && options.feature_angle_deg <= 0) {  // protected edges stay where CGAL put them
+    detail::StageTicker t(options, r, "fit boundary");
+    const auto inside = domain.is_in_domain_object();
+    const double d = options.facet_distance > 0 ? options.facet_distance : r.size / 40.0;
+    r.fit = fit_boundary_to_surface(
+        r.mesh, [&](const Vec3& p) { return inside(K::Point_3(p[0], p[1], p[2])) ? int32_t(1) : int32_t(0); },
+        4.0 * d, options.min_dihedral_deg + 1.0);
+  }
   r.mesh.source = src;
   r.mesh.tag_names = {{1, "volume"}};
   if (r.mesh.tets.empty())
