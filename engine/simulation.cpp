@@ -30,13 +30,13 @@ Simulation::Simulation(std::shared_ptr<const Model> model, SimulationOptions opt
 
 Simulation::~Simulation() = default;
 
-int Simulation::submit_scripts(const std::vector<Trajectory>& scripts, const std::vector<uint8_t>* skip, double at) {
+int Simulation::submit_scripts(const std::vector<Trajectory>& scripts, double at) {
   int n = 0;
   const size_t tools = std::min(scripts.size(), model_->tools.size());
   const double t_sample = at >= 0 ? at : state_.time;
   const int64_t client_ns = std::llround(t_sample * 1e9);
   for (size_t t = 0; t < tools; ++t) {
-    if (scripts[t].keys.empty() || (skip && t < skip->size() && (*skip)[t])) continue;
+    if (scripts[t].keys.empty() || state_.tools[t].posed) continue;
     port_.submit(static_cast<int>(t), scripts[t].sample(t_sample), static_cast<uint64_t>(state_.step + 1), client_ns,
                  client_ns);
     ++n;

@@ -97,11 +97,11 @@ class Simulation {
   const ToolCommandPort& commands() const { return port_; }
 
   /// Submits each scripted tool's pose at the next tick's start time (sampled from its
-  /// keyframes) through commands(), as a client would send it. `skip[t]`: leave tool t alone
-  /// (a pose set from Python overrides its script). `at` ≥ 0: sample and stamp at that time
-  /// instead (a static run's next equilibrium). Returns how many were submitted.
-  int submit_scripts(const std::vector<Trajectory>& scripts, const std::vector<uint8_t>* skip = nullptr,
-                     double at = -1);
+  /// keyframes) through commands(), as a client would send it — except for tools the state says
+  /// a front end posed directly (ToolState::posed: Python's set_pose overrides the script, and a
+  /// restored snapshot keeps that). `at` ≥ 0: sample and stamp at that time instead (a static
+  /// run's next equilibrium). Returns how many were submitted.
+  int submit_scripts(const std::vector<Trajectory>& scripts, double at = -1);
 
   /// Takes the port's newest commands (and, with ToolHold::Repeat, the last accepted ones of the
   /// tools without a new one) into inputs(): what the next tick applies. step() calls it; the

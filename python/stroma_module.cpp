@@ -83,7 +83,6 @@ class PySimulation {
     SimulationOptions o;
     o.hold = ToolHold::Repeat;  // a pose set from Python stays set
     sim_ = std::make_unique<Simulation>(sc_.model, o);
-    posed_.assign(sc_.model->tools.size(), 0);
     refresh_views();
   }
 
@@ -94,9 +93,7 @@ class PySimulation {
     {
       py::gil_scoped_release release;
       for (int k = 0; k < n; ++k) {
-        const State& s = sim_->state();
-        for (size_t t = 0; t < posed_.size(); ++t) posed_[t] = s.tools[t].posed ? 1 : 0;
-        sim_->submit_scripts(sc_.tool_scripts, &posed_);
+        sim_->submit_scripts(sc_.tool_scripts);
         const TickReport& r = sim_->advance();
         if (k == n - 1 || r.status == TickStatus::NonFinite) last_ = r;
         if (r.status == TickStatus::NonFinite) {
@@ -287,7 +284,6 @@ class PySimulation {
   CompiledScenario sc_;
   uint64_t fingerprint_ = 0;
   std::unique_ptr<Simulation> sim_;
-  std::vector<uint8_t> posed_;  ///< per tool: the state's ToolState::posed, as submit_scripts' skip list
   std::optional<TickReport> last_;
 };
 

@@ -274,7 +274,7 @@ void RunOutputs::finish(RunResult& res) {
 /// against the tool's limits, clamped or refused by its on_invalid, counted): `poses` gets each
 /// accepted (or clamped) command; a refused one, or a tool without a script, keeps its pose.
 void scripted_poses(const CompiledScenario& sc, Simulation& sim, double t, std::vector<ToolPose>& poses) {
-  sim.submit_scripts(sc.tool_scripts, nullptr, t);
+  sim.submit_scripts(sc.tool_scripts, t);
   sim.take_commands();
   for (const ToolInput& in : sim.inputs()) poses[static_cast<size_t>(in.tool)] = in.pose;
 }

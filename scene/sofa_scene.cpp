@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -154,6 +155,8 @@ class Translator {
     std::vector<std::array<double, 6>> fixed_boxes;
     std::vector<int> fixed_lines;
     int collision_models = 0;  ///< SOFA collision models on it (notes only: its boundary is the surface)
+    /// The mesh as its loader read it (once: the mass and the volume use it again).
+    std::shared_ptr<const TetMesh> tet;
   };
 
   /// Every error of the scene, in the order found: a component's error stops that component (a
@@ -520,7 +523,7 @@ class Translator {
     // Read it here, so that a bad mesh file's error names the loader's line in the scene (not the
     // translated scenario's).
     try {
-      (void)load_tet_mesh(b.mesh);
+      b.tet = std::make_shared<const TetMesh>(load_tet_mesh(b.mesh));
     } catch (const InputError& e) {
       fail(l, "filename", std::string("the mesh cannot be read: ") + e.what());
     }
@@ -548,12 +551,9 @@ class Translator {
   /// Mesh volume in the scene's units (after the loader's scale), for totalMass; `used` gets the
   /// number of nodes its tetrahedra use.
   double mesh_volume(const Body& b, const XMLElement* at, const char* attr, int* used = nullptr) const {
-    TetMesh mesh;
-    try {
-      mesh = load_tet_mesh(b.mesh);
-    } catch (const InputError& e) {
-      fail(at, attr, std::string("the body's mesh cannot be read: ") + e.what());
-    }
+    if (!b.tet)
+      fail(at, attr, b.mesh.empty() ? "the body has no mesh loader before it" : "the body's mesh could not be read (the loader's error)");
+    const TetMesh& mesh = *b.tet;
     if (used) {
       std::vector<char> in(mesh.nodes.size(), 0);
       for (const Tet& t : mesh.tets)
