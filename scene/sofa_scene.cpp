@@ -38,7 +38,8 @@ const std::set<std::string> kNoEffect = {
 const std::set<std::string> kVolumeLoaders = {"MeshGmshLoader", "MeshVTKLoader"};
 const std::set<std::string> kFem = {"TetrahedronFEMForceField", "TetrahedralCorotationalFEMForceField"};
 const std::set<std::string> kMasses = {"UniformMass", "DiagonalMass", "MeshMatrixMass"};
-const std::set<std::string> kFixed = {"FixedConstraint", "FixedProjectiveConstraint"};
+const std::set<std::string> kFixed = {"FixedConstraint", "FixedProjectiveConstraint", "FixedPlaneProjectiveConstraint",
+                                      "FixedPlaneConstraint"};
 const std::set<std::string> kTopology = {"TetrahedronSetTopologyContainer", "MeshTopology"};
 // SOFA's collision pipeline: what makes bodies and tools touch. Stroma's contact (tools against
 // each body's boundary, a BVH and penalty springs: docs/TISSUE.md) is always on, so these carry
@@ -123,10 +124,31 @@ class Translator {
     } else {
       notes_.push_back(fmt::format("line {}: no dt: SOFA's default 0.01 s", root->GetLineNum()));
     }
-    attempt([&] { walk(root, Solvers{}); });
+    Solvers top;
+    top.gravity = gravity_;
+    top.gravity_line = root->GetLineNum();
+    attempt([&] { walk(root, top); });
     if (!errors_.empty()) throw combined_errors();
     if (bodies_.empty())
       fail(root, "", "no body: Stroma simulates nodes with a MechanicalObject, a tetrahedral FEM force field and a mass");
+    // One gravity: the one every body's node has (a subtree's own gravity counts where a body is).
+    for (const Body& b : bodies_)
+      if (b.gravity != bodies_[0].gravity)
+        attempt([&] {
+          throw InputError(file_, b.line, fmt::format("Node[{}].gravity", b.name),
+                           fmt::format("({} {} {}, from line {}) differs from body '{}''s ({} {} {}, from line {}): Stroma "
+                                       "has one gravity for the scene",
+                                       num(b.gravity[0]), num(b.gravity[1]), num(b.gravity[2]), b.gravity_line,
+                                       bodies_[0].name, num(bodies_[0].gravity[0]), num(bodies_[0].gravity[1]),
+                                       num(bodies_[0].gravity[2]), bodies_[0].gravity_line));
+        });
+    if (!errors_.empty()) throw combined_errors();
+    if (bodies_[0].gravity != gravity_) {
+      notes_.push_back(fmt::format("line {}: the bodies' gravity ({} {} {}) is their node's, not the root's ({} {} {})",
+                                   bodies_[0].gravity_line, num(bodies_[0].gravity[0]), num(bodies_[0].gravity[1]),
+                                   num(bodies_[0].gravity[2]), num(gravity_[0]), num(gravity_[1]), num(gravity_[2])));
+      gravity_ = bodies_[0].gravity;
+    }
     int colliding = 0;
     for (const Body& b : bodies_) colliding += b.collision_models > 0;
     if (colliding >= 2)
@@ -138,9 +160,12 @@ class Translator {
   }
 
  private:
+  /// What a node inherits from its ancestors: its solvers, and its gravity (SOFA's context).
   struct Solvers {
     const XMLElement* ode = nullptr;
     const XMLElement* linear = nullptr;
+    std::array<double, 3> gravity{0, 0, 0};
+    int gravity_line = 0;  ///< the node whose gravity attribute set it
   };
   struct Body {
     std::string name, mesh, visual;
@@ -152,11 +177,15 @@ class Translator {
     std::string mass_note;
     bool uniform_mass = false;
     std::vector<std::vector<int>> fixed_nodes;
+    /// FixedPlaneProjectiveConstraint: nodes held along one axis only (0 x, 1 y, 2 z).
+    std::vector<std::pair<std::vector<int>, int>> fixed_along;
     std::vector<std::array<double, 6>> fixed_boxes;
     std::vector<int> fixed_lines;
     int collision_models = 0;  ///< SOFA collision models on it (notes only: its boundary is the surface)
     /// The mesh as its loader read it (once: the mass and the volume use it again).
     std::shared_ptr<const TetMesh> tet;
+    std::array<double, 3> gravity{0, 0, 0};  ///< the gravity of its node (inherited)
+    int gravity_line = 0;
   };
 
   /// Every error of the scene, in the order found: a component's error stops that component (a
@@ -265,7 +294,7 @@ class Translator {
   }
 
   void walk(const XMLElement* node, Solvers solvers) {
-    node_attributes(node);
+    node_attributes(node, solvers);
     std::map<std::string, const XMLElement*> named;
     const XMLElement *mo = nullptr, *fem = nullptr, *mass = nullptr, *topology = nullptr;
     const XMLElement *own_ode = nullptr, *own_linear = nullptr;
@@ -336,9 +365,10 @@ class Translator {
     }
   }
 
-  /// A node's attributes: the root's gravity and dt (read in run()), a child's gravity only when
-  /// it is the root's (SOFA gives a subtree its own gravity; Stroma has one), drawing and `depend`.
-  void node_attributes(const XMLElement* node) {
+  /// A node's attributes: the root's gravity and dt (read in run()), a child's gravity (SOFA
+  /// gives a subtree its own; it is inherited into `ctx`, and run() checks that every body has
+  /// the same: Stroma has one), drawing and `depend`.
+  void node_attributes(const XMLElement* node, Solvers& ctx) {
     const bool root = node->Parent() == node->GetDocument();
     std::set<std::string> ok = kNodeNoEffect;
     ok.insert("gravity");
@@ -346,10 +376,9 @@ class Translator {
     allow(node, ok);
     if (!root && node->Attribute("gravity")) {
       const auto g = numbers(node, "gravity");
-      if (g.size() != 3 || g[0] != gravity_[0] || g[1] != gravity_[1] || g[2] != gravity_[2])
-        fail(node, "gravity",
-             fmt::format("'{}' differs from the root's gravity ({} {} {}): Stroma has one gravity for the scene",
-                         node->Attribute("gravity"), num(gravity_[0]), num(gravity_[1]), num(gravity_[2])));
+      if (g.size() != 3) fail(node, "gravity", fmt::format("{} values; a gravity has 3 (x y z)", g.size()));
+      ctx.gravity = {g[0], g[1], g[2]};
+      ctx.gravity_line = node->GetLineNum();
     }
     for (const char* a : {"showBoundingTree", "depend"})
       if (node->Attribute(a))
@@ -408,6 +437,8 @@ class Translator {
             const std::vector<const XMLElement*>& collision_models) {
     Body b;
     b.line = node->GetLineNum();
+    b.gravity = solvers.gravity;
+    b.gravity_line = solvers.gravity_line;
     b.name = node->Attribute("name") ? node->Attribute("name") : fmt::format("body{}", bodies_.size());
     if (!fem) fail(mo, "", "no TetrahedronFEMForceField or TetrahedralCorotationalFEMForceField in this node: "
                            "Stroma simulates tetrahedral FEM bodies");
@@ -415,7 +446,9 @@ class Translator {
     if (!solvers.ode) fail(mo, "", "no EulerImplicitSolver in this node or above: Stroma integrates with implicit Euler");
 
     // The MechanicalObject and the volume loader it takes its positions from.
-    allow(mo, {"template", "src", "position"}, true);
+    allow(mo, {"template", "src", "position", "translation", "dx", "dy", "dz", "scale", "scale3d", "sx", "sy", "sz",
+               "rotation", "rx", "ry", "rz"},
+          true);
     if (const char* t = mo->Attribute("template"); t && std::string(t) != "Vec3d" && std::string(t) != "Vec3")
       fail(mo, "template", fmt::format("'{}': only Vec3d (3D positions in double precision) bodies", t));
     std::string loader_name;
@@ -431,6 +464,7 @@ class Translator {
       if (l != loader && kVolumeLoaders.count(l->Name()))
         fail(l, "", "a second volume mesh loader in this body's node: one per body");
     volume_loader(loader, b);
+    mechanical_object_transform(mo, b);
     if (topology) {
       allow(topology, {"src", "position", "tetrahedra", "template"});
       for (const char* a : {"src", "position", "tetrahedra"}) {
@@ -447,9 +481,10 @@ class Translator {
       const std::string kind = fem->Name();
       allow(fem, kind == "TetrahedronFEMForceField"
                      ? std::set<std::string>{"template", "method", "youngModulus", "poissonRatio", "computeGlobalMatrix",
-                                             "computeVonMisesStress", "showVonMisesStressPerElement", "showStressColorMap"}
+                                             "computeVonMisesStress", "showVonMisesStressPerElement", "showStressColorMap",
+                                             "topology"}
                      : std::set<std::string>{"template", "method", "youngModulus", "poissonRatio", "computeGlobalMatrix",
-                                             "fastMethod"},
+                                             "fastMethod", "topology"},
             true);
       const std::string method = fem->Attribute("method") ? fem->Attribute("method") : "large";
       if (method == "large") b.model = "corotational", b.rotation = "qr";
@@ -472,7 +507,12 @@ class Translator {
     attempt([&] {
       // Damping from the ODE solver.
       const XMLElement* ode = solvers.ode;
-      allow(ode, {"rayleighStiffness", "rayleighMass", "vdamping", "firstOrder", "trapezoidalScheme", "solveConstraint"});
+      allow(ode, {"rayleighStiffness", "rayleighMass", "vdamping", "firstOrder", "trapezoidalScheme", "solveConstraint",
+                  "computeResidual"});
+      if (boolean(ode, "computeResidual", false))
+        notes_.push_back(fmt::format("line {}: EulerImplicitSolver computeResidual: SOFA logs the residual after each "
+                                     "solve; no effect on the simulation (Stroma reports its own: --stats)",
+                                     ode->GetLineNum()));
       b.rayleigh_stiffness = ode->Attribute("rayleighStiffness") ? number(ode, "rayleighStiffness") : 0.0;
       b.rayleigh_mass = ode->Attribute("rayleighMass") ? number(ode, "rayleighMass") : 0.0;
       if (b.rayleigh_stiffness < 0) fail(ode, "rayleighStiffness", "must be >= 0");
@@ -485,6 +525,17 @@ class Translator {
 
     });
     attempt([&] { mass_of(mass, b); });
+    // SOFA lets a force field or a mass name its topology (topology="@name"): the node's own is
+    // the only one a body has here.
+    for (const XMLElement* e : {fem, mass})
+      if (e && e->Attribute("topology"))
+        attempt([&] {
+          const std::string t = link_target(e, "topology");
+          const XMLElement* target = named_in(named, e, "topology", t);
+          if (target != topology)
+            fail(e, "topology", fmt::format("links '{}', a {}, not this body's topology container{}", t, target->Name(),
+                                            topology ? fmt::format(" (line {})", topology->GetLineNum()) : std::string()));
+        });
     for (const XMLElement* f : fixed) attempt([&] { fixed_of(f, named, b); });
     for (const XMLElement* e : collision_models) collision_model(e, b);
     for (const XMLElement* c : children)
@@ -548,6 +599,55 @@ class Translator {
     }
   }
 
+  /// SOFA's MechanicalObject moves its positions (and rest positions) at init: scale, then
+  /// rotation, then translation (`translation` or the legacy dx/dy/dz, `scale`, `scale3d` or
+  /// sx/sy/sz), after the loader's own. Composed into the body's scale and translation: a
+  /// uniform scale and no rotation are carried, others refused.
+  void mechanical_object_transform(const XMLElement* mo, Body& b) {
+    double s = 1;
+    if (mo->Attribute("scale")) s = number(mo, "scale");
+    std::array<double, 3> s3{s, s, s};
+    if (mo->Attribute("scale3d")) {
+      const auto v = numbers(mo, "scale3d");
+      if (v.size() != 3) fail(mo, "scale3d", fmt::format("{} values; a scale3d has 3", v.size()));
+      s3 = {v[0], v[1], v[2]};
+    }
+    const char* sxyz[3] = {"sx", "sy", "sz"};
+    for (int a = 0; a < 3; ++a)
+      if (mo->Attribute(sxyz[a])) s3[size_t(a)] = number(mo, sxyz[a]);
+    if (s3[0] != s3[1] || s3[1] != s3[2])
+      fail(mo, mo->Attribute("scale3d") ? "scale3d" : "sx", "only a uniform scale (three equal values) is supported");
+    if (!(s3[0] > 0)) fail(mo, mo->Attribute("scale") ? "scale" : "scale3d", "must be > 0");
+    std::array<double, 3> r{0, 0, 0};
+    if (mo->Attribute("rotation")) {
+      const auto v = numbers(mo, "rotation");
+      if (v.size() != 3) fail(mo, "rotation", fmt::format("{} values; a rotation has 3", v.size()));
+      r = {v[0], v[1], v[2]};
+    }
+    const char* rxyz[3] = {"rx", "ry", "rz"};
+    for (int a = 0; a < 3; ++a)
+      if (mo->Attribute(rxyz[a])) r[size_t(a)] = number(mo, rxyz[a]);
+    if (r[0] != 0 || r[1] != 0 || r[2] != 0)
+      fail(mo, mo->Attribute("rotation") ? "rotation" : "rx", "rotating the positions at init is not supported");
+    std::array<double, 3> t{0, 0, 0};
+    if (mo->Attribute("translation")) {
+      const auto v = numbers(mo, "translation");
+      if (v.size() != 3) fail(mo, "translation", fmt::format("{} values; a translation has 3", v.size()));
+      t = {v[0], v[1], v[2]};
+    }
+    const char* dxyz[3] = {"dx", "dy", "dz"};
+    for (int a = 0; a < 3; ++a)
+      if (mo->Attribute(dxyz[a])) t[size_t(a)] = number(mo, dxyz[a]);
+    // x' = s_mo (s_l x + t_l) + t_mo
+    b.scale *= s3[0];
+    for (int a = 0; a < 3; ++a) b.translate[size_t(a)] = s3[0] * b.translate[size_t(a)] + t[size_t(a)];
+    if (s3[0] != 1 || t != std::array<double, 3>{0, 0, 0})
+      notes_.push_back(fmt::format("line {}: MechanicalObject's scale {} and translation ({} {} {}) composed with the "
+                                   "loader's: scale {}, translate ({} {} {})",
+                                   mo->GetLineNum(), num(s3[0]), num(t[0]), num(t[1]), num(t[2]), num(b.scale),
+                                   num(b.translate[0]), num(b.translate[1]), num(b.translate[2])));
+  }
+
   /// Mesh volume in the scene's units (after the loader's scale), for totalMass; `used` gets the
   /// number of nodes its tetrahedra use.
   double mesh_volume(const Body& b, const XMLElement* at, const char* attr, int* used = nullptr) const {
@@ -571,7 +671,7 @@ class Translator {
     const std::string kind = m->Name();
     if (kind == "UniformMass") {
       // Every node the same mass: `mass_lumping: uniform` with the density that gives the total.
-      allow(m, {"template", "totalMass", "vertexMass"}, true);
+      allow(m, {"template", "totalMass", "vertexMass", "topology"}, true);
       if (m->Attribute("totalMass") && m->Attribute("vertexMass"))
         fail(m, "vertexMass", "give totalMass or vertexMass, not both");
       b.uniform_mass = true;
@@ -595,8 +695,8 @@ class Translator {
                                 m->GetLineNum(), num(total), used);
       return;
     }
-    allow(m, kind == "DiagonalMass" ? std::set<std::string>{"template", "massDensity", "totalMass"}
-                                    : std::set<std::string>{"template", "massDensity", "totalMass", "lumping"},
+    allow(m, kind == "DiagonalMass" ? std::set<std::string>{"template", "massDensity", "totalMass", "topology"}
+                                    : std::set<std::string>{"template", "massDensity", "totalMass", "lumping", "topology"},
           true);
     if (kind == "MeshMatrixMass" && !boolean(m, "lumping", false))
       fail(m, "lumping",
@@ -618,7 +718,47 @@ class Translator {
     }
   }
 
+  /// SOFA's FixedPlaneProjectiveConstraint: the nodes in the slab dmin < x·direction < dmax
+  /// (rest positions, after the loader's and the MechanicalObject's transforms), or `indices`,
+  /// lose their displacement along `direction` only — they slide in the plane. SOFA projects
+  /// the matrix only for a direction along an axis, and so does the translation (Stroma's
+  /// per-axis `fixed`); another direction is refused.
+  void fixed_plane_of(const XMLElement* f, Body& b) {
+    allow(f, {"template", "direction", "dmin", "dmax", "indices"}, true);
+    if (!f->Attribute("direction")) fail(f, "direction", "missing: the normal of the plane the nodes slide in");
+    const auto d = numbers(f, "direction");
+    if (d.size() != 3) fail(f, "direction", fmt::format("{} values; a direction has 3", d.size()));
+    int axis = -1;
+    for (int a = 0; a < 3; ++a)
+      if (d[size_t(a)] != 0) axis = axis == -1 ? a : 3;
+    if (axis < 0 || axis > 2)
+      fail(f, "direction", fmt::format("({} {} {}): only a direction along x, y or z (SOFA projects the matrix only for those)",
+                                       num(d[0]), num(d[1]), num(d[2])));
+    const double dmin = f->Attribute("dmin") ? number(f, "dmin") : 0.0, dmax = f->Attribute("dmax") ? number(f, "dmax") : 0.0;
+    std::vector<int> nodes;
+    if (dmin != dmax) {
+      if (f->Attribute("indices")) fail(f, "indices", "give indices or a slab (dmin, dmax), not both");
+      if (!b.tet) fail(f, "", "the body's mesh could not be read");
+      for (size_t i = 0; i < b.tet->nodes.size(); ++i) {
+        const double x = b.tet->nodes[i][size_t(axis)] * b.scale + b.translate[size_t(axis)];
+        const double p = x * d[size_t(axis)];
+        if (p > dmin && p < dmax) nodes.push_back(int(i));
+      }
+      if (nodes.empty())
+        fail(f, "dmin", fmt::format("no node in the slab {} < x·direction < {}: nothing to constrain", num(dmin), num(dmax)));
+    } else {
+      if (!f->Attribute("indices")) fail(f, "indices", "missing: the nodes, or a slab (dmin < dmax)");
+      for (double v : numbers(f, "indices")) {
+        if (v < 0 || v != std::floor(v) || v > 2e9) fail(f, "indices", fmt::format("'{}' is not a 0-based node index", num(v)));
+        nodes.push_back(static_cast<int>(v));
+      }
+    }
+    b.fixed_lines.push_back(f->GetLineNum());
+    b.fixed_along.emplace_back(std::move(nodes), axis);
+  }
+
   void fixed_of(const XMLElement* f, const std::map<std::string, const XMLElement*>& named, Body& b) {
+    if (std::string(f->Name()).rfind("FixedPlane", 0) == 0) return fixed_plane_of(f, b);
     allow(f, {"template", "indices", "fixAll"}, true);
     if (boolean(f, "fixAll", false)) fail(f, "fixAll", "fixing every node leaves nothing to simulate; not supported");
     const char* idx = f->Attribute("indices");
@@ -661,13 +801,15 @@ class Translator {
 
   /// A collision child node (is_collision_node): its models describe b's collision surface.
   void collision_node(const XMLElement* n, Body& b) {
-    node_attributes(n);
+    Solvers unused;  // no body in it: its gravity acts on nothing
+    node_attributes(n, unused);
     for (const XMLElement* e = n->FirstChildElement(); e; e = e->NextSiblingElement())
       if (kCollisionModels.count(e->Name())) collision_model(e, b);
   }
 
   void visual_node(const XMLElement* n, const XMLElement* mo, Body& b) {
-    node_attributes(n);
+    Solvers unused;  // no body in it: its gravity acts on nothing
+    node_attributes(n, unused);
     std::map<std::string, const XMLElement*> named;
     const XMLElement *ogl = nullptr, *mapping = nullptr;
     for (const XMLElement* e = n->FirstChildElement(); e; e = e->NextSiblingElement()) {
@@ -761,7 +903,12 @@ class Translator {
       if (b.uniform_mass) y += "      mass_lumping: uniform\n";
       y += fmt::format("      rayleigh_mass: {}\n      rayleigh_stiffness: {}\n", num(b.rayleigh_mass),
                        num(b.rayleigh_stiffness));
-      if (!b.fixed_nodes.empty() || !b.fixed_boxes.empty()) y += "    fixed:\n";
+      if (!b.fixed_nodes.empty() || !b.fixed_boxes.empty() || !b.fixed_along.empty()) y += "    fixed:\n";
+      for (const auto& [nodes, axis] : b.fixed_along) {
+        y += "      - nodes: [";
+        for (size_t k = 0; k < nodes.size(); ++k) y += (k ? ", " : "") + std::to_string(nodes[k]);
+        y += fmt::format("]\n        axes: [{}]   # FixedPlaneProjectiveConstraint: slides in the plane\n", "xyz"[axis]);
+      }
       for (const auto& nodes : b.fixed_nodes) {
         y += "      - nodes: [";
         for (size_t k = 0; k < nodes.size(); ++k) y += (k ? ", " : "") + std::to_string(nodes[k]);
