@@ -91,6 +91,16 @@ DdsParticipant create_participant(int domain_id, const std::string& config_file,
       xml.insert(xml.rfind("</Domain>"), sec);
     }
     p.config_source += fmt::format("; DDS Security as '{}' ({})", identity, security_dir);
+    // Stroma's own identities begin every handshake with a client (dds_security.hpp): one made
+    // before that rule lets a Fast DDS client begin, which fails against Cyclone.
+    const bool stroma_side = identity == "server" || identity == "renderer";
+    const HandshakeOrder want = stroma_side ? HandshakeOrder::Initiator : HandshakeOrder::Replier;
+    if (identity_handshake_order(security_dir + "/" + identity + ".pem") != want)
+      fmt::print(stderr,
+                 "warning: the identity '{}' in {} was made by an older `stroma security init`: Fast DDS clients (ROS 2 "
+                 "on rmw_fastrtps) may fail to authenticate with it (SECURITY.md); Cyclone clients are not affected. "
+                 "Run `stroma security init NEW_DIR` with the same clients to fix it\n",
+                 identity, security_dir);
   }
   if (!xml.empty()) {
     const dds_entity_t d = dds_create_domain(static_cast<dds_domainid_t>(domain_id), xml.c_str());

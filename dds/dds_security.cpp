@@ -15,6 +15,9 @@
 #include <stdexcept>
 
 #include <dds/dds.h>
+#include <openssl/evp.h>
+#include <openssl/pem.h>
+#include <openssl/x509.h>
 #include <fmt/format.h>
 
 extern char** environ;
@@ -44,8 +47,11 @@ const char* const kRendererTopics[] = {"stroma_TissueMesh", "stroma_TissueState"
                                        "stroma_Scene",      "stroma_DamageEvent", "stroma_SimStatus",
                                        "stroma_TopologyEvent"};
 
-/// Certificate subjects: no spaces (Cyclone compares subject names token by token).
-std::string subject(const std::string& name) { return "CN=stroma-" + name + ",O=Stroma"; }
+/// Certificate subjects: no spaces (Cyclone compares subject names token by token). `group`
+/// (empty, or an organisational unit chosen by make_identity) steers the handshake order.
+std::string subject(const std::string& name, const std::string& group) {
+  return "CN=stroma-" + name + (group.empty() ? "" : ",OU=" + group) + ",O=Stroma";
+}
 
 bool valid_name(const std::string& s) {
   if (s.empty() || s.size() > 64) return false;
@@ -116,7 +122,8 @@ std::string allow_rule(const SecurityInitOptions& o, const std::vector<std::stri
   return s;
 }
 
-std::string permissions_xml(const SecurityInitOptions& o, const std::string& name, const std::string& rules) {
+std::string permissions_xml(const SecurityInitOptions& o, const std::string& name, const std::string& group,
+                            const std::string& rules) {
   return fmt::format(R"(<?xml version="1.0" encoding="utf-8"?>
 <!-- Stroma: what identity '{0}' may do (stroma security init). Signed: permissions_{0}.p7s -->
 <dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance"
@@ -130,7 +137,7 @@ std::string permissions_xml(const SecurityInitOptions& o, const std::string& nam
   </permissions>
 </dds>
 )",
-                     name, subject(name), rules);
+                     name, subject(name, group), rules);
 }
 
 std::string governance_xml(const SecurityInitOptions& o) {
@@ -166,15 +173,23 @@ std::string governance_xml(const SecurityInitOptions& o) {
                      o.domain_min, o.domain_max);
 }
 
-void make_identity(const fs::path& d, const std::string& name, int days) {
+/// Makes identity `name` (key and certificate signed by the identity CA) whose authentication
+/// handshake order is `order` (identity_handshake_order): its subject gets an organisational unit
+/// g0, g1, ... until it has that order (about two tries). Returns the unit.
+std::string make_identity(const fs::path& d, const std::string& name, int days, HandshakeOrder order) {
   const std::string key = name + "_key.pem", csr = name + ".csr", cert = name + ".pem";
   openssl(d, {"genrsa", "-out", key, "2048"}, "key of '" + name + "'");
-  openssl(d, {"req", "-new", "-key", key, "-out", csr, "-subj", "/O=Stroma/CN=stroma-" + name},
-          "certificate request of '" + name + "'");
-  openssl(d, {"x509", "-req", "-CA", "identity_ca.pem", "-CAkey", "identity_ca_key.pem", "-CAcreateserial", "-days",
-              std::to_string(days), "-in", csr, "-out", cert},
-          "certificate of '" + name + "'");
-  fs::remove(d / csr);
+  for (int k = 0; k < 256; ++k) {
+    const std::string group = fmt::format("g{}", k);
+    openssl(d, {"req", "-new", "-key", key, "-out", csr, "-subj", "/O=Stroma/OU=" + group + "/CN=stroma-" + name},
+            "certificate request of '" + name + "'");
+    openssl(d, {"x509", "-req", "-CA", "identity_ca.pem", "-CAkey", "identity_ca_key.pem", "-CAcreateserial", "-days",
+                std::to_string(days), "-in", csr, "-out", cert},
+            "certificate of '" + name + "'");
+    fs::remove(d / csr);
+    if (identity_handshake_order((d / cert).string()) == order) return group;
+  }
+  throw std::runtime_error(fmt::format("security init: no subject for '{}' with the handshake order asked", name));
 }
 
 void sign(const fs::path& d, const std::string& xml, const std::string& p7s) {
@@ -232,18 +247,21 @@ void init_security_dir(const SecurityInitOptions& o) {
     // `serve --crtk` (docs/CRTK.md): every tool as a CRTK device in ROS 2's topic names.
     for (const char* leaf : kCrtkDeviceOut) server_pub.push_back(fmt::format("rt/*/{}", leaf));
     for (const char* leaf : kCrtkDeviceIn) server_sub.push_back(fmt::format("rt/*/{}", leaf));
-    make_identity(tmp, "server", o.days);
-    write_file(tmp / "permissions_server.xml", permissions_xml(o, "server", allow_rule(o, server_pub, {}, server_sub)));
+    // Stroma's own participants come first in the handshake order, clients after (see
+    // identity_handshake_order): a Fast DDS client then always lets Cyclone begin.
+    const std::string server_group = make_identity(tmp, "server", o.days, HandshakeOrder::Initiator);
+    write_file(tmp / "permissions_server.xml",
+               permissions_xml(o, "server", server_group, allow_rule(o, server_pub, {}, server_sub)));
     sign(tmp, "permissions_server.xml", "permissions_server.p7s");
 
-    make_identity(tmp, "renderer", o.days);
+    const std::string renderer_group = make_identity(tmp, "renderer", o.days, HandshakeOrder::Initiator);
     write_file(tmp / "permissions_renderer.xml",
-               permissions_xml(o, "renderer",
+               permissions_xml(o, "renderer", renderer_group,
                                allow_rule(o, {}, {}, {std::begin(kRendererTopics), std::end(kRendererTopics)})));
     sign(tmp, "permissions_renderer.xml", "permissions_renderer.p7s");
 
     for (const SecurityClient& c : o.clients) {
-      make_identity(tmp, c.name, o.days);
+      const std::string group = make_identity(tmp, c.name, o.days, HandshakeOrder::Replier);
       // Commands only in its tools' partitions; Control (pause, step, reset, stop) only for an
       // operator: a trainee's client cannot stop the session.
       std::string rules = allow_rule(o, {"stroma_ToolCommand"}, c.tools, {"stroma_ToolFeedback", "stroma_SimStatus"});
@@ -259,7 +277,7 @@ void init_security_dir(const SecurityInitOptions& o) {
       }
       rules += allow_rule(o, crtk_pub, {}, crtk_sub);
       if (c.control) rules += allow_rule(o, {"stroma_Control"}, {}, {});
-      write_file(tmp / ("permissions_" + c.name + ".xml"), permissions_xml(o, c.name, rules));
+      write_file(tmp / ("permissions_" + c.name + ".xml"), permissions_xml(o, c.name, group, rules));
       sign(tmp, "permissions_" + c.name + ".xml", "permissions_" + c.name + ".p7s");
     }
     fs::remove(tmp / ".openssl_errors");
@@ -270,6 +288,20 @@ void init_security_dir(const SecurityInitOptions& o) {
     fs::remove_all(tmp, ec);
     throw;
   }
+}
+
+HandshakeOrder identity_handshake_order(const std::string& certificate_pem) {
+  std::FILE* f = std::fopen(certificate_pem.c_str(), "r");
+  if (!f) throw std::runtime_error(fmt::format("{}: cannot read the certificate", certificate_pem));
+  X509* cert = PEM_read_X509(f, nullptr, nullptr, nullptr);
+  std::fclose(f);
+  if (!cert) throw std::runtime_error(fmt::format("{}: not a PEM certificate", certificate_pem));
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int n = 0;
+  const int ok = X509_NAME_digest(X509_get_subject_name(cert), EVP_sha256(), md, &n);
+  X509_free(cert);
+  if (!ok || n < 1) throw std::runtime_error(fmt::format("{}: cannot hash the subject", certificate_pem));
+  return md[0] < 0x80 ? HandshakeOrder::Initiator : HandshakeOrder::Replier;
 }
 
 std::string security_plugin_dir() {

@@ -40,6 +40,20 @@ struct SecurityInitOptions {
   int domain_min = 0, domain_max = 230;  ///< the domains the documents cover (DDS Security: at most 230)
 };
 
+/// Who begins DDS Security's authentication handshake between two participants: the one whose
+/// GUID, which the specification derives from the SHA-256 of the certificate's subject (first
+/// bit 1, then 47 bits of the hash), is smaller. It matters across implementations: Cyclone
+/// begins with ECDH, which Fast DDS 2.9 answers; Fast DDS 2.9 begins with DH-MODP, whose public
+/// key it encodes in a way Cyclone 0.10 cannot read ("Failed to convert octet sequence to ASN1
+/// integer"; cyclonedds#701, Fast-DDS#3259). So `security init` gives Stroma's own identities
+/// (server, renderer) subjects whose hash starts below 0x80 and clients' from 0x80: every
+/// handshake with a client is begun by Stroma's side, and a Fast DDS client authenticates.
+enum class HandshakeOrder { Initiator, Replier };
+
+/// The handshake order of a certificate (PEM file) by that rule. Throws std::runtime_error when
+/// the file cannot be read or parsed.
+HandshakeOrder identity_handshake_order(const std::string& certificate_pem);
+
 /// Creates the directory with every file (see the file comment). Writes into a temporary
 /// sibling and renames it at the end: on any failure (openssl missing or failing, a bad name)
 /// nothing is left behind. Throws std::runtime_error saying which step failed.

@@ -14,8 +14,8 @@ PACKAGES=(
   # SOFA scenes (.scn XML); compressed VTU meshes (zlib)
   libtinyxml2-dev zlib1g-dev
   # DDS (Eclipse Cyclone DDS C API + idlc; its DDS Security plugins come with libddsc), and
-  # openssl for `stroma security init`
-  cyclonedds-dev cyclonedds-tools openssl
+  # openssl for `stroma security init` (libssl-dev: it hashes the identities' subjects)
+  cyclonedds-dev cyclonedds-tools openssl libssl-dev
   # DDS interoperability test (a Fast DDS client from the same IDL)
   libfastrtps-dev fastddsgen
   # collision benchmark against FCL

@@ -195,6 +195,10 @@ int drive(Client& c) {
   }
   std::printf("measured_cf samples %ld, largest upward force %.4g N; measured_cp samples %ld, x error %.3g\n",
               cf_samples, max_up, cp_samples, cp_error);
+  // The drive's last poses are taken before the pause: the server reads servo_cp and
+  // state_command from two readers, in no order between them (a pose still queued behind a pause
+  // would count as refused, not enabled).
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
   c.send_command("pause");
   if (!c.wait_state("PAUSED", 5, st)) return std::printf("FAIL: pause did not lead to PAUSED ('%s')\n", st.c_str()), 1;
   c.send_pose(x, y_top, z);  // refused: not enabled (counted by the server)

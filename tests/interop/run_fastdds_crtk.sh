@@ -3,15 +3,31 @@
 # CRTK clients on Fast DDS, as ROS 2 nodes would be on the wire: one drives the probe into the
 # liver and reads measured_cf / measured_cp through the operating states, the other sends what
 # must be refused. The server's --stats must count exactly the refusals.
-# Usage: run_fastdds_crtk.sh STROMA_BINARY CLIENT_BINARY SCENARIO DOMAIN
+# With `secure`, the domain is protected (DDS Security: identities of `stroma security init`):
+# the clients authenticate with a client identity, and a third Fast DDS client without one must
+# reach nothing (SECURITY.md).
+# Usage: run_fastdds_crtk.sh STROMA_BINARY CLIENT_BINARY SCENARIO DOMAIN [secure]
 set -euo pipefail
-stroma="$1"; client="$2"; scenario="$3"; domain="$4"
+stroma="$1"; client="$2"; scenario="$3"; domain="$4"; mode="${5:-open}"
 tmp=$(mktemp -d)
-"$stroma" serve "$scenario" --crtk --domain "$domain" --realtime off --duration 60 --stats "$tmp/stats.json" \
-  > "$tmp/serve.log" 2>&1 &
+security=()
+if [ "$mode" = secure ]; then
+  "$stroma" security init "$tmp/sec" --client tool=probe > /dev/null
+  security=(--security "$tmp/sec")
+fi
+"$stroma" serve "$scenario" --crtk "${security[@]}" --domain "$domain" --realtime off --duration 90 \
+  --stats "$tmp/stats.json" > "$tmp/serve.log" 2>&1 &
 srv=$!
 trap 'kill $srv 2>/dev/null || true; rm -rf "$tmp"' EXIT
 sleep 0.5
+if [ "$mode" = secure ]; then
+  # An intruder: no identity. It must not even see the device's state.
+  if "$client" "$domain" drive probe > "$tmp/intruder.log" 2>&1; then
+    echo "FAIL: a Fast DDS client without an identity drove the protected server"; exit 1
+  fi
+  grep -q "no DISABLED state" "$tmp/intruder.log" && echo "intruder refused"
+  export STROMA_FASTDDS_SECURITY="$tmp/sec:tool"
+fi
 "$client" "$domain" drive probe
 "$client" "$domain" malformed probe
 kill -INT $srv
