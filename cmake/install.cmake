@@ -20,22 +20,23 @@ set_target_properties(stroma_tissue PROPERTIES EXPORT_NAME tissue)
 set_target_properties(stroma_io PROPERTIES EXPORT_NAME io)
 set_target_properties(stroma_collision PROPERTIES EXPORT_NAME collision)
 set_target_properties(stroma_haptics PROPERTIES EXPORT_NAME haptics)
+set_target_properties(stroma_rigid PROPERTIES EXPORT_NAME rigid)
 set_target_properties(stroma_engine_core PROPERTIES EXPORT_NAME engine_core)
 set_target_properties(stroma_scene PROPERTIES EXPORT_NAME scene)
 set_target_properties(stroma_runtime PROPERTIES EXPORT_NAME runtime)
 set_target_properties(stroma_engine PROPERTIES EXPORT_NAME engine)
 set_target_properties(cholmod_dep PROPERTIES EXPORT_NAME cholmod)
-foreach(t stroma_tissue stroma_io stroma_collision stroma_haptics stroma_engine_core stroma_scene stroma_runtime stroma_engine)
+foreach(t stroma_tissue stroma_io stroma_collision stroma_haptics stroma_rigid stroma_engine_core stroma_scene stroma_runtime stroma_engine)
   target_include_directories(${t} INTERFACE $<INSTALL_INTERFACE:${STROMA_INSTALL_INCLUDEDIR}>
                                             $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
 endforeach()
 
-install(TARGETS stroma_tissue stroma_io stroma_collision stroma_haptics stroma_engine_core stroma_scene stroma_runtime
+install(TARGETS stroma_tissue stroma_io stroma_collision stroma_haptics stroma_rigid stroma_engine_core stroma_scene stroma_runtime
                 stroma_engine cholmod_dep
         EXPORT stromaTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${STROMA_INSTALL_INCLUDEDIR})
-foreach(dir tissue io collision haptics engine scene runtime)
+foreach(dir tissue io collision haptics rigid engine scene runtime)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${dir}/ DESTINATION ${STROMA_INSTALL_INCLUDEDIR}/${dir}
           FILES_MATCHING PATTERN "*.hpp")
 endforeach()

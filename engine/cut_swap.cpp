@@ -116,6 +116,7 @@ bool apply_cut(CutBuild& b, std::shared_ptr<const Model>& m, std::unique_ptr<Tic
   if (nm.has_damage) transfer_damage(s, b.from_dof, b.from_element, nm, ns);  // damage, masses, faces
   transfer_tools(*m, s, nm, *b.workspace, ns);                          // tools, grasps re-attached
   std::copy(s.edge_cut.begin(), s.edge_cut.end(), ns.edge_cut.begin());
+  std::copy(s.rigid.begin(), s.rigid.end(), ns.rigid.begin());          // rigid bodies: no topology
   ns.time = s.time;
   ns.step = s.step;
   std::swap(s, ns);

@@ -17,6 +17,7 @@
 #include "collision/body_contact.hpp"
 #include "engine/damage_model.hpp"
 #include "haptics/tool.hpp"
+#include "rigid/rigid_body.hpp"
 #include "tissue/barycentric.hpp"
 #include "tissue/cut_topology.hpp"
 #include "tissue/fem_model.hpp"
@@ -73,6 +74,10 @@ struct ModelConstants {
   /// (half the scene's rest bounding-box diagonal).
   double max_step_displacement = 0;
   std::vector<ToolSpec> tools;            ///< resolved (see the invariants), in scenario order
+  /// Rigid bodies (issue 42), in scenario order: the index of State::rigid. Free bodies are
+  /// stepped after the tissue in the integrate stage (rigid/rigid_motion.hpp); they touch
+  /// nothing yet.
+  std::vector<RigidBodyModel> rigid_bodies;
   std::vector<DamageModel> body_damage;    ///< per body (enabled = false: no damage model)
   /// Damage models of regions that have their own (`regions: [{…, damage: …}]`); which element
   /// follows which is the topology part's (ModelTopology::element_region_damage).

@@ -1,5 +1,8 @@
 #include "engine/model_check.hpp"
 
+#include <cmath>
+#include <string>
+
 namespace stroma {
 
 namespace {
@@ -8,7 +11,7 @@ namespace {
 struct Checker {
   std::string* why;
   bool ok = true;
-  bool operator()(bool holds, const char* what) {
+  bool operator()(bool holds, const std::string& what) {
     if (!holds && ok) {
       ok = false;
       if (why) *why = what;
@@ -24,6 +27,13 @@ bool model_invariants_hold(const Model& m, std::string* why) {
   const FemModel& f = m.fem;
   const size_t n = static_cast<size_t>(f.num_nodes), ne = f.elements.size();
   c(f.num_nodes > 0, "fem.num_nodes > 0");
+  for (const RigidBodyModel& b : m.rigid_bodies) {
+    std::string w;
+    c(is_physical(b.mass, &w), "rigid body '" + b.name + "': " + w);
+    c(b.mass.centre[0] == 0 && b.mass.centre[1] == 0 && b.mass.centre[2] == 0, "a rigid body's frame is at its centre of mass");
+    const auto& q = b.initial.q;
+    c(std::abs(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] - 1) < 1e-9, "a rigid body's orientation is a unit quaternion");
+  }
   c(f.rest.size() == 3 * n && f.f_ext.size() == 3 * n, "fem.rest and fem.f_ext have 3 entries per node");
   c(f.mass.size() == n && f.inv_mass.size() == n && f.alpha.size() == n && f.constrained.size() == n,
     "fem.mass, inv_mass, alpha and constrained have one entry per node");
@@ -76,6 +86,7 @@ bool model_invariants_hold(const Model& m, std::string* why) {
 bool state_sized_for(const Model& m, const State& s) {
   const size_t dofs = 3 * static_cast<size_t>(m.fem.num_nodes), ne = m.fem.elements.size();
   return s.tissue.x.size() == dofs && s.tissue.v.size() == dofs && s.tools.size() == m.tools.size() &&
+         s.rigid.size() == m.rigid_bodies.size() &&
          s.tissue.visco_q.size() == static_cast<size_t>(m.fem.visco_q_size) &&
          s.tissue.visco_s0.size() == static_cast<size_t>(m.fem.visco_s0_size) &&
          (m.has_damage ? s.damage.size() == ne && s.damage_level.size() == ne &&

@@ -13,12 +13,13 @@ namespace stroma {
 
 /// Simulation state at one instant: everything the next tick depends on, nothing it merely
 /// reports (outputs live in TickReport). Invariants: tissue arrays have 3·num_nodes entries;
-/// tools has one entry per Model::tools; damage, damage_level and node_mass are sized to the
+/// tools has one entry per Model::tools, rigid one per Model::rigid_bodies (unit quaternions); damage, damage_level and node_mass are sized to the
 /// elements / nodes exactly when Model::has_damage; face_active to the collision faces when a
 /// body with a damage model can be touched; time = step · time_step.
 struct State {
   TissueState tissue;  ///< positions, velocities, solver warm start
   std::vector<ToolState> tools;  ///< one per scenario tool
+  std::vector<RigidState> rigid;  ///< one per Model::rigid_bodies
   // Damage (empty when no body has a damage model):
   std::vector<float> damage;          ///< per element d ∈ [0, 1]; stiffness × (1 − d)
   std::vector<uint8_t> damage_level;  ///< per element DamageLevel
@@ -53,6 +54,7 @@ struct State {
       h.pending_rot.assign(rot, 0.0);
     }
     s.tools.assign(m.tools.size(), ToolState{});
+    for (const RigidBodyModel& b : m.rigid_bodies) s.rigid.push_back(b.initial);
     for (size_t k = 0; k < m.tools.size(); ++k) s.tools[k].pose = m.tools[k].rest_pose;
     if (m.cutting) s.edge_cut.assign(m.cut_edge_dofs.size(), kEdgeUncut);
     if (m.has_damage) {

@@ -12,7 +12,7 @@ namespace {
 
 constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
 /// 2: the solver's history (SolverHistory) after the step counter.
-constexpr uint32_t kVersion = 3;  // 3: ToolState.posed
+constexpr uint32_t kVersion = 4;  // 3: ToolState.posed; 4: rigid bodies
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
@@ -94,6 +94,20 @@ namespace {
 static_assert(sizeof(ElementParams) == 4 * sizeof(int32_t) + 13 * sizeof(double), "ElementParams has padding");
 static_assert(sizeof(FibreParams) == 5 * sizeof(double), "FibreParams has padding");
 static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 has padding");
+static_assert(sizeof(RigidState) == 13 * sizeof(double), "RigidState has padding (or a new field: hash and encode it)");
+
+void hash_rigid(Fnv& f, const RigidBodyModel& b) {
+  f.array(std::vector<char>(b.name.begin(), b.name.end()));
+  f.value(static_cast<int>(b.shape));
+  for (const double v : {b.radius, b.length, b.size[0], b.size[1], b.size[2], b.mass.mass, b.mass.volume})
+    f.value(v);
+  for (const double v : b.mass.inertia) f.value(v);
+  for (const double v : b.shape_origin) f.value(v);
+  f.array(b.surface_vertices);
+  f.array(b.surface_triangles);
+  f.value(static_cast<uint8_t>(b.fixed));
+  f.value(b.initial);
+}
 
 void hash_stepper(Fnv& f, const StepperSettings& s) {
   f.value(static_cast<int>(s.integrator));
@@ -144,6 +158,8 @@ void hash_constants(Fnv& f, const ModelConstants& m) {
   f.value(m.max_step_displacement);
   f.value(static_cast<uint64_t>(m.tools.size()));
   for (const ToolSpec& t : m.tools) hash_tool(f, t);
+  f.value(static_cast<uint64_t>(m.rigid_bodies.size()));
+  for (const RigidBodyModel& b : m.rigid_bodies) hash_rigid(f, b);
   f.value(static_cast<uint8_t>(m.has_damage));
   for (const DamageModel& d : m.body_damage) hash_damage(f, d);
   for (const DamageModel& d : m.region_damage) hash_damage(f, d);
@@ -222,6 +238,7 @@ std::string encode_state(const State& s, uint64_t fingerprint) {
   w.array(s.tissue.visco_q);
   w.array(s.tissue.visco_s0);
   w.array(s.tools);
+  w.array(s.rigid);
   w.array(s.damage);
   w.array(s.damage_level);
   w.array(s.node_mass);
@@ -278,6 +295,7 @@ State decode_state(const std::string& bytes, uint64_t* fingerprint) {
   r.array(s.tissue.visco_q, "visco_q");
   r.array(s.tissue.visco_s0, "visco_s0");
   r.array(s.tools, "tools");
+  r.array(s.rigid, "rigid");
   r.array(s.damage, "damage");
   r.array(s.damage_level, "damage_level");
   r.array(s.node_mass, "node_mass");
@@ -328,7 +346,7 @@ bool state_fits_model(const State& s, const Model& m, std::string* why) {
          check(s.tissue.dv_prev.size(), ref.tissue.dv_prev.size(), "warm start") &&
          check(s.tissue.visco_q.size(), ref.tissue.visco_q.size(), "visco-elastic branches") &&
          check(s.tissue.visco_s0.size(), ref.tissue.visco_s0.size(), "visco-elastic stresses") &&
-         check(s.tools.size(), ref.tools.size(), "tools") && check(s.damage.size(), ref.damage.size(), "damage") &&
+         check(s.tools.size(), ref.tools.size(), "tools") && check(s.rigid.size(), ref.rigid.size(), "rigid bodies") && check(s.damage.size(), ref.damage.size(), "damage") &&
          check(s.damage_level.size(), ref.damage_level.size(), "damage levels") &&
          check(s.node_mass.size(), ref.node_mass.size(), "node masses") &&
          check(s.face_active.size(), ref.face_active.size(), "collision faces") &&

@@ -258,6 +258,11 @@ bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, 
   step_with_recovery(m, s, w, r, deadline);  // times assemble, solve and integrate itself
   r.deadline_check = deadline.expired_at;
   if (r.status == TickStatus::NonFinite) return false;  // rolled back, not advanced
+  if (!m.rigid_bodies.empty()) {  // free rigid bodies over the same step (rigid/rigid_motion.hpp)
+    StageTimer t(r, Stage::Integrate);
+    for (size_t k = 0; k < m.rigid_bodies.size(); ++k)
+      if (!m.rigid_bodies[k].fixed) step_free_rigid(m.rigid_bodies[k].mass.inertia, m.fem.gravity, m.fem_step, s.rigid[k]);
+  }
   s.step += ticks;
   s.time = static_cast<double>(s.step) * m.time_step;
   if (m.has_damage) {

@@ -7,6 +7,9 @@
 
 #include <fmt/format.h>
 
+#include "io/surface_check.hpp"
+#include "io/surface_io.hpp"
+#include "rigid/mass_properties.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/model.hpp"
 #include "engine/model_check.hpp"
@@ -487,6 +490,75 @@ void compile_probes(const ScenarioSpec& spec, const std::vector<PreparedMesh>& m
 }
 
 /// Tools with their automatic values resolved (contact and grasp stiffness), and their scripts.
+/// `rigid_bodies:` → RigidBodyModel: mass properties from the shape (a mesh read, checked
+/// closed and scaled), the body frame moved to the centre of mass, the initial state.
+void compile_rigid_bodies(const ScenarioSpec& spec, Model& model) {
+  if (!spec.rigid_bodies.empty() && spec.solver.integrator == Integrator::Static) {
+    const RigidBodySpec& r = spec.rigid_bodies[0];
+    throw InputError(r.where.file, r.where.line, "rigid_bodies",
+                     "a static scenario finds equilibria of the tissue; rigid bodies move: use integrator implicit_euler");
+  }
+  for (size_t i = 0; i < spec.rigid_bodies.size(); ++i) {
+    const RigidBodySpec& r = spec.rigid_bodies[i];
+    const std::string field = fmt::format("rigid_bodies[{}]", i);
+    RigidBodyModel b;
+    b.name = r.name;
+    b.fixed = r.fixed;
+    MassProperties p;
+    try {
+      switch (r.shape) {
+        case RigidShapeKind::Sphere:
+          b.shape = RigidShape::Sphere, b.radius = r.radius;
+          p = sphere_mass_properties(r.radius, r.density);
+          break;
+        case RigidShapeKind::Box:
+          b.shape = RigidShape::Box, b.size = r.size;
+          p = box_mass_properties(r.size, r.density);
+          break;
+        case RigidShapeKind::Capsule:
+          b.shape = RigidShape::Capsule, b.radius = r.radius, b.length = r.length;
+          p = capsule_mass_properties(r.radius, r.length, r.density);
+          break;
+        case RigidShapeKind::Mesh: {
+          b.shape = RigidShape::Mesh;
+          SurfaceMesh sm = read_surface_mesh(r.mesh_path);  // InputError naming the file
+          const SurfaceDefects d = find_surface_defects(sm);
+          if (!d.empty())
+            throw InputError(r.shape_where.file, r.shape_where.line, field + ".shape.file",
+                             fmt::format("'{}' is not the closed surface of a solid: ", r.mesh_path) +
+                                 describe_surface_defects(sm, d));
+          for (Vec3& v : sm.vertices)
+            for (double& c : v) c *= r.mesh_scale;
+          p = mesh_mass_properties(sm.vertices, sm.triangles, r.density);
+          b.surface_vertices = std::move(sm.vertices);
+          b.surface_triangles = std::move(sm.triangles);
+          break;
+        }
+      }
+    } catch (const std::invalid_argument& e) {
+      throw InputError(r.shape_where.file, r.shape_where.line, field + ".shape", e.what());
+    }
+    std::string why;
+    if (!is_physical(p, &why))
+      throw InputError(r.shape_where.file, r.shape_where.line, field + ".shape", "its inertia is not a solid's: " + why);
+    // The body frame: origin at the centre of mass, axes the shape's.
+    const Vec3 c = p.centre;
+    p.centre = {0, 0, 0};
+    b.mass = p;
+    b.shape_origin = {-c[0], -c[1], -c[2]};
+    for (Vec3& v : b.surface_vertices)
+      for (int k = 0; k < 3; ++k) v[size_t(k)] -= c[size_t(k)];
+    RigidState& s0 = b.initial;
+    s0.q = r.orientation;
+    const std::array<double, 9> R = rotation_of(s0.q);
+    for (int k = 0; k < 3; ++k)
+      s0.x[size_t(k)] = r.position[size_t(k)] + R[size_t(3 * k)] * c[0] + R[size_t(3 * k + 1)] * c[1] + R[size_t(3 * k + 2)] * c[2];
+    s0.v = r.velocity;
+    s0.w = r.angular_velocity;
+    model.rigid_bodies.push_back(std::move(b));
+  }
+}
+
 void compile_tools(const ScenarioSpec& spec, Model& model, std::vector<Trajectory>& scripts) {
   double e_max = 0;
   for (const BodySpec& b : spec.bodies) e_max = std::max(e_max, b.material.young_modulus);
@@ -703,6 +775,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
   }
   compile_probes(spec, meshes, *model);
   compile_tools(spec, *model, out.tool_scripts);
+  compile_rigid_bodies(spec, *model);
   if (spec.body_contact) model->has_contact = true;
   if (model->has_contact) compile_collision_faces(*model);
   if (spec.body_contact) compile_body_contact(*spec.body_contact, spec, *model);

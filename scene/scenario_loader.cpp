@@ -731,6 +731,88 @@ void check_unique_name(std::map<std::string, int>& seen, const std::string& name
   }
 }
 
+/// A unit quaternion [w, x, y, z] (within 1e-3 of unit length; normalised).
+std::array<double, 4> parse_unit_quaternion(const Field& o) {
+  const std::vector<Field> q = o.list();
+  if (q.size() != 4) o.fail("expected a unit quaternion [w, x, y, z] (4 numbers), got " + std::to_string(q.size()));
+  std::array<double, 4> out{};
+  double n2 = 0;
+  for (int k = 0; k < 4; ++k) {
+    out[size_t(k)] = q[size_t(k)].number();
+    n2 += out[size_t(k)] * out[size_t(k)];
+  }
+  if (!(std::fabs(std::sqrt(n2) - 1.0) <= 1e-3))
+    o.fail("|q| = " + format_number(std::sqrt(n2)) + ": orientation must be a unit quaternion [w, x, y, z]");
+  for (double& v : out) v /= std::sqrt(n2);
+  return out;
+}
+
+const Choices<RigidShapeKind> kRigidShapes = {{"sphere", RigidShapeKind::Sphere},
+                                                    {"box", RigidShapeKind::Box},
+                                                    {"capsule", RigidShapeKind::Capsule},
+                                                    {"mesh", RigidShapeKind::Mesh}};
+
+RigidBodySpec parse_rigid_body(const MapReader& m, const Context& ctx) {
+  RigidBodySpec r;
+  r.where = {ctx.file, m.line()};
+  m.require("name", r.name);
+  const Field shape = m.req("shape");
+  r.shape_where = {ctx.file, shape.key_line()};
+  const MapReader sm = shape.map({"type", "radius", "length", "size", "file", "scale"});
+  sm.require("type", r.shape, kRigidShapes);
+  const Range length = physical_range(1e-6, 10, "m: a suture needle's wire is ~1e-4 m, an instrument ~0.01..0.3 m");
+  auto only = [&](std::initializer_list<const char*> keys) {
+    for (const char* k : {"radius", "length", "size", "file", "scale"}) {
+      bool ok = false;
+      for (const char* a : keys) ok = ok || std::string(a) == k;
+      if (!ok)
+        if (auto f = sm.opt(k)) f->fail(std::string("a ") + sm.req("type").string() + " has no " + k);
+    }
+  };
+  switch (r.shape) {
+    case RigidShapeKind::Sphere:
+      only({"radius"});
+      sm.require("radius", r.radius, length);
+      break;
+    case RigidShapeKind::Capsule:
+      only({"radius", "length"});
+      sm.require("radius", r.radius, length);
+      sm.require("length", r.length, physical_range(0, 10, "m: the cylinder between the two hemispheres"));
+      break;
+    case RigidShapeKind::Box: {
+      only({"size"});
+      const Field f = sm.req("size");
+      r.size = f.vec3();
+      for (double v : r.size)
+        if (!(v >= 1e-6 && v <= 10)) f.fail("box sizes must be within 1e-6..10 m, got " + format_number(v));
+      break;
+    }
+    case RigidShapeKind::Mesh: {
+      only({"file", "scale"});
+      std::string file;
+      sm.require("file", file);
+      r.mesh_path = resolve_path(file, ctx.base_dir);
+      sm.read("scale", r.mesh_scale, physical_range(1e-9, 1e9, "multiplies the file's coordinates (0.001: mm to m)"));
+      break;
+    }
+  }
+  m.require("density", r.density, physical_range(1, 1e5, "kg/m^3: steel ~7800, plastic ~1000..1400, water 1000"));
+  if (auto f = m.opt("pose")) {
+    const MapReader pm = f->map({"position", "orientation"});
+    if (auto p = pm.opt("position")) r.position = p->vec3();
+    if (auto o = pm.opt("orientation")) r.orientation = parse_unit_quaternion(*o);
+  }
+  if (auto f = m.opt("velocity")) {
+    const MapReader vm = f->map({"linear", "angular"});
+    if (auto v = vm.opt("linear")) r.velocity = v->vec3();
+    if (auto w = vm.opt("angular")) r.angular_velocity = w->vec3();
+  }
+  m.read("fixed", r.fixed);
+  if (r.fixed)
+    if (auto f = m.opt("velocity")) f->fail("a fixed body does not move: remove its velocity, or fixed");
+  return r;
+}
+
 ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   ScenarioSpec s;
   s.file = ctx.file;
@@ -779,6 +861,15 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
     check_unique_name(tool_names, s.tools.back().spec.name, tm.req("name"), "tool");
   }
 
+  std::map<std::string, int> rigid_names;
+  for (const auto& item : m.list("rigid_bodies")) {
+    const MapReader rm = item.map({"name", "shape", "density", "pose", "velocity", "fixed"});
+    s.rigid_bodies.push_back(parse_rigid_body(rm, ctx));
+    check_unique_name(rigid_names, s.rigid_bodies.back().name, rm.req("name"), "rigid body");
+    if (body_names.count(s.rigid_bodies.back().name))
+      rm.req("name").fail("'" + s.rigid_bodies.back().name + "' is already the name of a tissue body");
+  }
+
   if (auto f = m.opt("body_contact")) {
     if (s.bodies.size() < 2) f->fail("body_contact needs at least two bodies (this scenario has one)");
     s.body_contact = parse_body_contact(*f);
@@ -800,8 +891,8 @@ ScenarioSpec parse_scenario(const std::string& yaml_text, const std::string& fil
   const int root_line = root.Mark().line >= 0 ? root.Mark().line + 1 : 1;
   const Field root_field(&ctx.file, root, "", root_line);
   const MapReader m = root_field.map(
-      {"name", "time_step", "gravity", "solver", "bodies", "probes", "tools", "body_contact", "run", "check",
-       "render"});
+      {"name", "time_step", "gravity", "solver", "bodies", "probes", "tools", "rigid_bodies", "body_contact", "run",
+       "check", "render"});
   return parse_root(m, ctx);
 }
 

@@ -308,6 +308,29 @@ struct BodyContactSpec {
   SourceLocation where;
 };
 
+/// `rigid_bodies:` entry (issue 42; docs/RIGID.md): a rigid body of a shape at a uniform
+/// density, posed and moving, or fixed. Invariants after load: density > 0 and the shape's
+/// dimensions > 0 (capsule length ≥ 0); the orientation a unit quaternion (w, x, y, z); a mesh
+/// path resolved (its closedness is checked when compiled, where the file is read).
+enum class RigidShapeKind { Sphere, Box, Capsule, Mesh };
+struct RigidBodySpec {
+  std::string name;
+  RigidShapeKind shape = RigidShapeKind::Sphere;
+  double radius = 0;         ///< sphere, capsule (m)
+  double length = 0;         ///< capsule: its cylinder's length along the body's z (m)
+  Vec3 size{0, 0, 0};        ///< box: full side lengths (m)
+  std::string mesh_path;     ///< mesh: a closed surface (.obj .stl .off .ply), in the body's frame
+  double mesh_scale = 1;     ///< mesh: multiplies its coordinates
+  double density = 0;        ///< kg/m³
+  Vec3 position{0, 0, 0};    ///< where the shape's frame origin is, world (m)
+  std::array<double, 4> orientation{1, 0, 0, 0};  ///< the shape's frame → world, unit (w, x, y, z)
+  Vec3 velocity{0, 0, 0};          ///< of the centre of mass, world (m/s)
+  Vec3 angular_velocity{0, 0, 0};  ///< world (rad/s)
+  bool fixed = false;        ///< does not move (an obstacle, a table)
+  SourceLocation where;      ///< the entry
+  SourceLocation shape_where;
+};
+
 /// A whole scenario. Invariants after load_scenario(): time_step > 0; at least one body; names
 /// of bodies, probes and tools unique; paths resolved; every SourceLocation names the line it
 /// came from (0 when the key was absent).
@@ -320,6 +343,7 @@ struct ScenarioSpec {
   std::vector<BodySpec> bodies;
   std::vector<ProbeSpec> probes;
   std::vector<ToolEntry> tools;
+  std::vector<RigidBodySpec> rigid_bodies;
   std::optional<BodyContactSpec> body_contact;
   RunSpec run;
   CheckSpec check;

@@ -1,0 +1,35 @@
+#pragma once
+/// \file rigid_body.hpp
+/// A compiled rigid body (issue 42; docs/RIGID.md): the constants its rows of the step read. Its
+/// body frame has its origin at the centre of mass and the shape's axes, so `mass.centre` is
+/// zero and `shape_origin` is where the shape's own frame origin (the one the scenario poses)
+/// sits in it.
+///
+/// Invariants: `mass` satisfies MassProperties' invariants with centre (0, 0, 0); `initial.q` is
+/// a unit quaternion; a fixed body's initial velocities are zero; `surface_triangles` index
+/// `surface_vertices` (body frame), and are empty for the analytic shapes.
+
+#include <string>
+#include <vector>
+
+#include "rigid/mass_properties.hpp"
+#include "rigid/rigid_motion.hpp"
+
+namespace stroma {
+
+enum class RigidShape : uint8_t { Sphere, Box, Capsule, Mesh };
+
+struct RigidBodyModel {
+  std::string name;
+  RigidShape shape = RigidShape::Sphere;
+  double radius = 0, length = 0;  ///< sphere, capsule (m)
+  Vec3 size{0, 0, 0};             ///< box (m)
+  MassProperties mass;            ///< about the centre of mass, body frame
+  Vec3 shape_origin{0, 0, 0};     ///< the shape frame's origin in the body frame (m)
+  std::vector<Vec3> surface_vertices;  ///< a mesh shape's surface, body frame
+  std::vector<Tri> surface_triangles;
+  bool fixed = false;
+  RigidState initial;             ///< centre of mass, orientation and velocities at the start
+};
+
+}  // namespace stroma
