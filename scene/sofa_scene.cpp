@@ -599,45 +599,35 @@ class Translator {
     }
   }
 
+  /// A 3-vector attribute of `e` given whole (`whole`: three numbers) or per axis (`axes`, each
+  /// overriding its component), else `v`.
+  std::array<double, 3> vector_or_axes(const XMLElement* e, const char* whole, const char* const axes[3],
+                                       std::array<double, 3> v) const {
+    if (e->Attribute(whole)) {
+      const auto n = numbers(e, whole);
+      if (n.size() != 3) fail(e, whole, fmt::format("{} values; a {} has 3", n.size(), whole));
+      v = {n[0], n[1], n[2]};
+    }
+    for (int a = 0; a < 3; ++a)
+      if (e->Attribute(axes[a])) v[size_t(a)] = number(e, axes[a]);
+    return v;
+  }
+
   /// SOFA's MechanicalObject moves its positions (and rest positions) at init: scale, then
   /// rotation, then translation (`translation` or the legacy dx/dy/dz, `scale`, `scale3d` or
   /// sx/sy/sz), after the loader's own. Composed into the body's scale and translation: a
   /// uniform scale and no rotation are carried, others refused.
   void mechanical_object_transform(const XMLElement* mo, Body& b) {
-    double s = 1;
-    if (mo->Attribute("scale")) s = number(mo, "scale");
-    std::array<double, 3> s3{s, s, s};
-    if (mo->Attribute("scale3d")) {
-      const auto v = numbers(mo, "scale3d");
-      if (v.size() != 3) fail(mo, "scale3d", fmt::format("{} values; a scale3d has 3", v.size()));
-      s3 = {v[0], v[1], v[2]};
-    }
-    const char* sxyz[3] = {"sx", "sy", "sz"};
-    for (int a = 0; a < 3; ++a)
-      if (mo->Attribute(sxyz[a])) s3[size_t(a)] = number(mo, sxyz[a]);
+    static const char* const kS[3] = {"sx", "sy", "sz"}, *const kR[3] = {"rx", "ry", "rz"}, *const kD[3] = {"dx", "dy", "dz"};
+    const double s = mo->Attribute("scale") ? number(mo, "scale") : 1.0;
+    const std::array<double, 3> s3 = vector_or_axes(mo, "scale3d", kS, {s, s, s});
     if (s3[0] != s3[1] || s3[1] != s3[2])
       fail(mo, mo->Attribute("scale3d") ? "scale3d" : "sx", "only a uniform scale (three equal values) is supported");
     if (!(s3[0] > 0)) fail(mo, mo->Attribute("scale") ? "scale" : "scale3d", "must be > 0");
-    std::array<double, 3> r{0, 0, 0};
-    if (mo->Attribute("rotation")) {
-      const auto v = numbers(mo, "rotation");
-      if (v.size() != 3) fail(mo, "rotation", fmt::format("{} values; a rotation has 3", v.size()));
-      r = {v[0], v[1], v[2]};
-    }
-    const char* rxyz[3] = {"rx", "ry", "rz"};
-    for (int a = 0; a < 3; ++a)
-      if (mo->Attribute(rxyz[a])) r[size_t(a)] = number(mo, rxyz[a]);
+    const std::array<double, 3> r = vector_or_axes(mo, "rotation", kR, {0, 0, 0});
     if (r[0] != 0 || r[1] != 0 || r[2] != 0)
       fail(mo, mo->Attribute("rotation") ? "rotation" : "rx", "rotating the positions at init is not supported");
-    std::array<double, 3> t{0, 0, 0};
-    if (mo->Attribute("translation")) {
-      const auto v = numbers(mo, "translation");
-      if (v.size() != 3) fail(mo, "translation", fmt::format("{} values; a translation has 3", v.size()));
-      t = {v[0], v[1], v[2]};
-    }
-    const char* dxyz[3] = {"dx", "dy", "dz"};
-    for (int a = 0; a < 3; ++a)
-      if (mo->Attribute(dxyz[a])) t[size_t(a)] = number(mo, dxyz[a]);
+    const std::array<double, 3> t = vector_or_axes(mo, "translation", kD, {0, 0, 0});
     // x' = s_mo (s_l x + t_l) + t_mo
     b.scale *= s3[0];
     for (int a = 0; a < 3; ++a) b.translate[size_t(a)] = s3[0] * b.translate[size_t(a)] + t[size_t(a)];

@@ -257,6 +257,15 @@ namespace {
 
 /// Tip deflection (u_y at the tip-face centre) of refs/a's cantilever (0.1 x 0.01 x 0.01 m,
 /// E 1e7, clamped at x = 0, gravity) at nu 0.49, static, on beam mesh `mesh`.
+/// The static equilibrium of a scenario (text) and its first probe's displacement there.
+Vec3 static_probe_displacement(const std::string& yaml, const std::string& name) {
+  auto m = compile_model(parse_scenario(yaml, name, STROMA_SOURCE_DIR));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  EXPECT_TRUE(w.stepper().solve_static(s.tissue, 1.0).converged) << name;
+  return probe_displacement(*m, s, m->probes.at(0));
+}
+
 double cantilever_tip(const std::string& mesh, const std::string& locking_free) {
   const std::string yaml = R"(name: beam
 gravity: [0, -9.81, 0]
@@ -270,11 +279,7 @@ bodies:
 probes:
   - {name: tip, body: beam, point: [0.1, 0.005, 0.005]}
 )";
-  auto m = compile_model(parse_scenario(yaml, "beam.yaml", STROMA_SOURCE_DIR));
-  State s = State::initial(*m);
-  TickWorkspace w(*m);
-  EXPECT_TRUE(w.stepper().solve_static(s.tissue, 1.0).converged) << mesh << locking_free;
-  return probe_displacement(*m, s, m->probes.at(0))[1];
+  return static_probe_displacement(yaml, "beam.yaml")[1];
 }
 
 /// Centre deflection (mid-plane) of a circular plate (radius 30 mm, thickness 3 mm) clamped on
@@ -297,11 +302,7 @@ bodies:
 probes:
   - {name: centre, body: plate, point: [0, 0, 0.0015]}
 )";
-  auto m = compile_model(parse_scenario(yaml, "plate.yaml", STROMA_SOURCE_DIR));
-  State s = State::initial(*m);
-  TickWorkspace w(*m);
-  EXPECT_TRUE(w.stepper().solve_static(s.tissue, 1.0).converged) << mesh << locking_free;
-  return probe_displacement(*m, s, m->probes.at(0))[2];
+  return static_probe_displacement(yaml, "plate.yaml")[2];
 }
 
 /// Mindlin's clamped circular plate under a uniform load q = rho g t: Kirchhoff's q a^4 / (64 D)

@@ -49,36 +49,24 @@ bool surface_offset(const std::function<int32_t(const Vec3&)>& tag_at, const Vec
                     int32_t b, double search, double& t_out) {
   constexpr int kSteps = 16, kBisections = 24;
   const int32_t at_c = tag_at(c);
-  double lo, hi;  // tag a at lo, not a at hi
-  if (at_c == a) {
-    double prev = 0;
-    bool found = false;
-    for (int i = 1; i <= kSteps && !found; ++i) {
-      const double t = search * i / kSteps;
-      const int32_t g = tag_at(along(c, n, t));
-      if (g != a) {
-        if (g != b) return false;
-        lo = prev, hi = t, found = true;
-      }
+  if (at_c != a && at_c != b) return false;
+  // Walk away from the side the centroid is on (outward from a, inward from b) to the change.
+  const double dir = at_c == a ? 1.0 : -1.0;
+  const int32_t other = at_c == a ? b : a;
+  double prev = 0, hit = 0;
+  bool found = false;
+  for (int i = 1; i <= kSteps && !found; ++i) {
+    const double t = dir * search * i / kSteps;
+    const int32_t g = tag_at(along(c, n, t));
+    if (g == at_c) {
       prev = t;
+      continue;
     }
-    if (!found) return false;
-  } else if (at_c == b) {
-    double prev = 0;
-    bool found = false;
-    for (int i = 1; i <= kSteps && !found; ++i) {
-      const double t = -search * i / kSteps;
-      const int32_t g = tag_at(along(c, n, t));
-      if (g != b) {
-        if (g != a) return false;
-        lo = t, hi = prev, found = true;
-      }
-      prev = t;
-    }
-    if (!found) return false;
-  } else {
-    return false;
+    if (g != other) return false;
+    hit = t, found = true;
   }
+  if (!found) return false;
+  double lo = at_c == a ? prev : hit, hi = at_c == a ? hit : prev;  // tag a at lo, not a at hi
   for (int i = 0; i < kBisections; ++i) {
     const double m = 0.5 * (lo + hi);
     (tag_at(along(c, n, m)) == a ? lo : hi) = m;
