@@ -10,6 +10,7 @@
 /// contact spring is expanded back onto the DOFs through the triangle's SurfaceTriangleDofs.
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -50,6 +51,29 @@ struct ContactSurface {
   /// Per face 1 on a cut (a wound's lip), 0 not; null: no cut faces (an uncut mesh).
   const uint8_t* cut_face = nullptr;
 };
+
+/// Samples per triangle edge: clamp(ceil(edge·kContactSamplesPerRadius / radius), 1, 24), so the
+/// sample spacing stays a fraction of the toucher's size (a tool's radius, a rigid body's
+/// smallest feature) whatever the mesh (smooth while sliding).
+inline constexpr double kContactSamplesPerRadius = 4.0;
+
+/// Subdivision of surface triangle t for a toucher of size R (see kContactSamplesPerRadius).
+inline int surface_samples_per_edge(const ContactSurface& surf, int32_t t, double R) {
+  const double s = std::ceil(surf.longest_edge[static_cast<size_t>(t)] * kContactSamplesPerRadius / R);
+  return s < 1 ? 1 : (s > 24 ? 24 : static_cast<int>(s));
+}
+
+/// Calls f(u, v) for the centroids of the s² sub-triangles of a triangle (composite midpoint
+/// rule), in barycentric coordinates of vertices 1 and 2.
+template <class F>
+inline void for_each_triangle_sample(int ns, F&& f) {
+  const double inv = 1.0 / ns;
+  for (int i = 0; i < ns; ++i)
+    for (int j = 0; j < ns - i; ++j) {
+      f((i + 1.0 / 3.0) * inv, (j + 1.0 / 3.0) * inv);
+      if (j < ns - i - 1) f((i + 2.0 / 3.0) * inv, (j + 2.0 / 3.0) * inv);
+    }
+}
 
 /// Sets sp's DOFs, weights and slots to the point with barycentric (b0, b1, b2) on a triangle.
 inline void set_spring_point(const SurfaceTriangleDofs& td, double b0, double b1, double b2, ContactSpring& sp) {

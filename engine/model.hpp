@@ -51,7 +51,7 @@ struct CutStats {
 ///  - `tools` are resolved: a tool with a shape has contact_stiffness > 0, a grasping tool has
 ///    grasp_stiffness > 0; workspace_min ≤ workspace_max. Their order is the scenario's and the
 ///    index of a ToolInput.
-///  - `has_contact` ⇔ some tool has a shape or the scenario has `body_contact`.
+///  - `has_contact` ⇔ some tool has a shape, the scenario has `body_contact` or rigid bodies.
 ///  - `has_damage` ⇔ some body_damage[b] or region_damage[r] is enabled.
 ///  - `max_step_displacement` > 0: half the rest bounding-box diagonal of the whole scene (a cut
 ///    moves no rest position, so it is the cut models' too).

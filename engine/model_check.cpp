@@ -67,7 +67,8 @@ bool model_invariants_hold(const Model& m, std::string* why) {
     c(!t.can_grasp || t.grasp_stiffness > 0, "a grasping tool's grasp stiffness is resolved (> 0)");
     for (int k = 0; k < 3; ++k) c(t.workspace_min[k] <= t.workspace_max[k], "tool workspace min <= max");
   }
-  c(m.has_contact == (shaped || m.body_contact.has_value()), "has_contact <=> a shaped tool or body contact");
+  c(m.has_contact == (shaped || m.body_contact.has_value() || !m.rigid_bodies.empty()),
+    "has_contact <=> a shaped tool, body contact or rigid bodies");
   const size_t tris = m.collision_triangles.size();
   c(m.collision_dofs.size() == tris && m.collision_edge.size() == tris && m.collision_face_elem.size() == tris,
     "the collision arrays are parallel");

@@ -16,9 +16,11 @@ bool all_finite(const std::vector<double>& a) {
   return acc == 0.0;
 }
 
-/// Puts the tissue back to the start of the tick; the warm start is cleared (it may hold the
-/// failed solve).
-void restore(TissueState& t, const TickWorkspace& w) {
+/// Puts the tissue and the rigid bodies back to the start of the tick; the warm start is
+/// cleared (it may hold the failed solve).
+void restore(State& s, const TickWorkspace& w) {
+  std::copy(w.backup_rigid.begin(), w.backup_rigid.end(), s.rigid.begin());
+  TissueState& t = s.tissue;
   std::copy(w.backup_x.begin(), w.backup_x.end(), t.x.begin());
   std::copy(w.backup_v.begin(), w.backup_v.end(), t.v.begin());
   std::copy(w.backup_visco_q.begin(), w.backup_visco_q.end(), t.visco_q.begin());
@@ -37,6 +39,48 @@ bool sane_step(const TissueState& t, double h, double limit) {
   return ok && all_finite(t.x);
 }
 
+/// The rigid rows' inputs for a step of length h (tissue/rigid_rows.hpp): each row's mass,
+/// world inertia, applied force (its weight) and start velocities — ω after the step's
+/// gyroscopic part (rigid/rigid_motion.hpp), which the rows leave out.
+void prepare_rigid_rows(const Model& m, const State& s, TickWorkspace& w, double h) {
+  for (int32_t r = 0; r < w.rigid_in.rows; ++r) {
+    const RigidBodyModel& b = m.rigid_bodies[size_t(w.row_body[size_t(r)])];
+    const RigidState& rs = s.rigid[size_t(w.row_body[size_t(r)])];
+    w.row_mass[size_t(r)] = b.mass.mass;
+    const std::array<double, 9> I = world_inertia(b.mass.inertia, rs.q);
+    std::copy(I.begin(), I.end(), w.row_inertia.begin() + 9 * r);
+    const Vec3 wg = gyroscopic_step(b.mass.inertia, h, rs);
+    for (int k = 0; k < 3; ++k) {
+      w.row_u0[size_t(6 * r + k)] = rs.v[size_t(k)];
+      w.row_u0[size_t(6 * r + 3 + k)] = wg[size_t(k)];
+      w.row_force[size_t(6 * r + k)] = b.mass.mass * m.fem.gravity[size_t(k)];
+      w.row_force[size_t(6 * r + 3 + k)] = 0.0;
+    }
+  }
+}
+
+/// The rigid bodies over the step h: a body with a row takes its solved Δu, then its pose
+/// follows; the others step free (rigid/rigid_motion.hpp). True if every body is finite.
+bool integrate_rigid(const Model& m, State& s, const TickWorkspace& w, double h) {
+  double acc = 0;
+  for (size_t k = 0; k < m.rigid_bodies.size(); ++k) {
+    if (m.rigid_bodies[k].fixed) continue;
+    RigidState& rs = s.rigid[k];
+    const int32_t r = w.body_row[k];
+    if (r >= 0) {
+      for (int i = 0; i < 3; ++i) {
+        rs.v[size_t(i)] = w.row_u0[size_t(6 * r + i)] + w.row_du[size_t(6 * r + i)];
+        rs.w[size_t(i)] = w.row_u0[size_t(6 * r + 3 + i)] + w.row_du[size_t(6 * r + 3 + i)];
+      }
+      advance_pose(h, rs);
+    } else {
+      step_free_rigid(m.rigid_bodies[k].mass.inertia, m.fem.gravity, h, rs);
+    }
+    for (int i = 0; i < 3; ++i) acc += (rs.x[size_t(i)] + rs.v[size_t(i)] + rs.w[size_t(i)]) * 0.0;
+  }
+  return acc == 0.0;
+}
+
 /// Records the worst degradation of the tick.
 void degrade(TickReport& r, Degradation d) {
   if (static_cast<int>(d) > static_cast<int>(r.degradation)) r.degradation = d;
@@ -51,6 +95,7 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
   TissueState& t = s.tissue;
   {
     StageTimer st(r, Stage::Assemble);
+    if (w.rigid_in.rows > 0) prepare_rigid_rows(m, s, w, h);
     const double e = stepper.assemble(t, h, step_inputs(m, s, w));
     if (first) r.elastic_energy = e;
   }
@@ -87,6 +132,7 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
   {
     StageTimer st(r, Stage::Integrate);
     stepper.integrate(t, h);
+    if (!m.rigid_bodies.empty() && !integrate_rigid(m, s, w, h)) return false;
     // An inexact solve is kept only if the step did not gain energy (implicit Euler's exact
     // step never does): the guard takes out what it added.
     if (!r.solve.converged && stepper.settings().integrator == Integrator::ImplicitEuler &&
@@ -122,7 +168,7 @@ StepOutcome recover(const Model& m, State& s, TickWorkspace& w, TickReport& r, D
   const double h = m.fem_step;
   for (int k = 2; k <= kMaxSubsteps; k *= 2) {
     if (deadline.past()) break;  // (a failed level that ran out of time ends here too)
-    restore(s.tissue, w);
+    restore(s, w);
     bool ok = true;
     int done = 0;  // sane sub-steps of this level
     for (int i = 0; i < k && ok; ++i) {
@@ -133,7 +179,7 @@ StepOutcome recover(const Model& m, State& s, TickWorkspace& w, TickReport& r, D
     r.substeps = k;
     if (ok) return done < k ? StepOutcome::SubStepsPartWay : StepOutcome::SubSteps;
   }
-  restore(s.tissue, w);
+  restore(s, w);
   if (deadline.past()) {
     std::fill(s.tissue.v.begin(), s.tissue.v.end(), 0.0);
     return StepOutcome::Held;
@@ -167,18 +213,28 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
   std::copy(s.tissue.v.begin(), s.tissue.v.end(), w.backup_v.begin());
   std::copy(s.tissue.visco_q.begin(), s.tissue.visco_q.end(), w.backup_visco_q.begin());
   std::copy(s.tissue.visco_s0.begin(), s.tissue.visco_s0.end(), w.backup_visco_s0.begin());
+  std::copy(s.rigid.begin(), s.rigid.end(), w.backup_rigid.begin());
   const bool cap_fails = m.substep_on_cg_cap;
   bool ok = step(m, s, w, h, r, true, cap_fails, deadline);
   // Speculative body contacts whose vertex never reached its face would pull it in: release them
   // and redo the step (only ticks where something is about to touch pay for this).
-  while (ok && m.body_contact && r.contact_releases < kMaxContactReleases &&
-         release_pulling_contacts(w.backup_x.data(), s.tissue.x.data(), w.body_pairs, w.springs) > 0) {
+  // So are rigid bodies' (rigid/rigid_contact.hpp).
+  auto release = [&]() {
+    int n = 0;
+    if (m.body_contact) n += release_pulling_contacts(w.backup_x.data(), s.tissue.x.data(), w.body_pairs, w.springs);
+    if (!w.rigid_pairs.empty())
+      n += release_pulling_rigid_contacts(w.backup_x.data(), s.tissue.x.data(), w.backup_rigid.data(), s.rigid.data(),
+                                         w.row_body.data(), w.rigid_pairs, w.springs);
+    return n;
+  };
+  while (ok && (m.body_contact || !w.rigid_pairs.empty()) && r.contact_releases < kMaxContactReleases &&
+         release() > 0) {
     if (deadline.past()) {  // keep the step as solved, pulling contacts and all
       degrade(r, Degradation::ReleasesSkipped);
       break;
     }
     ++r.contact_releases;
-    restore(s.tissue, w);
+    restore(s, w);
     ok = step(m, s, w, h, r, false, cap_fails, deadline);
   }
   account_outcome(ok ? StepOutcome::FullStep : recover(m, s, w, r, deadline, cap_fails), r);

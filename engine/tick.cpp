@@ -71,6 +71,26 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     springs.resize(kMaxContacts);
     springs.clear();
   }
+  if (!m.rigid_bodies.empty()) {
+    const size_t nb = m.rigid_bodies.size();
+    row_body.assign(nb, -1);
+    body_row.assign(nb, -1);
+    row_mass.assign(nb, 0.0);
+    row_inertia.assign(9 * nb, 0.0);
+    row_u0.assign(6 * nb, 0.0);
+    row_force.assign(6 * nb, 0.0);
+    row_du.assign(6 * nb, 0.0);
+    backup_rigid.resize(nb);
+    rigid_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
+    rigid_pairs.clear();
+    rigid_in.mass = row_mass.data();
+    rigid_in.inertia = row_inertia.data();
+    rigid_in.u0 = row_u0.data();
+    rigid_in.force = row_force.data();
+    rigid_in.du = row_du.data();
+    report.rigid_contact.resize(nb);
+    stepper_.reserve_rigid_rows(static_cast<int32_t>(nb));
+  }
   if (m.body_contact) {
     body_boxes.resize(6 * m.fem.bodies.size());
     body_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
@@ -89,6 +109,7 @@ StepInputs step_inputs(const Model& m, const State& s, const TickWorkspace& w) {
   in.damage = m.has_damage ? s.damage.data() : nullptr;
   in.node_mass = m.has_damage ? s.node_mass.data() : nullptr;
   in.contact_origin = w.springs.empty() ? nullptr : w.backup_x.data();
+  in.rigid = w.rigid_in.rows > 0 ? &w.rigid_in : nullptr;
   return in;
 }
 
@@ -142,6 +163,56 @@ void cut_with_blades(const Model& m, State& s, TickWorkspace& w) {
 
 }  // namespace
 
+namespace {
+
+/// The rigid bodies' contacts (rigid/rigid_contact.hpp) with the tissue's surface and with each
+/// other; a free body that touches something gets a row in the step (tissue/rigid_rows.hpp).
+void rigid_contacts(const Model& m, const State& s, TickWorkspace& w, const ContactSurface& surf, const double* px,
+                    const double* v) {
+  const int32_t nb = static_cast<int32_t>(m.rigid_bodies.size());
+  std::fill(w.body_row.begin(), w.body_row.end(), -1);
+  int32_t rows = 0;
+  // A row for body k if it is free; kept only if its contacts made springs.
+  auto tentative = [&](int32_t k, int32_t extra) {
+    if (m.rigid_bodies[size_t(k)].fixed) return -1;
+    return w.body_row[size_t(k)] >= 0 ? w.body_row[size_t(k)] : rows + extra;
+  };
+  auto commit = [&](int32_t k) {
+    if (m.rigid_bodies[size_t(k)].fixed || w.body_row[size_t(k)] >= 0) return;
+    w.body_row[size_t(k)] = rows;
+    w.row_body[size_t(rows++)] = k;
+  };
+  for (RigidContactOutput& o : w.report.rigid_contact) o = RigidContactOutput{};
+  w.rigid_pairs.clear();
+  for (int32_t k = 0; k < nb; ++k) {
+    const size_t before = w.springs.size();
+    rigid_tissue_contact(m.rigid_bodies[size_t(k)], s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, v,
+                         m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)]);
+    if (w.springs.size() > before) commit(k);
+  }
+  for (int32_t i = 0; i < nb; ++i)
+    for (int32_t j = i + 1; j < nb; ++j) {
+      const RigidBodyModel &bi = m.rigid_bodies[size_t(i)], &bj = m.rigid_bodies[size_t(j)];
+      if (bi.fixed && bj.fixed) continue;
+      // The smaller body's samples against the larger's shape.
+      const bool i_samples = bi.bounding_radius <= bj.bounding_radius;
+      const int32_t a = i_samples ? i : j, b = i_samples ? j : i;
+      const int32_t ra = tentative(a, 0);
+      const int32_t rb = tentative(b, ra == rows ? 1 : 0);
+      const size_t before = w.springs.size();
+      rigid_rigid_contact(m.rigid_bodies[size_t(a)], s.rigid[size_t(a)], ra, m.rigid_bodies[size_t(b)],
+                          s.rigid[size_t(b)], rb, m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs,
+                          w.report.rigid_contact[size_t(a)], w.report.rigid_contact[size_t(b)]);
+      if (w.springs.size() > before) {
+        commit(a);  // in this order: a took `rows`, b the one after when both were new
+        commit(b);
+      }
+    }
+  w.rigid_in.rows = rows;
+}
+
+}  // namespace
+
 void collide(const Model& m, State& s, TickWorkspace& w) {
   // Surface points (collision/contact_surface.hpp): the DOFs themselves on an uncut mesh; on a
   // cut one, the DOFs then the embedded points of the cut faces, filled here once per tick.
@@ -167,6 +238,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   if (m.body_contact)
     body_contact(*m.body_contact, surf, w.bvh, px, pv, m.fem_step, m.fem.gravity.data(), w.body_boxes.data(),
                  w.springs, w.body_pairs, w.report.body_contact);
+  if (!m.rigid_bodies.empty()) rigid_contacts(m, s, w, surf, px, v);
 }
 
 namespace {
@@ -258,11 +330,10 @@ bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, 
   step_with_recovery(m, s, w, r, deadline);  // times assemble, solve and integrate itself
   r.deadline_check = deadline.expired_at;
   if (r.status == TickStatus::NonFinite) return false;  // rolled back, not advanced
-  if (!m.rigid_bodies.empty()) {  // free rigid bodies over the same step (rigid/rigid_motion.hpp)
-    StageTimer t(r, Stage::Integrate);
-    for (size_t k = 0; k < m.rigid_bodies.size(); ++k)
-      if (!m.rigid_bodies[k].fixed) step_free_rigid(m.rigid_bodies[k].mass.inertia, m.fem.gravity, m.fem_step, s.rigid[k]);
-  }
+  if (!m.rigid_bodies.empty())  // the contacts' forces on the bodies as the step applied them
+    rigid_forces_after_step(w.backup_x.data(), s.tissue.x.data(), s.tissue.v.data(), w.backup_rigid.data(),
+                            s.rigid.data(), w.row_body.data(), w.springs.data(), static_cast<int>(w.springs.size()),
+                            r.rigid_contact.data(), static_cast<int>(m.rigid_bodies.size()));
   s.step += ticks;
   s.time = static_cast<double>(s.step) * m.time_step;
   if (m.has_damage) {

@@ -17,6 +17,7 @@
 #include "engine/model.hpp"
 #include "engine/state.hpp"
 #include "haptics/tool.hpp"
+#include "rigid/rigid_contact.hpp"
 #include "tissue/clock.hpp"
 #include "tissue/deadline.hpp"
 #include "tissue/time_stepper.hpp"
@@ -103,6 +104,8 @@ struct TickReport {
   double energy_removed = 0;
   std::vector<ToolOutput> tools;    ///< per scenario tool: contact, end-of-step force, feedback
   BodyContactOutput body_contact;   ///< body–body contacts (zero without `body_contact:`)
+  /// Per rigid body: its contacts with the tissue and other bodies this tick (rigid_contact.hpp).
+  std::vector<RigidContactOutput> rigid_contact;
   int damage_events = 0;            ///< elements reaching a new damage level this tick
   /// Edges of the uncut mesh the blades cut this tick (in s.edge_cut; the topology follows when
   /// the runner swaps in the cut model).
@@ -137,6 +140,16 @@ class TickWorkspace {
   std::vector<double> backup_x, backup_v;
   /// The visco-elastic internal variables at the start of the tick (empty without them).
   std::vector<double> backup_visco_q, backup_visco_s0;
+  /// Rigid bodies touching something this tick: the body of each row (tissue/rigid_rows.hpp),
+  /// each body's row (−1: stepped free), and the rows' inputs for the step (filled per step
+  /// and sub-step: the gyroscopic part depends on its length). Sized at load.
+  std::vector<int32_t> row_body, body_row;
+  std::vector<double> row_mass, row_inertia, row_u0, row_force, row_du;
+  RigidRowsInput rigid_in;
+  /// The rigid bodies at the start of the tick, for rollback.
+  std::vector<RigidState> backup_rigid;
+  /// This tick's speculative rigid contacts (capacity fixed at load; rigid_contact.hpp).
+  std::vector<RigidContactPair> rigid_pairs;
   TickReport report;  ///< the last tick's outputs
   /// What the energy guard that follows an inexact step costs (one energy-only element pass):
   /// the median of three passes timed when the workspace is made, then a running mean (1/8) of

@@ -10,23 +10,6 @@ namespace stroma {
 
 namespace {
 
-/// Subdivision of collision triangle t for a tool of radius R (see kContactSamplesPerRadius).
-inline int samples_per_edge(const ContactSurface& surf, int32_t t, double R) {
-  return std::clamp(static_cast<int>(std::ceil(surf.longest_edge[t] * kContactSamplesPerRadius / R)), 1, 24);
-}
-
-/// Calls f(u, v) for the centroids of the s² sub-triangles of a triangle (composite midpoint
-/// rule), in barycentric coordinates of vertices 1 and 2.
-template <class F>
-inline void for_each_sample(int ns, F&& f) {
-  const double inv = 1.0 / ns;
-  for (int i = 0; i < ns; ++i)
-    for (int j = 0; j < ns - i; ++j) {
-      f((i + 1.0 / 3.0) * inv, (j + 1.0 / 3.0) * inv);
-      if (j < ns - i - 1) f((i + 2.0 / 3.0) * inv, (j + 2.0 / 3.0) * inv);
-    }
-}
-
 /// A spring pulling the surface point (triangle t, barycentric u, v) towards `target`.
 ContactSpring point_spring(const ContactSurface& surf, int32_t t, double u, double v, const double* x,
                            const double* target, double k) {
@@ -67,7 +50,7 @@ bool grasp(const ContactSurface& surf, const ToolSpec& spec, ToolState& ts, Tool
     bvh.query_sphere(gc, reach, x, [&](int32_t t) {
       if (surf.active && !surf.active[t]) return;
       const auto& tri = surf.triangles[t];
-      for_each_sample(samples_per_edge(surf, t, spec.radius), [&](double u, double v) {
+      for_each_triangle_sample(surface_samples_per_edge(surf, t, spec.radius), [&](double u, double v) {
         double d[3], d2 = 0;  // d: from the tool origin (offset); d2: from the grasp centre
         for (int k = 0; k < 3; ++k) {
           const double p = (1 - u - v) * x[3 * tri[0] + k] + u * x[3 * tri[1] + k] + v * x[3 * tri[2] + k];
@@ -293,10 +276,10 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, ToolOutput& out, const Co
     if (twice_area <= 0) return;
     const double nsign = (surf.active && surf.active[t] == 2) ? -1.0 : 1.0;  // exposed from behind
     for (double& v : nrm) v *= nsign / twice_area;
-    const int ns = samples_per_edge(surf, t, g.rmin);
+    const int ns = surface_samples_per_edge(surf, t, g.rmin);
     const double sample_area = 0.5 * twice_area / (ns * ns);
     const double kc = spec.contact_stiffness * sample_area, cc = spec.contact_damping * sample_area;
-    for_each_sample(ns, [&](double u, double v) {
+    for_each_triangle_sample(ns, [&](double u, double v) {
       const double w0 = 1.0 - u - v;
       double q[3], d[3] = {0, 0, 0}, dist2 = 0, Rs = 0;
       for (int a = 0; a < 3; ++a) q[a] = w0 * p0[a] + u * p1[a] + v * p2[a];

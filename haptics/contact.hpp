@@ -26,10 +26,6 @@
 
 namespace stroma {
 
-/// Samples per triangle edge: clamp(ceil(edge·kContactSamplesPerRadius / radius), 1, 24), so the
-/// sample spacing stays a fraction of the tool's size whatever the mesh (smooth while sliding).
-inline constexpr double kContactSamplesPerRadius = 4.0;
-
 /// A cutting blade's bevel: its half-thickness reaches `radius` this many radii behind the edge
 /// (a wedge of half-angle atan(1/8) ≈ 7°, as a scalpel's grind).
 inline constexpr double kBladeBevel = 8.0;

@@ -30,6 +30,17 @@ struct RigidBodyModel {
   std::vector<Tri> surface_triangles;
   bool fixed = false;
   RigidState initial;             ///< centre of mass, orientation and velocities at the start
+  /// Contact (rigid/rigid_contact.hpp): pressure per metre of penetration (Pa/m), per metre per
+  /// second (Pa·s/m), and the Coulomb friction coefficient against tissue and other bodies.
+  double contact_stiffness = 0, contact_damping = 0, friction = 0;
+  double bounding_radius = 0;     ///< m: the shape lies within this distance of the centre of mass
+  /// The smallest feature's size (m): a sphere's or capsule's radius, half a box's shortest side,
+  /// a mesh's mean edge; contact samples are spaced by a fraction of it.
+  double feature = 0;
+  /// Surface samples in the body frame (point, outward normal, area): how this body presses on
+  /// another rigid body's shape (rigid/rigid_contact.hpp). Invariant: the areas sum to the surface's.
+  std::vector<Vec3> sample_points, sample_normals;
+  std::vector<double> sample_areas;
 };
 
 }  // namespace stroma

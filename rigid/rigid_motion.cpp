@@ -45,17 +45,13 @@ std::array<double, 9> rotation_of(const std::array<double, 4>& q) {
           2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
 }
 
-RigidStepReport step_free_rigid(const std::array<double, 9>& I, const Vec3& g, double h, RigidState& s) {
-  for (int i = 0; i < 3; ++i) {
-    s.v[size_t(i)] += h * g[size_t(i)];
-    s.x[size_t(i)] += h * s.v[size_t(i)];
-  }
-  const std::array<double, 9> R = rotation_of(s.q);
-  const Vec3 w0 = mul_t(R, s.w);  // body frame
+namespace {
+
+/// ω' of the implicit midpoint rule for I (ω' − ω) + h ω̄ × I ω̄ = 0 (body frame), by Newton.
+Vec3 midpoint_omega(const std::array<double, 9>& I, double h, const Vec3& w0, RigidStepReport& r) {
   const Vec3 L0 = mul(I, w0);
   // Newton on f(ω') = I (ω' − ω) + h ω̄ × I ω̄, ω̄ = (ω + ω') / 2. J = I + h/2 ([ω̄]× I − [Iω̄]×).
   Vec3 w1 = w0;
-  RigidStepReport r;
   const double scale = std::sqrt(L0[0] * L0[0] + L0[1] * L0[1] + L0[2] * L0[2]) + 1e-300;
   for (int it = 0; it < 20; ++it) {
     const Vec3 wb = {0.5 * (w0[0] + w1[0]), 0.5 * (w0[1] + w1[1]), 0.5 * (w0[2] + w1[2])};
@@ -75,6 +71,45 @@ RigidStepReport step_free_rigid(const std::array<double, 9>& I, const Vec3& g, d
     m3::mulv(Ji, f.data(), dw);
     for (int k = 0; k < 3; ++k) w1[size_t(k)] -= dw[k];
   }
+  return w1;
+}
+
+}  // namespace
+
+Vec3 gyroscopic_step(const std::array<double, 9>& I, double h, const RigidState& s) {
+  const std::array<double, 9> R = rotation_of(s.q);
+  RigidStepReport r;
+  return mul(R, midpoint_omega(I, h, mul_t(R, s.w), r));
+}
+
+void advance_pose(double h, RigidState& s) {
+  for (int i = 0; i < 3; ++i) s.x[size_t(i)] += h * s.v[size_t(i)];
+  // exp(h ω_world)·q = q·exp(h Rᵀω): the turn in the body frame.
+  const Vec3 wb = mul_t(rotation_of(s.q), s.w);
+  s.q = turned(s.q, {h * wb[0], h * wb[1], h * wb[2]});
+}
+
+std::array<double, 9> world_inertia(const std::array<double, 9>& I, const std::array<double, 4>& q) {
+  const std::array<double, 9> R = rotation_of(q);
+  double RI[9], Rt[9], out[9];
+  m3::mul(R.data(), I.data(), RI);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) Rt[3 * i + j] = R[size_t(3 * j + i)];
+  m3::mul(RI, Rt, out);
+  std::array<double, 9> o;
+  for (int k = 0; k < 9; ++k) o[size_t(k)] = 0.5 * (out[k] + out[3 * (k % 3) + k / 3]);  // symmetric to round-off
+  return o;
+}
+
+RigidStepReport step_free_rigid(const std::array<double, 9>& I, const Vec3& g, double h, RigidState& s) {
+  for (int i = 0; i < 3; ++i) {
+    s.v[size_t(i)] += h * g[size_t(i)];
+    s.x[size_t(i)] += h * s.v[size_t(i)];
+  }
+  const std::array<double, 9> R = rotation_of(s.q);
+  const Vec3 w0 = mul_t(R, s.w);  // body frame
+  RigidStepReport r;
+  const Vec3 w1 = midpoint_omega(I, h, w0, r);
   const Vec3 wbar = {0.5 * (w0[0] + w1[0]), 0.5 * (w0[1] + w1[1]), 0.5 * (w0[2] + w1[2])};
   s.q = turned(s.q, {h * wbar[0], h * wbar[1], h * wbar[2]});
   s.w = mul(rotation_of(s.q), w1);

@@ -42,6 +42,17 @@ std::array<double, 9> rotation_of(const std::array<double, 4>& q);
 /// One step of length h of a free body of body-frame inertia `inertia` under gravity g.
 RigidStepReport step_free_rigid(const std::array<double, 9>& inertia, const Vec3& g, double h, RigidState& s);
 
+/// The body touching something (its rows in the step's system, tissue/rigid_rows.hpp) is
+/// stepped in two parts. First the gyroscopic part alone: ω after Euler's torque-free equations
+/// over h by the same implicit midpoint rule, the orientation held (the kinetic energy and |L|
+/// kept exactly); returns that ω (world). The rows then add the step's Δu (contact, gravity).
+Vec3 gyroscopic_step(const std::array<double, 9>& inertia, double h, const RigidState& s);
+/// Then the pose over h from the step's end velocities: x += h·v, q ← exp(h·ω)·q (a turn
+/// about ω itself, which keeps ½ωᵀI_world ω).
+void advance_pose(double h, RigidState& s);
+/// The inertia tensor in world axes, R I Rᵀ (row-major).
+std::array<double, 9> world_inertia(const std::array<double, 9>& inertia, const std::array<double, 4>& q);
+
 /// Kinetic energy ½ m |v|² + ½ ωᵀ I_world ω (J).
 double rigid_kinetic_energy(double mass, const std::array<double, 9>& inertia, const RigidState& s);
 /// Angular momentum about the centre of mass, world (kg·m²/s).

@@ -10,6 +10,7 @@
 #include "io/surface_check.hpp"
 #include "io/surface_io.hpp"
 #include "rigid/mass_properties.hpp"
+#include "rigid/rigid_contact.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/model.hpp"
 #include "engine/model_check.hpp"
@@ -498,6 +499,14 @@ void compile_rigid_bodies(const ScenarioSpec& spec, Model& model) {
     throw InputError(r.where.file, r.where.line, "rigid_bodies",
                      "a static scenario finds equilibria of the tissue; rigid bodies move: use integrator implicit_euler");
   }
+  if (!spec.rigid_bodies.empty() && spec.solver.integrator == Integrator::SymplecticEuler) {
+    const RigidBodySpec& r = spec.rigid_bodies[0];
+    throw InputError(r.where.file, r.where.line, "rigid_bodies",
+                     "rigid bodies join the tissue's implicit step (their contacts are solved with it): use integrator "
+                     "implicit_euler");
+  }
+  double e_max = 0;
+  for (const BodySpec& b : spec.bodies) e_max = std::max(e_max, b.material.young_modulus);
   for (size_t i = 0; i < spec.rigid_bodies.size(); ++i) {
     const RigidBodySpec& r = spec.rigid_bodies[i];
     const std::string field = fmt::format("rigid_bodies[{}]", i);
@@ -555,7 +564,13 @@ void compile_rigid_bodies(const ScenarioSpec& spec, Model& model) {
       s0.x[size_t(k)] = r.position[size_t(k)] + R[size_t(3 * k)] * c[0] + R[size_t(3 * k + 1)] * c[1] + R[size_t(3 * k + 2)] * c[2];
     s0.v = r.velocity;
     s0.w = r.angular_velocity;
+    make_contact_samples(b);
+    // Automatic contact stiffness: as a tool's, stiff against the stiffest tissue at this size.
+    b.contact_stiffness = r.contact_stiffness > 0 ? r.contact_stiffness : 100.0 * e_max / b.feature;
+    b.contact_damping = r.contact_damping;
+    b.friction = r.friction;
     model.rigid_bodies.push_back(std::move(b));
+    model.has_contact = true;
   }
 }
 

@@ -808,6 +808,13 @@ RigidBodySpec parse_rigid_body(const MapReader& m, const Context& ctx) {
     if (auto w = vm.opt("angular")) r.angular_velocity = w->vec3();
   }
   m.read("fixed", r.fixed);
+  if (auto f = m.opt("contact")) {
+    const MapReader cm = f->map({"stiffness", "damping", "friction"});
+    cm.read("stiffness", r.contact_stiffness,
+            physical_range(1e-9, 1e12, "Pa/m: contact pressure per metre of penetration (automatic: 100*E/feature)"));
+    cm.read("damping", r.contact_damping, physical_range(0, 1e9, "Pa*s/m: contact pressure per penetration rate"));
+    cm.read("friction", r.friction, physical_range(0, 10, "a Coulomb coefficient: tissue on steel is ~0.1..1"));
+  }
   if (r.fixed)
     if (auto f = m.opt("velocity")) f->fail("a fixed body does not move: remove its velocity, or fixed");
   return r;
@@ -863,7 +870,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
 
   std::map<std::string, int> rigid_names;
   for (const auto& item : m.list("rigid_bodies")) {
-    const MapReader rm = item.map({"name", "shape", "density", "pose", "velocity", "fixed"});
+    const MapReader rm = item.map({"name", "shape", "density", "pose", "velocity", "fixed", "contact"});
     s.rigid_bodies.push_back(parse_rigid_body(rm, ctx));
     check_unique_name(rigid_names, s.rigid_bodies.back().name, rm.req("name"), "rigid body");
     if (body_names.count(s.rigid_bodies.back().name))

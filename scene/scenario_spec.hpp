@@ -327,6 +327,9 @@ struct RigidBodySpec {
   Vec3 velocity{0, 0, 0};          ///< of the centre of mass, world (m/s)
   Vec3 angular_velocity{0, 0, 0};  ///< world (rad/s)
   bool fixed = false;        ///< does not move (an obstacle, a table)
+  /// Contact (rigid/rigid_contact.hpp): Pa/m (0: automatic, 100·E_max / the shape's smallest
+  /// feature, as a tool's), Pa·s/m, and the Coulomb coefficient.
+  double contact_stiffness = 0, contact_damping = 0, friction = 0.2;
   SourceLocation where;      ///< the entry
   SourceLocation shape_where;
 };

@@ -6,6 +6,10 @@
 /// force is spread as w_a·f, and its stiffness and damping enter the implicit system as the
 /// blocks w_a w_b K (so contact stays stable at 1 kHz with implicit Euler). The BSR slots of the
 /// DOF pairs are precomputed at load time.
+///
+/// A spring may also join rigid bodies (tissue/rigid_rows.hpp): its anchor may move with a
+/// rigid row's point (row_n), and a spring between two rigid bodies, or a body and a fixed
+/// anchor, has no DOFs at all (n = 0) and its positive side is a rigid row's point (row_p).
 
 #include <cstdint>
 
@@ -14,8 +18,11 @@ namespace stroma {
 /// Most DOFs one contact point involves (a point of one element copy).
 inline constexpr int kSpringMaxNodes = 4;
 
-/// f = force on the tissue at the contact point; ∂f/∂x ≈ −K, ∂f/∂v ≈ −C (symmetric PSD,
-/// row-major), both for the contact point. Invariants: 1 ≤ n ≤ kSpringMaxNodes; w[0..n) sums
+/// f = force on the tissue at the contact point (its positive side); ∂f/∂x ≈ −K, ∂f/∂v ≈ −C
+/// (symmetric PSD, row-major) in the point's displacement relative to its anchor. The anchor is
+/// fixed (or a tool's, prescribed) unless row_n ≥ 0: then it is the point x_c + arm_n of that
+/// rigid row, which gets −f. Invariants: 0 ≤ n ≤ kSpringMaxNodes, n = 0 exactly when
+/// row_p ≥ 0 (the positive side is then the rigid row's point x_c + arm_p); w[0..n) sums
 /// to 1 (w ≥ 0); slot[4a + b] (a, b < n) is the stored (upper-triangle) BSR block
 /// (node[a], node[b]) when node[a] ≤ node[b], −1 for the lower-triangle pairs (their blocks are
 /// the transposes of (b, a)'s, and K, C are symmetric), or a harmless diagonal block for nodes
@@ -28,10 +35,22 @@ struct ContactSpring {
   double force[3] = {0, 0, 0};
   double K[9] = {};
   double C[9] = {};
+  int32_t row_p = -1;  ///< ≥ 0: the positive side is this rigid row's point (and n = 0)
+  int32_t row_n = -1;  ///< ≥ 0: the anchor is this rigid row's point
+  double arm_p[3] = {0, 0, 0};  ///< m, world: row_p's point from its centre of mass
+  double arm_n[3] = {0, 0, 0};  ///< m, world: row_n's point from its centre of mass
 };
 
+/// Whether spring `sp` acts on a rigid row (its terms then go through tissue/rigid_rows.hpp).
+inline bool spring_has_rows(const ContactSpring& sp) { return sp.row_p >= 0 || sp.row_n >= 0; }
+
 /// The contact point Σ w_a x_a of spring `sp` at positions x.
+/// (0 for a spring with no DOFs.)
 inline void spring_point(const ContactSpring& sp, const double* x, double* p) {
+  if (sp.n == 0) {
+    p[0] = p[1] = p[2] = 0;
+    return;
+  }
   for (int k = 0; k < 3; ++k) {
     double s = sp.w[0] * x[3 * sp.node[0] + k];
     for (int a = 1; a < sp.n; ++a) s += sp.w[a] * x[3 * sp.node[a] + k];

@@ -42,6 +42,15 @@ TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
   if (cfg_.preconditioner == Preconditioner::WarpedCholesky && cfg_.linear_solver == LinearSolverKind::CG)
     warped_ = std::make_unique<WarpedPreconditioner>(m_);
   if (m_.smoothing.matrix_free && !m_.smoothing.empty()) nodal_ = std::make_unique<NodalSystem>(m_);
+  extra_op_.apply = &TimeStepper::extra_apply;
+  extra_op_.context = this;
+  extra_op_.diag = nodal_ ? nodal_->op()->diag : nullptr;
+}
+
+void TimeStepper::extra_apply(void* self, const double* x, double* y) {
+  const TimeStepper& t = *static_cast<const TimeStepper*>(self);
+  if (t.nodal_) t.nodal_->op()->apply(t.nodal_->op()->context, x, y);
+  t.rows_.apply(x, y);
 }
 
 void TimeStepper::set_realtime(bool realtime) {
@@ -114,6 +123,7 @@ double TimeStepper::assemble(TissueState& s, double h, const StepInputs& inputs)
   }
   in_ = inputs;
   h_ = h;
+  rows_.clear();  // until this step's are assembled
   std::fill(force_.begin(), force_.end(), 0.0);
   ElasticPass p;
   p.x = s.x.data();
@@ -174,6 +184,11 @@ double TimeStepper::assemble(TissueState& s, double h, const StepInputs& inputs)
                                             : h * (fe[d] + dm * m_.gravity[k] + force_[d]) + mi * s.v[d] - tmp_[d];
       }
     }
+    // Rigid rows (tissue/rigid_rows.hpp): their A_rr and b_r, the tissue's share of the
+    // anchors' velocity, then eliminated: the solve is of the Schur complement.
+    if (in_.rigid && in_.rigid->rows > 0 &&
+        rows_.assemble(*in_.rigid, in_.springs, in_.spring_count, h, s.v.data(), rhs_.data(), m_))
+      rows_.reduce_rhs(rhs_.data());
     project_constraints(A_.data(), 1.0);
     if (nodal_) nodal_->finish();
     if (warped_) {
@@ -249,6 +264,17 @@ SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
       if (dof_constrained(m_, i, k)) dv[3 * i + k] = 0.0;
   if (cfg_.linear_solver == LinearSolverKind::Cholmod) {
     st.converged = cholmod_->factor(A_.data());
+    if (st.converged && rows_.rows() > 0) {
+      // The Schur complement is A minus a term of rank ≤ 6·rows: CG preconditioned by A's
+      // factor converges in at most that many + 1 iterations.
+      const ExternalPreconditioner factor_solve{
+          [](void* c, const double* r, double* z) { static_cast<CholmodSolver*>(c)->solve(r, z); }, cholmod_.get()};
+      st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, Preconditioner::WarpedCholesky,
+                     std::max(cfg_.max_iterations, 6 * rows_.rows() + 2), cfg_.tolerance, &factor_solve, deadline,
+                     true, extra());
+      rows_.back_substitute(dv);
+      return st;
+    }
     if (st.converged) cholmod_->solve(rhs_.data(), dv);
     st.iterations = 0;
     return st;
@@ -302,6 +328,7 @@ SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
   }
   hist.converged_in_a_row = st.converged ? hist.converged_in_a_row + 1 : 0;
   error_bounds(cg_.residual(), h_, st);
+  rows_.back_substitute(dv);
   return st;
 }
 
@@ -403,6 +430,9 @@ double TimeStepper::timed_residual(NewtonStats& st, const TissueState& s, double
 NewtonStats TimeStepper::newton(TissueState& s, double h, Deadline* deadline) {
   NewtonStats st;
   if (cfg_.newton_iterations <= 1 || cfg_.integrator != Integrator::ImplicitEuler) return st;
+  // With rigid rows the linearised step is the step (docs/RIGID.md): the iterations' residual
+  // is the tissue's alone.
+  if (rows_.rows() > 0) return st;
   const size_t n3 = rhs_.size();
   double* dv = s.dv.data();
   // Scale: the largest of the linearised system's right-hand side, the step's momentum change
@@ -508,6 +538,9 @@ double TimeStepper::potential_terms(const double* x) const {
 
 EnergyLimit TimeStepper::energy_guard(TissueState& s, double h, double* removed) {
   *removed = 0;
+  // The guard measures the tissue's energy; with rigid rows energy moves between the tissue
+  // and the bodies within the step, which it does not see (docs/RIGID.md).
+  if (rows_.rows() > 0) return EnergyLimit::None;
   const size_t n3 = s.x.size();
   // The start of the step: v₀ = v − Δv, x₀ = x − h·v (constrained DOFs did not move).
   std::vector<double>& x0 = tmp_;

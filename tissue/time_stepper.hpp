@@ -20,6 +20,7 @@
 #include "tissue/contact_spring.hpp"
 #include "tissue/fem_model.hpp"
 #include "tissue/options.hpp"
+#include "tissue/rigid_rows.hpp"
 #include "tissue/solver_costs.hpp"
 #include "tissue/tissue_state.hpp"
 #include "tissue/warped_preconditioner.hpp"
@@ -73,6 +74,9 @@ struct StepInputs {
   const double* node_mass = nullptr;   ///< current lumped masses (gravity follows them)
   /// Positions the springs were found at (their linearisation point); null: no contact energy.
   const double* contact_origin = nullptr;
+  /// Rigid bodies touching something this step: their rows join the step's system
+  /// (tissue/rigid_rows.hpp) and the solve fills their Δu. Null: none.
+  const RigidRowsInput* rigid = nullptr;
 };
 
 /// What energy_guard() did to a step.
@@ -136,6 +140,11 @@ class TimeStepper {
   int64_t preconditioner_factors_remade() const { return warped_ ? warped_->remade() : 0; }
   /// Rest-pose factorisations of the warped preconditioner so far (1 after prepare()).
   int64_t preconditioner_rest_factorizations() const { return warped_ ? warped_->rest_factorizations() : 0; }
+
+  /// Room for `rows` rigid rows per step (StepInputs::rigid); load time.
+  void reserve_rigid_rows(int32_t rows) { rows_.reserve(rows); }
+  /// Rigid rows in the last assembled step (0: the tissue's alone).
+  int32_t rigid_rows() const { return rows_.rows(); }
 
   /// Stage "assemble": element pass at the current state and the step's right-hand side, with
   /// this step's inputs (kept for the rest of the step). Returns the elastic energy at s.x.
@@ -283,7 +292,15 @@ class TimeStepper {
   const ExternalPreconditioner* external() const { return warped_ ? warped_->op() : nullptr; }
   /// Locking-free bodies under CG: the node domains' matrix-free part of A_ (nodal_smoothing.hpp).
   std::unique_ptr<NodalSystem> nodal_;
-  const ExtraOperator* extra() const { return nodal_ ? nodal_->op() : nullptr; }
+  /// The step's rigid rows (tissue/rigid_rows.hpp), eliminated into the tissue's system.
+  RigidRows rows_;
+  /// The matrix-free part of the system: the node domains' and the rigid rows' Schur term.
+  ExtraOperator extra_op_;
+  static void extra_apply(void* self, const double* x, double* y);
+  const ExtraOperator* extra() const {
+    if (rows_.rows() > 0) return &extra_op_;
+    return nodal_ ? nodal_->op() : nullptr;
+  }
 };
 
 /// A static Newton attempt whose residual grows beyond this multiple of its starting value is
