@@ -12,7 +12,7 @@ namespace {
 
 constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
 /// 2: the solver's history (SolverHistory) after the step counter.
-constexpr uint32_t kVersion = 4;  // 3: ToolState.posed; 4: rigid bodies
+constexpr uint32_t kVersion = 5;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
@@ -107,6 +107,7 @@ void hash_rigid(Fnv& f, const RigidBodyModel& b) {
   f.array(b.surface_triangles);
   f.value(static_cast<uint8_t>(b.fixed));
   f.value(b.initial);
+  for (const double v : {b.contact_stiffness, b.contact_damping, b.friction}) f.value(v);
 }
 
 void hash_stepper(Fnv& f, const StepperSettings& s) {

@@ -8,6 +8,7 @@
 #include "engine/cut_compile.hpp"
 #include "engine/damage.hpp"
 #include "engine/multirate.hpp"
+#include "engine/rigid_grasp.hpp"
 #include "engine/stage_timer.hpp"
 #include "engine/step_with_recovery.hpp"
 #include "haptics/contact.hpp"
@@ -83,6 +84,8 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     backup_rigid.resize(nb);
     rigid_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
     rigid_pairs.clear();
+    hold_begin.assign(m.tools.size(), 0);
+    hold_end.assign(m.tools.size(), 0);
     rigid_in.mass = row_mass.data();
     rigid_in.inertia = row_inertia.data();
     rigid_in.u0 = row_u0.data();
@@ -208,6 +211,14 @@ void rigid_contacts(const Model& m, const State& s, TickWorkspace& w, const Cont
         commit(b);
       }
     }
+  // Tools holding a body (engine/rigid_grasp.hpp).
+  for (size_t t = 0; t < m.tools.size(); ++t) {
+    const int32_t k = s.tools[t].grasped_body;
+    w.hold_begin[t] = w.hold_end[t] = static_cast<int32_t>(w.springs.size());
+    if (k < 0) continue;
+    if (rigid_grasp_springs(m.tools[t], s.tools[t], s.rigid[size_t(k)], tentative(k, 0), w.springs) > 0) commit(k);
+    w.hold_end[t] = static_cast<int32_t>(w.springs.size());
+  }
   w.rigid_in.rows = rows;
 }
 
@@ -230,6 +241,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   }
   w.bvh.refit(px);
   w.springs.clear();  // keeps its capacity: no allocation
+  update_rigid_grasps(m, s);  // before the tools' own grasps: a jaw closing on a body holds it
   const ContactSurface surf{m.collision_triangles, m.collision_dofs, m.collision_edge,
                             s.face_active.empty() ? nullptr : s.face_active.data(),
                             m.collision_cut_face.empty() ? nullptr : m.collision_cut_face.data()};
@@ -281,6 +293,10 @@ void hand_off(const Model& m, State& s, TickWorkspace& w) {
                           tool_center(m.tools[k], ts), out);
     if (m.tools[k].cuts)  // the cutting resistance (no torque: it acts along the edge's middle)
       for (int i = 0; i < 3; ++i) out.force[i] += ts.cut_force[i];
+    out.holding_body = ts.grasped_body;
+    if (ts.grasped_body >= 0 && w.hold_end[k] > w.hold_begin[k])  // the body it holds pulls on it
+      rigid_grasp_feedback(w.springs.data(), w.hold_begin[k], w.hold_end[k], w.backup_rigid[size_t(ts.grasped_body)],
+                           s.rigid[size_t(ts.grasped_body)], tool_center(m.tools[k], ts), out);
     ts.force = out.force;
     ts.stiffness = out.stiffness;
     out.feedback = device_feedback(m.tools[k], ts, out, m.time_step);

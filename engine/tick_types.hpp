@@ -150,6 +150,8 @@ class TickWorkspace {
   std::vector<RigidState> backup_rigid;
   /// This tick's speculative rigid contacts (capacity fixed at load; rigid_contact.hpp).
   std::vector<RigidContactPair> rigid_pairs;
+  /// Per tool, its hold on a rigid body this tick: the springs [hold_begin, hold_end).
+  std::vector<int32_t> hold_begin, hold_end;
   TickReport report;  ///< the last tick's outputs
   /// What the energy guard that follows an inexact step costs (one energy-only element pass):
   /// the median of three passes timed when the workspace is made, then a running mean (1/8) of

@@ -167,6 +167,12 @@ struct ToolState {
   std::array<int32_t, kMaxGrasped> grasp_triangle{};
   std::array<std::array<double, 2>, kMaxGrasped> grasp_uv{};
   std::array<Vec3, kMaxGrasped> grasp_offset{};
+  // Grasp of a rigid body (engine/rigid_grasp.hpp): the body held (−1: none) and the points that
+  // hold it, each in the body's frame and in the tool's (about the tool centre) at the moment of
+  // grasping. Invariant: grasped_body ≥ 0 only while jaw_closed, and then grasped = 0.
+  int32_t grasped_body = -1;
+  std::array<Vec3, 3> body_hold_point{};
+  std::array<Vec3, 3> tool_hold_point{};
   // Cutting: the blade's edge at the end of the last tick (the swept surface starts there) and
   // the cutting resistance felt (N, smoothed over kCutForceTime).
   bool has_blade = false;
@@ -197,6 +203,7 @@ struct ToolOutput {
   int contacts_dropped = 0;           ///< beyond the per-tick capacity (should stay 0)
   double contact_energy = 0;          ///< penalty potential Σ ½ k δ² where contacts were found (J)
   bool grasping = false;              ///< holding tissue (its springs are grasp springs)
+  int32_t holding_body = -1;          ///< the rigid body it holds (−1: none)
   int cut_edges = 0;                  ///< mesh edges its blade cut this tick
   int32_t spring_begin = 0, spring_end = 0;  ///< its springs in the tick's spring list
 };
