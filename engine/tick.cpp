@@ -190,7 +190,7 @@ void rigid_contacts(const Model& m, const State& s, TickWorkspace& w, const Cont
   for (int32_t k = 0; k < nb; ++k) {
     const size_t before = w.springs.size();
     rigid_tissue_contact(m.rigid_bodies[size_t(k)], s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, v,
-                         m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)]);
+                         m.fem.constrained.data(), m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)]);
     if (w.springs.size() > before) commit(k);
   }
   for (int32_t i = 0; i < nb; ++i)

@@ -189,6 +189,34 @@ class PySimulation {
   py::array positions() { return mirror(x_, sim_->state().tissue.x, 3); }
   py::array velocities() { return mirror(v_, sim_->state().tissue.v, 3); }
   py::array damage() { return mirror(d_, sim_->state().damage, 1); }
+  /// Rigid bodies' poses, (k, 7): centre of mass x, y, z and orientation w, x, y, z.
+  py::array rigid_poses() { return mirror(rp_, rigid_rows_of(sim_->state(), true), 7); }
+  /// Rigid bodies' velocities, (k, 6): of the centre of mass (m/s), angular (rad/s), world.
+  py::array rigid_velocities() { return mirror(rv_, rigid_rows_of(sim_->state(), false), 6); }
+  /// Per rigid body: name, shape, mass, inertia (body frame, about the centre of mass), fixed,
+  /// and its contacts of the last tick (count, penalty energy, force on it).
+  py::list rigid_bodies() const {
+    py::list out;
+    const Model& m = sim_->model();
+    for (size_t k = 0; k < m.rigid_bodies.size(); ++k) {
+      const RigidBodyModel& b = m.rigid_bodies[k];
+      py::dict d;
+      d["name"] = b.name;
+      static const char* kShapes[] = {"sphere", "box", "capsule", "mesh"};
+      d["shape"] = kShapes[static_cast<int>(b.shape)];
+      d["mass"] = b.mass.mass;
+      d["inertia"] = std::vector<double>(b.mass.inertia.begin(), b.mass.inertia.end());
+      d["fixed"] = b.fixed;
+      const bool has = last_ && k < last_->rigid_contact.size();  // (no tick yet: none)
+      d["contacts"] = has ? last_->rigid_contact[k].contacts : 0;
+      d["contact_energy"] = has ? last_->rigid_contact[k].energy : 0.0;
+      d["contact_force"] = has ? std::vector<double>(last_->rigid_contact[k].force.begin(),
+                                                     last_->rigid_contact[k].force.end())
+                               : std::vector<double>(3, 0.0);
+      out.append(d);
+    }
+    return out;
+  }
 
   void write_vtu_file(const std::string& path) const { write_vtu(path, sim_->model(), sim_->state()); }
 
@@ -278,9 +306,27 @@ class PySimulation {
     if (x_) mirror(x_, s.tissue.x, 3);
     if (v_) mirror(v_, s.tissue.v, 3);
     if (d_) mirror(d_, s.damage, 1);
+    if (rp_) mirror(rp_, rigid_rows_of(s, true), 7);
+    if (rv_) mirror(rv_, rigid_rows_of(s, false), 6);
+  }
+  /// The rigid bodies' poses (7 per body) or velocities (6 per body), flattened.
+  static std::vector<double> rigid_rows_of(const State& s, bool poses) {
+    std::vector<double> out;
+    out.reserve(s.rigid.size() * 7);
+    for (const RigidState& r : s.rigid) {
+      if (poses) {
+        out.insert(out.end(), r.x.begin(), r.x.end());
+        out.insert(out.end(), r.q.begin(), r.q.end());
+      } else {
+        out.insert(out.end(), r.v.begin(), r.v.end());
+        out.insert(out.end(), r.w.begin(), r.w.end());
+      }
+    }
+    return out;
   }
 
   py::object x_, v_, d_;  ///< positions, velocities, damage arrays (null until first asked for)
+  py::object rp_, rv_;    ///< rigid poses and velocities (likewise)
   CompiledScenario sc_;
   uint64_t fingerprint_ = 0;
   std::unique_ptr<Simulation> sim_;
@@ -349,5 +395,14 @@ PYBIND11_MODULE(_stroma, mod) {
       .def_property_readonly("damage_counts", &PySimulation::damage_counts,
                              "Elements that reached warned, damaged, ruptured")
       .def_property_readonly("velocities", &PySimulation::velocities,
-                             "Node velocities (m/s), an (n, 3) read-only array kept up to date as positions is");
+                             "Node velocities (m/s), an (n, 3) read-only array kept up to date as positions is")
+      .def_property_readonly("rigid_poses", &PySimulation::rigid_poses,
+                             "Rigid bodies' poses, a (k, 7) read-only array kept up to date as positions is: centre "
+                             "of mass x, y, z (m) and orientation quaternion w, x, y, z (body to world)")
+      .def_property_readonly("rigid_velocities", &PySimulation::rigid_velocities,
+                             "Rigid bodies' velocities, a (k, 6) read-only array: centre of mass (m/s) and angular "
+                             "(rad/s), world")
+      .def_property_readonly("rigid_bodies", &PySimulation::rigid_bodies,
+                             "Per rigid body: name, shape, mass, inertia (body frame), fixed, and the last tick's "
+                             "contacts, contact_energy and contact_force (N, on the body)");
 }

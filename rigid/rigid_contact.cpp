@@ -234,15 +234,21 @@ void make_contact_samples(RigidBodyModel& b) {
 }
 
 void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, const ContactSurface& surf,
-                          const TriangleBvh& bvh, const double* x, const double* v, double h, const Vec3& g,
-                          std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
-                          RigidContactOutput& out) {
+                          const TriangleBvh& bvh, const double* x, const double* v, const uint8_t* constrained,
+                          double h, const Vec3& g, std::vector<ContactSpring>& springs,
+                          std::vector<RigidContactPair>& pairs, RigidContactOutput& out) {
   const std::array<double, 9> R = rotation_of(s.q);
   const double speed = norm3(s.v.data()) + norm3(s.w.data()) * b.bounding_radius;
   const double reach = b.bounding_radius + 2.0 * h * speed + h * h * norm3(g.data()) + 0.25 * b.feature;
   const double v_stick = 0.01 * b.feature;
   bvh.query_sphere(s.x.data(), reach, x, [&](int32_t t) {
     if (surf.active && !surf.active[t]) return;
+    if (row < 0 && constrained) {  // a fixed body against tissue held in place: nothing to do
+      const SurfaceTriangleDofs& td = surf.dofs[size_t(t)];
+      bool held = true;
+      for (int a = 0; a < td.n && held; ++a) held = constrained[td.dof[a]] == 7;
+      if (held) return;
+    }
     const auto& tri = surf.triangles[size_t(t)];
     const double* p0 = x + 3 * tri[0];
     const double* p1 = x + 3 * tri[1];
@@ -252,6 +258,21 @@ void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t 
     const double cr[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
     const double twice_area = norm3(cr);
     if (twice_area <= 0) return;
+    // The distance is 1-Lipschitz and every point of the triangle is within its longest edge of
+    // a vertex: if the vertices are all farther than that (and the step's reach), skip it.
+    {
+      double dmin = 1e300;
+      for (const double* p : {p0, p1, p2}) {
+        double arm[3], pb[3], nb[3];
+        for (int k = 0; k < 3; ++k) arm[k] = p[k] - s.x[size_t(k)];
+        rot_t(R, arm, pb);
+        dmin = std::min(dmin, shape_distance(b, pb, nb));
+      }
+      const double longest = std::max({norm3(e1), norm3(e2), std::sqrt((p2[0] - p1[0]) * (p2[0] - p1[0]) +
+                                                                       (p1[1] - p2[1]) * (p1[1] - p2[1]) +
+                                                                       (p2[2] - p1[2]) * (p2[2] - p1[2]))});
+      if (dmin > longest + reach - b.bounding_radius) return;
+    }
     const int ns = surface_samples_per_edge(surf, t, b.feature);
     const double area = 0.5 * twice_area / (ns * ns);
     const double kc = b.contact_stiffness * area, cc = b.contact_damping * area;

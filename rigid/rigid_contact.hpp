@@ -68,10 +68,12 @@ double shape_distance(const RigidBodyModel& b, const double* p, double* normal);
 void make_contact_samples(RigidBodyModel& b);
 
 /// The tissue's surface (points x, velocities v; BVH refitted) against body b at state s.
-/// `row`: the body's row in the step (−1: a fixed body, anchored). Appends springs up to the
-/// vector's capacity.
+/// `row`: the body's row in the step (−1: a fixed body, anchored). `constrained` (per DOF node,
+/// the axes held as bits; may be null): a fixed body skips triangles whose DOFs are all held
+/// (nothing there can move). Appends springs up to the vector's capacity.
 void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, const ContactSurface& surf,
-                          const TriangleBvh& bvh, const double* x, const double* v, double h, const Vec3& g,
+                          const TriangleBvh& bvh, const double* x, const double* v, const uint8_t* constrained,
+                          double h, const Vec3& g,
                           std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
                           RigidContactOutput& out);
 

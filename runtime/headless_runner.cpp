@@ -52,6 +52,9 @@ class MetricsWriter {
     for (const ToolSpec& t : m.tools)
       buf_ += fmt::format(",{0}_fx,{0}_fy,{0}_fz,{0}_contacts,{0}_feedback_fx,{0}_feedback_fy,{0}_feedback_fz", t.name);
     if (m.has_damage) buf_ += ",elements_warned,elements_damaged,elements_ruptured";
+    for (const RigidBodyModel& b : m.rigid_bodies)
+      buf_ += fmt::format(",{0}_x,{0}_y,{0}_z,{0}_qw,{0}_qx,{0}_qy,{0}_qz,{0}_vx,{0}_vy,{0}_vz,{0}_contacts,{0}_fx,{0}_fy,{0}_fz",
+                          b.name);
     buf_ += ",over_budget,degradation,error_energy,error_position,energy_removed";
     if (m.cutting) buf_ += ",cut_edges,topology_version,elements_split,nodes_created,faces_created,cut_area";
     buf_ += '\n';
@@ -80,6 +83,13 @@ class MetricsWriter {
       fmt::format_to(out, ",{:.9e},{:.9e},{:.9e},{},{:.9e},{:.9e},{:.9e}", t.force[0], t.force[1], t.force[2], t.contacts,
                      t.feedback.force[0], t.feedback.force[1], t.feedback.force[2]);
     if (m_->has_damage) fmt::format_to(out, ",{},{},{}", s.damage_count[1], s.damage_count[2], s.damage_count[3]);
+    for (size_t k = 0; k < s.rigid.size(); ++k) {
+      const RigidState& b = s.rigid[k];
+      const RigidContactOutput c = k < r.rigid_contact.size() ? r.rigid_contact[k] : RigidContactOutput{};
+      fmt::format_to(out, ",{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.9e},{:.9e},{:.9e},{},{:.9e},{:.9e},{:.9e}",
+                     b.x[0], b.x[1], b.x[2], b.q[0], b.q[1], b.q[2], b.q[3], b.v[0], b.v[1], b.v[2], c.contacts,
+                     c.force[0], c.force[1], c.force[2]);
+    }
     fmt::format_to(out, ",{},{},{:.3e},{:.3e},{:.3e}", r.over_budget ? 1 : 0, degradation_name(r.degradation),
                    r.solve.error_energy, r.solve.error_position, r.energy_removed);
     if (m_->cutting) {
@@ -249,6 +259,23 @@ void RunOutputs::finish(RunResult& res) {
                               {"feedback_clamped", fb.clamped}};
   }
   j["tools"] = tools;
+  if (!m.rigid_bodies.empty()) {
+    nlohmann::ordered_json rigid = nlohmann::ordered_json::object();
+    for (size_t k = 0; k < m.rigid_bodies.size(); ++k) {
+      const RigidState& r = s.rigid[k];
+      nlohmann::ordered_json b = {{"position", {r.x[0], r.x[1], r.x[2]}},
+                                  {"orientation", {r.q[0], r.q[1], r.q[2], r.q[3]}},
+                                  {"velocity", {r.v[0], r.v[1], r.v[2]}},
+                                  {"angular_velocity", {r.w[0], r.w[1], r.w[2]}}};
+      if (k < res.final_rigid.size()) {
+        const RigidContactOutput& c = res.final_rigid[k];
+        b["contacts"] = c.contacts;
+        b["contact_force"] = {c.force[0], c.force[1], c.force[2]};
+      }
+      rigid[m.rigid_bodies[k].name] = b;
+    }
+    j["rigid_bodies"] = rigid;
+  }
   if (m.cutting) {
     const CutStats& c = m.cut_stats;
     j["cutting"] = {{"edges_cut", c.edges_cut},
@@ -455,6 +482,7 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, Si
       const CutStageResult c = sim.cut(r.cut_edges);
       if (c.swapped) {
         res.final_tools = r.tools;  // (r stays readable until the next step)
+        res.final_rigid = r.rigid_contact;
         log.last_tick_swapped = true;
         out.set_model(sim.model());
         spdlog::debug("tick {}: topology {} swapped in ({} elements split, {} nodes created, cut area {:.3g} m^2; "
@@ -517,7 +545,7 @@ RunResult run_headless(const CompiledScenario& sc, const RunOptions& o) {
   }
   // The last tick's tool outputs: its workspace's, unless the tick that ended the run swapped
   // the model (then they were kept before the swap).
-  if (!log.last_tick_swapped) res.final_tools = w.report.tools;
+  if (!log.last_tick_swapped) res.final_tools = w.report.tools, res.final_rigid = w.report.rigid_contact;
   res.final_state = std::move(s);
   out.finish(res);
   return res;

@@ -36,6 +36,7 @@ struct RunOptions {
 struct RunResult {
   State final_state;
   std::vector<ToolOutput> final_tools;  ///< each tool's output of the last tick (or equilibrium)
+  std::vector<RigidContactOutput> final_rigid;  ///< each rigid body's contacts of the last tick
   bool ok = true;                       ///< false: the run failed (see failure)
   std::string failure;                  ///< why, when !ok
   long steps = 0;                       ///< ticks (static: equilibria after the first)

@@ -460,3 +460,42 @@ def test_parallel_rollouts_equal_serial_ones():
     assert "parallel = serial, bit for bit" in r.stdout
     forces = [float(line.split("peak force")[1].split(",")[0]) for line in r.stdout.splitlines() if "peak force" in line]
     assert len(forces) == 2 and 0 < forces[0] < forces[1], "a deeper press pushes back harder: " + r.stdout
+
+
+def test_rigid_bodies_are_read_as_poses_velocities_and_contacts():
+    """`rigid_poses` (k, 7) and `rigid_velocities` (k, 6) follow the state as positions does
+    (steps, restore); `rigid_bodies` names them with their mass and last tick's contacts. A ball
+    falls as implicit Euler says, lands on the tissue block and is pushed back up."""
+    scenario = {
+        "name": "ball_on_block", "time_step": 0.001, "gravity": [0, 0, -9.81],
+        "solver": {"preconditioner": "block_jacobi", "tolerance": 1.0e-10},
+        "bodies": [{"name": "block", "mesh": "meshes/cube_tet4_h8p333mm.msh",
+                    "material": {"young_modulus": 1.0e4, "poisson_ratio": 0.45, "density": 1000},
+                    "fixed": [{"box": {"min": [-1, -1, -1.0e-6], "max": [1, 1, 1.0e-6]}}]}],
+        "rigid_bodies": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.005}, "density": 1200,
+                          "pose": {"position": [0.025, 0.025, 0.06]}},
+                         {"name": "post", "shape": {"type": "box", "size": [0.01, 0.01, 0.01]}, "density": 1000,
+                          "pose": {"position": [0.3, 0, 0]}, "fixed": True}],
+    }
+    sim = stroma.simulation_from_dict(scenario, base_dir=SCENARIOS)
+    poses = sim.rigid_poses
+    assert poses.shape == (2, 7) and sim.rigid_velocities.shape == (2, 6)
+    assert not poses.flags.writeable
+    np.testing.assert_array_equal(poses[0], [0.025, 0.025, 0.06, 1, 0, 0, 0])
+    bodies = sim.rigid_bodies
+    assert [b["name"] for b in bodies] == ["ball", "post"] and bodies[1]["fixed"]
+    assert bodies[0]["mass"] == pytest.approx(1200 * 4 / 3 * np.pi * 0.005 ** 3, rel=1e-12)
+    n, h = 20, 0.001
+    sim.step(n)
+    # Free fall over 20 ticks (2 mm: the block's top is at 0.05, the ball's bottom still above it).
+    assert poses[0, 2] == pytest.approx(0.06 - 9.81 * h * h * n * (n + 1) / 2, abs=1e-12)
+    assert sim.rigid_velocities[0, 2] == pytest.approx(-9.81 * n * h, abs=1e-12)
+    before = sim.snapshot()
+    z_before = poses[0, 2]
+    sim.step(280)  # lands (at ~0.03 s) and is pushed back
+    assert poses[0, 2] - 0.005 > 0.045, "the ball rests on the block, not through it"
+    assert sim.rigid_bodies[0]["contacts"] > 0
+    assert sim.rigid_bodies[0]["contact_force"][2] > 0
+    np.testing.assert_array_equal(sim.rigid_poses[1], [0.3, 0, 0, 1, 0, 0, 0])
+    sim.restore(pickle.loads(pickle.dumps(before)))
+    assert poses[0, 2] == z_before
