@@ -28,6 +28,25 @@ inline std::string write_temp(const std::string& name, const std::string& text) 
   return p.string();
 }
 
+/// The head of a scenario about rigid bodies alone (y up, SI units, implicit Euler with block
+/// Jacobi to 1e-10): a scenario needs a tissue body, so a small one held still far away. The
+/// caller appends its `tools:` and `rigid_bodies:`.
+inline std::string rigid_scene_head(const std::string& name) {
+  return "name: " + name + R"(
+time_step: 0.001
+gravity: [0, -9.81, 0]
+solver: {integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-10}
+bodies:
+  - name: far
+    mesh: )" + std::string(STROMA_SOURCE_DIR) + R"(/scenarios/meshes/cube_tet4_h5p000mm.msh
+    scale: 0.1
+    translate: [1, 1, 1]
+    material: {young_modulus: 1.0e4, poisson_ratio: 0.45, density: 1000}
+    fixed:
+      - box: {min: [-10, -10, -10], max: [10, 10, 10]}
+)";
+}
+
 /// The indentation quarter block (0.05 × 0.05 × 0.05 m of `mesh`, E 5 kPa, ν 0.45, ρ 1000) with
 /// the sphere (R 5 mm, penalty 1e9 Pa/m) driven by `script`. `solver` is the solver: map's
 /// text, `material_extra` and `tool_extra` are appended inside the material map and to the

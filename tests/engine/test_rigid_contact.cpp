@@ -255,32 +255,20 @@ std::string slope_yaml(double theta, double mu) {
   const double ny[2] = {-std::sin(theta), std::cos(theta)};
   const double slab_c[2] = {-0.005 * ny[0], -0.005 * ny[1]};
   const double box_c[2] = {0.01 * ny[0], 0.01 * ny[1]};
-  return fmt::format(R"(name: slope
-time_step: 0.001
-gravity: [0, -9.81, 0]
-solver: {{integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-10}}
-bodies:
-  - name: far
-    mesh: {0}/scenarios/meshes/cube_tet4_h5p000mm.msh
-    scale: 0.1
-    translate: [1, 1, 1]
-    material: {{young_modulus: 1.0e4, poisson_ratio: 0.45, density: 1000}}
-    fixed:
-      - box: {{min: [-10, -10, -10], max: [10, 10, 10]}}
-rigid_bodies:
+  return test_scenarios::rigid_scene_head("slope") + fmt::format(R"(rigid_bodies:
   - name: slab
     shape: {{type: box, size: [0.4, 0.01, 0.1]}}
     density: 1000
-    pose: {{position: [{1}, {2}, 0], orientation: [{3}, 0, 0, {4}]}}
+    pose: {{position: [{0}, {1}, 0], orientation: [{2}, 0, 0, {3}]}}
     fixed: true
-    contact: {{stiffness: 1.0e7, friction: {5}}}
+    contact: {{stiffness: 1.0e7, friction: {4}}}
   - name: box
     shape: {{type: box, size: [0.02, 0.02, 0.02]}}
     density: 1000
-    pose: {{position: [{6}, {7}, 0], orientation: [{3}, 0, 0, {4}]}}
-    contact: {{stiffness: 1.0e7, friction: {5}}}
+    pose: {{position: [{5}, {6}, 0], orientation: [{2}, 0, 0, {3}]}}
+    contact: {{stiffness: 1.0e7, friction: {4}}}
 )",
-                     kSrc, slab_c[0], slab_c[1], c, sn, mu, box_c[0], box_c[1]);
+                     slab_c[0], slab_c[1], c, sn, mu, box_c[0], box_c[1]);
 }
 
 /// The box's speed down the slope over [t0, t1] (s): its mean acceleration along it.

@@ -4,7 +4,6 @@
 // again.
 
 #include <gtest/gtest.h>
-#include <fmt/format.h>
 
 #include <cmath>
 #include <string>
@@ -13,6 +12,7 @@
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
+#include "tests/test_scenarios.hpp"
 
 using namespace stroma;
 
@@ -22,35 +22,22 @@ const std::string kSrc = STROMA_SOURCE_DIR;
 constexpr double kG = 9.81;
 
 std::string grasp_yaml() {
-  return fmt::format(R"(name: grasp
-time_step: 0.001
-gravity: [0, -9.81, 0]
-solver: {{integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-10}}
-bodies:
-  - name: far
-    mesh: {0}/scenarios/meshes/cube_tet4_h5p000mm.msh
-    scale: 0.1
-    translate: [1, 1, 1]
-    material: {{young_modulus: 1.0e4, poisson_ratio: 0.45, density: 1000}}
-    fixed:
-      - box: {{min: [-10, -10, -10], max: [10, 10, 10]}}
-tools:
+  return test_scenarios::rigid_scene_head("grasp") + R"(tools:
   - name: grasper
-    shape: {{type: grasper, radius: 0.002, length: 0.01}}
-    grasp: {{close: 0.05, open: 0.1}}
-    pose: {{position: [0, 0.03, 0], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}}
+    shape: {type: grasper, radius: 0.002, length: 0.01}
+    grasp: {close: 0.05, open: 0.1}
+    pose: {position: [0, 0.03, 0], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
 rigid_bodies:
   - name: slab
-    shape: {{type: box, size: [0.1, 0.01, 0.1]}}
+    shape: {type: box, size: [0.1, 0.01, 0.1]}
     density: 1000
-    pose: {{position: [0, -0.005, 0]}}
+    pose: {position: [0, -0.005, 0]}
     fixed: true
   - name: box
-    shape: {{type: box, size: [0.01, 0.01, 0.01]}}
+    shape: {type: box, size: [0.01, 0.01, 0.01]}
     density: 1000
-    pose: {{position: [0, 0.005, 0]}}
-)",
-                     kSrc);
+    pose: {position: [0, 0.005, 0]}
+)";
 }
 
 /// The grasper's centre height and jaw at time t (s): hover, descend, close, lift, hold, open,
