@@ -17,6 +17,7 @@
 #include "collision/body_contact.hpp"
 #include "engine/damage_model.hpp"
 #include "haptics/tool.hpp"
+#include "rigid/needle_track.hpp"
 #include "rigid/rigid_body.hpp"
 #include "tissue/barycentric.hpp"
 #include "tissue/cut_topology.hpp"
@@ -78,6 +79,10 @@ struct ModelConstants {
   /// stepped after the tissue in the integrate stage (rigid/rigid_motion.hpp); they touch
   /// nothing yet.
   std::vector<RigidBodyModel> rigid_bodies;
+  /// Per FEM body, how needles meet it (its material's `needle:`; rigid/needle_track.hpp).
+  /// Sized to the bodies when some rigid body is a needle, else empty.
+  std::vector<NeedleTissue> needle_tissue;
+  bool has_needles = false;  ///< some rigid body is a needle (the track's springs and update run)
   std::vector<DamageModel> body_damage;    ///< per body (enabled = false: no damage model)
   /// Damage models of regions that have their own (`regions: [{…, damage: …}]`); which element
   /// follows which is the topology part's (ModelTopology::element_region_damage).
@@ -130,6 +135,10 @@ struct ModelTopology {
   /// faces; a copy of a cut one, its part of the cut surface and of the faces it shares.
   std::vector<int32_t> element_face_ptr, element_face;
   std::vector<std::vector<Tet>> body_tets;  ///< per body, global node indices (for output)
+  /// Needles (ModelConstants::has_needles; else empty): each element's face neighbours
+  /// (tissue/tet_walk.hpp: 4 per element, −1 on the boundary) and an element of each node —
+  /// where a needle's walks start.
+  std::vector<int32_t> tet_neighbours, node_tet;
 
   std::shared_ptr<const CutTopology> topology;  ///< this model's topology (the uncut one's too)
   int32_t topology_version = 0;  ///< 0: uncut; +1 per swapped-in cut model

@@ -87,7 +87,7 @@ bool model_invariants_hold(const Model& m, std::string* why) {
 bool state_sized_for(const Model& m, const State& s) {
   const size_t dofs = 3 * static_cast<size_t>(m.fem.num_nodes), ne = m.fem.elements.size();
   return s.tissue.x.size() == dofs && s.tissue.v.size() == dofs && s.tools.size() == m.tools.size() &&
-         s.rigid.size() == m.rigid_bodies.size() &&
+         s.rigid.size() == m.rigid_bodies.size() && s.needles.size() == m.rigid_bodies.size() &&
          s.tissue.visco_q.size() == static_cast<size_t>(m.fem.visco_q_size) &&
          s.tissue.visco_s0.size() == static_cast<size_t>(m.fem.visco_s0_size) &&
          (m.has_damage ? s.damage.size() == ne && s.damage_level.size() == ne &&

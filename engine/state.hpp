@@ -20,6 +20,9 @@ struct State {
   TissueState tissue;  ///< positions, velocities, solver warm start
   std::vector<ToolState> tools;  ///< one per scenario tool
   std::vector<RigidState> rigid;  ///< one per Model::rigid_bodies
+  /// One per Model::rigid_bodies: a needle's insertion (rigid/needle_track.hpp; its track sized
+  /// to the body's track_capacity); other bodies' stay empty and outside.
+  std::vector<NeedleState> needles;
   // Damage (empty when no body has a damage model):
   std::vector<float> damage;          ///< per element d ∈ [0, 1]; stiffness × (1 − d)
   std::vector<uint8_t> damage_level;  ///< per element DamageLevel
@@ -54,7 +57,10 @@ struct State {
       h.pending_rot.assign(rot, 0.0);
     }
     s.tools.assign(m.tools.size(), ToolState{});
-    for (const RigidBodyModel& b : m.rigid_bodies) s.rigid.push_back(b.initial);
+    for (const RigidBodyModel& b : m.rigid_bodies) {
+      s.rigid.push_back(b.initial);
+      s.needles.emplace_back().track.resize(size_t(b.track_capacity));
+    }
     for (size_t k = 0; k < m.tools.size(); ++k) s.tools[k].pose = m.tools[k].rest_pose;
     if (m.cutting) s.edge_cut.assign(m.cut_edge_dofs.size(), kEdgeUncut);
     if (m.has_damage) {

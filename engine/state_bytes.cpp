@@ -12,7 +12,7 @@ namespace {
 
 constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
 /// 2: the solver's history (SolverHistory) after the step counter.
-constexpr uint32_t kVersion = 5;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body
+constexpr uint32_t kVersion = 6;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body; 6: needles
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
@@ -108,6 +108,9 @@ void hash_rigid(Fnv& f, const RigidBodyModel& b) {
   f.value(static_cast<uint8_t>(b.fixed));
   f.value(b.initial);
   for (const double v : {b.contact_stiffness, b.contact_damping, b.friction}) f.value(v);
+  f.value(static_cast<uint8_t>(b.needle.curved));
+  for (const double v : {b.needle.wire_radius, b.needle.length, b.needle.arc_radius, b.needle.angle}) f.value(v);
+  f.value(b.track_capacity);
 }
 
 void hash_stepper(Fnv& f, const StepperSettings& s) {
@@ -161,6 +164,12 @@ void hash_constants(Fnv& f, const ModelConstants& m) {
   for (const ToolSpec& t : m.tools) hash_tool(f, t);
   f.value(static_cast<uint64_t>(m.rigid_bodies.size()));
   for (const RigidBodyModel& b : m.rigid_bodies) hash_rigid(f, b);
+  for (const NeedleTissue& t : m.needle_tissue) {
+    f.value(static_cast<uint8_t>(t.enabled));
+    for (const double v : {t.puncture_force, t.cutting_force, t.friction_static, t.friction_kinetic, t.track_stiffness,
+                           t.track_spacing})
+      f.value(v);
+  }
   f.value(static_cast<uint8_t>(m.has_damage));
   for (const DamageModel& d : m.body_damage) hash_damage(f, d);
   for (const DamageModel& d : m.region_damage) hash_damage(f, d);
@@ -240,6 +249,16 @@ std::string encode_state(const State& s, uint64_t fingerprint) {
   w.array(s.tissue.visco_s0);
   w.array(s.tools);
   w.array(s.rigid);
+  w.value(static_cast<uint64_t>(s.needles.size()));
+  for (const NeedleState& n : s.needles) {
+    w.value(n.phase);
+    w.value(n.tissue_body);
+    w.value(n.count);
+    w.array(n.track);
+    w.value(n.front);
+    w.value(n.has_front);
+    w.value(n.punctures);
+  }
   w.array(s.damage);
   w.array(s.damage_level);
   w.array(s.node_mass);
@@ -297,6 +316,22 @@ State decode_state(const std::string& bytes, uint64_t* fingerprint) {
   r.array(s.tissue.visco_s0, "visco_s0");
   r.array(s.tools, "tools");
   r.array(s.rigid, "rigid");
+  uint64_t needles = 0;
+  r.value(needles, "needles");
+  if (needles != s.rigid.size())
+    throw InputError(kWhat, 0, "needles", std::to_string(needles) + " needle states for " + std::to_string(s.rigid.size()) + " rigid bodies");
+  s.needles.resize(size_t(needles));
+  for (NeedleState& n : s.needles) {
+    r.value(n.phase, "needle.phase");
+    r.value(n.tissue_body, "needle.tissue_body");
+    r.value(n.count, "needle.count");
+    r.array(n.track, "needle.track");
+    r.value(n.front, "needle.front");
+    r.value(n.has_front, "needle.has_front");
+    r.value(n.punctures, "needle.punctures");
+    if (n.count < 0 || size_t(n.count) > n.track.size() || static_cast<uint8_t>(n.phase) > 2)
+      throw InputError(kWhat, 0, "needle", "a needle's track count or phase is out of range");
+  }
   r.array(s.damage, "damage");
   r.array(s.damage_level, "damage_level");
   r.array(s.node_mass, "node_mass");
@@ -334,6 +369,17 @@ State decode_state(const std::string& bytes, uint64_t* fingerprint) {
   return s;
 }
 
+namespace {
+bool needle_tracks_fit(const State& s, const State& ref, std::string* why) {
+  for (size_t k = 0; k < s.needles.size() && k < ref.needles.size(); ++k)
+    if (s.needles[k].track.size() != ref.needles[k].track.size()) {
+      if (why) *why = "needle " + std::to_string(k) + "'s track capacity differs from the model's";
+      return false;
+    }
+  return true;
+}
+}  // namespace
+
 bool state_fits_model(const State& s, const Model& m, std::string* why) {
   const State ref = State::initial(m);
   auto check = [&](size_t have, size_t want, const char* what) {
@@ -347,7 +393,8 @@ bool state_fits_model(const State& s, const Model& m, std::string* why) {
          check(s.tissue.dv_prev.size(), ref.tissue.dv_prev.size(), "warm start") &&
          check(s.tissue.visco_q.size(), ref.tissue.visco_q.size(), "visco-elastic branches") &&
          check(s.tissue.visco_s0.size(), ref.tissue.visco_s0.size(), "visco-elastic stresses") &&
-         check(s.tools.size(), ref.tools.size(), "tools") && check(s.rigid.size(), ref.rigid.size(), "rigid bodies") && check(s.damage.size(), ref.damage.size(), "damage") &&
+         check(s.tools.size(), ref.tools.size(), "tools") && check(s.rigid.size(), ref.rigid.size(), "rigid bodies") &&
+         check(s.needles.size(), ref.needles.size(), "needles") && needle_tracks_fit(s, ref, why) && check(s.damage.size(), ref.damage.size(), "damage") &&
          check(s.damage_level.size(), ref.damage_level.size(), "damage levels") &&
          check(s.node_mass.size(), ref.node_mass.size(), "node masses") &&
          check(s.face_active.size(), ref.face_active.size(), "collision faces") &&

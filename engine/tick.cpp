@@ -92,6 +92,11 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     rigid_in.force = row_force.data();
     rigid_in.du = row_du.data();
     report.rigid_contact.resize(nb);
+    report.needles.resize(nb);
+    tip_spring.assign(nb, -1);
+    size_t slip_capacity = 0;
+    for (const RigidBodyModel& b : m.rigid_bodies) slip_capacity += size_t(b.track_capacity) + 1;
+    needle_slips.reserve(slip_capacity);
     stepper_.reserve_rigid_rows(static_cast<int32_t>(nb));
   }
   if (m.body_contact) {
@@ -170,8 +175,8 @@ namespace {
 
 /// The rigid bodies' contacts (rigid/rigid_contact.hpp) with the tissue's surface and with each
 /// other; a free body that touches something gets a row in the step (tissue/rigid_rows.hpp).
-void rigid_contacts(const Model& m, const State& s, TickWorkspace& w, const ContactSurface& surf, const double* px,
-                    const double* v) {
+void rigid_contacts(const Model& m, const State& s, TickWorkspace& w, const ContactSurface& surf, const double* x,
+                    const double* px, const double* v) {
   const int32_t nb = static_cast<int32_t>(m.rigid_bodies.size());
   std::fill(w.body_row.begin(), w.body_row.end(), -1);
   int32_t rows = 0;
@@ -187,10 +192,35 @@ void rigid_contacts(const Model& m, const State& s, TickWorkspace& w, const Cont
   };
   for (RigidContactOutput& o : w.report.rigid_contact) o = RigidContactOutput{};
   w.rigid_pairs.clear();
+  w.needle_slips.clear();
   for (int32_t k = 0; k < nb; ++k) {
+    const RigidBodyModel& b = m.rigid_bodies[size_t(k)];
+    const NeedleState& ns = s.needles[size_t(k)];
     const size_t before = w.springs.size();
-    rigid_tissue_contact(m.rigid_bodies[size_t(k)], s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, v,
-                         m.fem.constrained.data(), m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)]);
+    // A needle (rigid/needle_track.hpp): its tip has a contact of its own, and the tissue none
+    // around its holes once it is in.
+    const bool needle = b.shape == RigidShape::Needle;
+    double holes[9];
+    int n_holes = 0;
+    double hole_radius = 0;
+    if (needle) {
+      n_holes = ns.phase != NeedlePhase::Outside ? needle_hole_points(ns, px, holes) : 0;
+      if (n_holes > 0) hole_radius = std::max(4.0 * b.needle.wire_radius, m.needle_tissue[size_t(ns.tissue_body)].track_spacing);
+      double c[3], t[3], arm[3];  // the rounded end: its samples give way to the tip's contact
+      needle_world_point(b, s.rigid[size_t(k)], b.needle.length, c, t, arm);
+      std::copy(c, c + 3, holes + 3 * n_holes++);
+      hole_radius = std::max(hole_radius, 2.0 * b.needle.wire_radius);
+    }
+    rigid_tissue_contact(b, s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, v, m.fem.constrained.data(),
+                         m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)],
+                         holes, n_holes, hole_radius);
+    w.tip_spring[size_t(k)] = -1;
+    if (needle && ns.phase == NeedlePhase::Outside)
+      w.tip_spring[size_t(k)] = needle_tip_contact(b, s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, m.fem_step,
+                                                   w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)]);
+    if (needle && ns.phase != NeedlePhase::Outside)
+      needle_track_springs(b, s.rigid[size_t(k)], tentative(k, 0), ns, m.needle_tissue[size_t(ns.tissue_body)], m.fem,
+                           x, m.fem_step, w.springs, w.rigid_pairs, w.needle_slips);
     if (w.springs.size() > before) commit(k);
   }
   for (int32_t i = 0; i < nb; ++i)
@@ -250,7 +280,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   if (m.body_contact)
     body_contact(*m.body_contact, surf, w.bvh, px, pv, m.fem_step, m.fem.gravity.data(), w.body_boxes.data(),
                  w.springs, w.body_pairs, w.report.body_contact);
-  if (!m.rigid_bodies.empty()) rigid_contacts(m, s, w, surf, px, v);
+  if (!m.rigid_bodies.empty()) rigid_contacts(m, s, w, surf, x, px, v);
 }
 
 namespace {
@@ -350,6 +380,15 @@ bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, 
     rigid_forces_after_step(w.backup_x.data(), s.tissue.x.data(), s.tissue.v.data(), w.backup_rigid.data(),
                             s.rigid.data(), w.row_body.data(), w.springs.data(), static_cast<int>(w.springs.size()),
                             r.rigid_contact.data(), static_cast<int>(m.rigid_bodies.size()));
+  if (m.has_needles) {  // the needles' insertion after the step (rigid/needle_track.hpp)
+    StageTimer t(r, Stage::Integrate);
+    for (size_t k = 0; k < m.rigid_bodies.size(); ++k)
+      if (m.rigid_bodies[k].shape == RigidShape::Needle)
+        needle_after_step(m.rigid_bodies[k], static_cast<int32_t>(k), w.backup_rigid.data(), s.rigid.data(),
+                          w.row_body.data(), w.springs.data(), w.tip_spring[k], m.needle_tissue,
+                          m.fem, m.node_tet.data(), m.tet_neighbours.data(), w.backup_x.data(), s.tissue.x.data(),
+                          s.tissue.v.data(), s.needles[k], r.needles[k]);
+  }
   s.step += ticks;
   s.time = static_cast<double>(s.step) * m.time_step;
   if (m.has_damage) {

@@ -106,6 +106,8 @@ struct TickReport {
   BodyContactOutput body_contact;   ///< body–body contacts (zero without `body_contact:`)
   /// Per rigid body: its contacts with the tissue and other bodies this tick (rigid_contact.hpp).
   std::vector<RigidContactOutput> rigid_contact;
+  /// Per rigid body: a needle's insertion this tick (rigid/needle_track.hpp; zeros for other bodies).
+  std::vector<NeedleOutput> needles;
   int damage_events = 0;            ///< elements reaching a new damage level this tick
   /// Edges of the uncut mesh the blades cut this tick (in s.edge_cut; the topology follows when
   /// the runner swaps in the cut model).
@@ -152,6 +154,10 @@ class TickWorkspace {
   std::vector<RigidContactPair> rigid_pairs;
   /// Per tool, its hold on a rigid body this tick: the springs [hold_begin, hold_end).
   std::vector<int32_t> hold_begin, hold_end;
+  /// Per rigid body, a needle's tip contact spring this tick (−1: none; rigid/needle_track.hpp).
+  std::vector<int32_t> tip_spring;
+  /// The needles' sliding track points and cutting fronts this tick (capacity fixed at load).
+  std::vector<NeedleSlip> needle_slips;
   TickReport report;  ///< the last tick's outputs
   /// What the energy guard that follows an inexact step costs (one energy-only element pass):
   /// the median of three passes timed when the workspace is made, then a running mean (1/8) of

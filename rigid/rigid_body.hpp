@@ -13,17 +13,19 @@
 #include <vector>
 
 #include "rigid/mass_properties.hpp"
+#include "rigid/needle_shape.hpp"
 #include "rigid/rigid_motion.hpp"
 
 namespace stroma {
 
-enum class RigidShape : uint8_t { Sphere, Box, Capsule, Mesh };
+enum class RigidShape : uint8_t { Sphere, Box, Capsule, Mesh, Needle };
 
 struct RigidBodyModel {
   std::string name;
   RigidShape shape = RigidShape::Sphere;
   double radius = 0, length = 0;  ///< sphere, capsule (m)
   Vec3 size{0, 0, 0};             ///< box (m)
+  NeedleGeometry needle;          ///< a needle's wire and curve (shape frame; rigid/needle_shape.hpp)
   MassProperties mass;            ///< about the centre of mass, body frame
   Vec3 shape_origin{0, 0, 0};     ///< the shape frame's origin in the body frame (m)
   std::vector<Vec3> surface_vertices;  ///< a mesh shape's surface, body frame
@@ -41,6 +43,8 @@ struct RigidBodyModel {
   /// another rigid body's shape (rigid/rigid_contact.hpp). Invariant: the areas sum to the surface's.
   std::vector<Vec3> sample_points, sample_normals;
   std::vector<double> sample_areas;
+  /// A needle's track points at most (rigid/needle_track.hpp; NeedleState::track's size).
+  int32_t track_capacity = 0;
 };
 
 }  // namespace stroma

@@ -136,6 +136,7 @@ double shape_distance(const RigidBodyModel& b, const double* p, double* normal) 
       return inside;
     }
     case RigidShape::Mesh: return mesh_distance(b, p, normal);
+    case RigidShape::Needle: return needle_distance(b.needle, q, normal);
   }
   return 1e300;
 }
@@ -198,6 +199,37 @@ void make_contact_samples(RigidBodyModel& b) {
       b.feature = 0.5 * smin;
       break;
     }
+    case RigidShape::Needle: {  // rings around the wire along its curve, and its two caps
+      const NeedleGeometry& g = b.needle;
+      const double r = g.wire_radius;
+      const int around = 12, along = std::clamp(static_cast<int>(std::ceil(g.length / (2 * kPi * r / around))), 1, 256);
+      const double a = 2 * kPi * r * g.length / (around * along);
+      b.bounding_radius = 0;
+      for (int j = 0; j < along; ++j) {
+        double c[3], t[3];
+        needle_curve(g, g.length * (j + 0.5) / along, c, t);
+        // Two unit vectors across the tangent.
+        double u[3] = {t[1], -t[0], 0};
+        if (std::abs(t[2]) > 0.9) u[0] = 1, u[1] = 0, u[2] = 0;
+        const double un = norm3(u);
+        for (double& x : u) x /= un;
+        const double w[3] = {t[1] * u[2] - t[2] * u[1], t[2] * u[0] - t[0] * u[2], t[0] * u[1] - t[1] * u[0]};
+        for (int i = 0; i < around; ++i) {
+          const double phi = 2 * kPi * (i + 0.5 * (j % 2)) / around, cs = std::cos(phi), sn = std::sin(phi);
+          const double n[3] = {cs * u[0] + sn * w[0], cs * u[1] + sn * w[1], cs * u[2] + sn * w[2]};
+          add(c[0] + r * n[0], c[1] + r * n[1], c[2] + r * n[2], n[0], n[1], n[2], a);
+        }
+      }
+      for (const double s : {0.0, g.length}) {
+        double c[3], t[3];
+        needle_curve(g, s, c, t);
+        add(c[0] + (s > 0 ? r : -r) * t[0], c[1] + (s > 0 ? r : -r) * t[1], c[2] + (s > 0 ? r : -r) * t[2],
+            s > 0 ? t[0] : -t[0], s > 0 ? t[1] : -t[1], s > 0 ? t[2] : -t[2], kPi * r * r);
+      }
+      for (const Vec3& p : b.sample_points) b.bounding_radius = std::max(b.bounding_radius, norm3(p.data()));
+      b.feature = r;
+      break;
+    }
     case RigidShape::Mesh: {
       const size_t nv = b.surface_vertices.size();
       std::vector<Vec3> nrm(nv, Vec3{0, 0, 0});
@@ -236,7 +268,8 @@ void make_contact_samples(RigidBodyModel& b) {
 void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, const ContactSurface& surf,
                           const TriangleBvh& bvh, const double* x, const double* v, const uint8_t* constrained,
                           double h, const Vec3& g, std::vector<ContactSpring>& springs,
-                          std::vector<RigidContactPair>& pairs, RigidContactOutput& out) {
+                          std::vector<RigidContactPair>& pairs, RigidContactOutput& out, const double* skip,
+                          int n_skip, double skip_radius) {
   const std::array<double, 9> R = rotation_of(s.q);
   const double speed = norm3(s.v.data()) + norm3(s.w.data()) * b.bounding_radius;
   const double reach = b.bounding_radius + 2.0 * h * speed + h * h * norm3(g.data()) + 0.25 * b.feature;
@@ -282,6 +315,10 @@ void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t 
       for (int k = 0; k < 3; ++k) {
         q[k] = w0 * p0[k] + u * p1[k] + w * p2[k];
         arm[k] = q[k] - s.x[size_t(k)];
+      }
+      for (int j = 0; j < n_skip; ++j) {
+        const double dq[3] = {q[0] - skip[3 * j], q[1] - skip[3 * j + 1], q[2] - skip[3 * j + 2]};
+        if (dot3(dq, dq) < skip_radius * skip_radius) return;
       }
       rot_t(R, arm, pb);
       const double d = shape_distance(b, pb, nb);
@@ -380,9 +417,6 @@ void rigid_rigid_contact(const RigidBodyModel& a, const RigidState& sa, int32_t 
 }
 
 
-namespace {
-
-/// How far the point at arm `a` (world, at the start) of a body moved from `s0` to `s1`.
 void body_point_displacement(const RigidState& s0, const RigidState& s1, const double* a, double* d) {
   const std::array<double, 9> R0 = rotation_of(s0.q), R1 = rotation_of(s1.q);
   double body[3], now[3];
@@ -391,7 +425,34 @@ void body_point_displacement(const RigidState& s0, const RigidState& s1, const d
   for (int k = 0; k < 3; ++k) d[k] = s1.x[size_t(k)] - s0.x[size_t(k)] + now[k] - a[k];
 }
 
-}  // namespace
+void rigid_spring_force_after_step(const ContactSpring& sp, const double* x0, const double* x, const double* v,
+                                   const RigidState* start, const RigidState* end, const int32_t* row_body,
+                                   double* f) {
+  // Each side's displacement and end velocity.
+  double dp[3] = {0, 0, 0}, dn[3] = {0, 0, 0}, vp[3] = {0, 0, 0}, vn[3] = {0, 0, 0};
+  auto body_side = [&](int32_t row, const double* arm, double* d, double* vel) {
+    const int32_t b = row_body[row];
+    body_point_displacement(start[b], end[b], arm, d);
+    double now[3];  // the arm at the end
+    for (int k = 0; k < 3; ++k) now[k] = arm[k] + d[k] - (end[b].x[size_t(k)] - start[b].x[size_t(k)]);
+    body_point_velocity(end[b], now, vel);
+  };
+  if (sp.row_p >= 0) {
+    body_side(sp.row_p, sp.arm_p, dp, vp);
+  } else {
+    double p0[3], p1[3];
+    spring_point(sp, x0, p0);
+    spring_point(sp, x, p1);
+    spring_point(sp, v, vp);
+    for (int k = 0; k < 3; ++k) dp[k] = p1[k] - p0[k];
+  }
+  if (sp.row_n >= 0) body_side(sp.row_n, sp.arm_n, dn, vn);
+  double dr[3], vr[3];
+  for (int k = 0; k < 3; ++k) dr[k] = dp[k] - dn[k], vr[k] = vp[k] - vn[k];
+  for (int k = 0; k < 3; ++k)
+    f[k] = sp.force[k] - (sp.K[3 * k] * dr[0] + sp.K[3 * k + 1] * dr[1] + sp.K[3 * k + 2] * dr[2]) -
+           (sp.C[3 * k] * vr[0] + sp.C[3 * k + 1] * vr[1] + sp.C[3 * k + 2] * vr[2]);
+}
 
 void rigid_forces_after_step(const double* x0, const double* x, const double* v, const RigidState* start,
                              const RigidState* end, const int32_t* row_body, const ContactSpring* springs, int count,
@@ -400,30 +461,8 @@ void rigid_forces_after_step(const double* x0, const double* x, const double* v,
   for (int c = 0; c < count; ++c) {
     const ContactSpring& sp = springs[c];
     if (!spring_has_rows(sp)) continue;
-    // Each side's displacement and end velocity.
-    double dp[3] = {0, 0, 0}, dn[3] = {0, 0, 0}, vp[3] = {0, 0, 0}, vn[3] = {0, 0, 0};
-    auto body_side = [&](int32_t row, const double* arm, double* d, double* vel) {
-      const int32_t b = row_body[row];
-      body_point_displacement(start[b], end[b], arm, d);
-      double now[3];  // the arm at the end
-      for (int k = 0; k < 3; ++k) now[k] = arm[k] + d[k] - (end[b].x[size_t(k)] - start[b].x[size_t(k)]);
-      body_point_velocity(end[b], now, vel);
-    };
-    if (sp.row_p >= 0) {
-      body_side(sp.row_p, sp.arm_p, dp, vp);
-    } else {
-      double p0[3], p1[3];
-      spring_point(sp, x0, p0);
-      spring_point(sp, x, p1);
-      spring_point(sp, v, vp);
-      for (int k = 0; k < 3; ++k) dp[k] = p1[k] - p0[k];
-    }
-    if (sp.row_n >= 0) body_side(sp.row_n, sp.arm_n, dn, vn);
-    double dr[3], vr[3], f[3];
-    for (int k = 0; k < 3; ++k) dr[k] = dp[k] - dn[k], vr[k] = vp[k] - vn[k];
-    for (int k = 0; k < 3; ++k)
-      f[k] = sp.force[k] - (sp.K[3 * k] * dr[0] + sp.K[3 * k + 1] * dr[1] + sp.K[3 * k + 2] * dr[2]) -
-             (sp.C[3 * k] * vr[0] + sp.C[3 * k + 1] * vr[1] + sp.C[3 * k + 2] * vr[2]);
+    double f[3];
+    rigid_spring_force_after_step(sp, x0, x, v, start, end, row_body, f);
     for (int k = 0; k < 3; ++k) {
       if (sp.row_p >= 0) out[row_body[sp.row_p]].force[size_t(k)] += f[k];
       if (sp.row_n >= 0) out[row_body[sp.row_n]].force[size_t(k)] -= f[k];

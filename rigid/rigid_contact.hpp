@@ -70,12 +70,15 @@ void make_contact_samples(RigidBodyModel& b);
 /// The tissue's surface (points x, velocities v; BVH refitted) against body b at state s.
 /// `row`: the body's row in the step (−1: a fixed body, anchored). `constrained` (per DOF node,
 /// the axes held as bits; may be null): a fixed body skips triangles whose DOFs are all held
-/// (nothing there can move). Appends springs up to the vector's capacity.
+/// (nothing there can move). Samples within `skip_radius` of one of the `n_skip` points `skip`
+/// (3 each, world: a needle's holes, rigid/needle_track.hpp) make no spring. Appends springs up
+/// to the vector's capacity.
 void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, const ContactSurface& surf,
                           const TriangleBvh& bvh, const double* x, const double* v, const uint8_t* constrained,
                           double h, const Vec3& g,
                           std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
-                          RigidContactOutput& out);
+                          RigidContactOutput& out, const double* skip = nullptr, int n_skip = 0,
+                          double skip_radius = 0);
 
 /// Body a's surface samples against body b's shape (rows −1 for fixed bodies; not both fixed).
 void rigid_rigid_contact(const RigidBodyModel& a, const RigidState& sa, int32_t row_a, const RigidBodyModel& b,
@@ -90,6 +93,16 @@ void rigid_rigid_contact(const RigidBodyModel& a, const RigidState& sa, int32_t 
 void rigid_forces_after_step(const double* x0, const double* x, const double* v, const RigidState* start,
                              const RigidState* end, const int32_t* row_body, const ContactSpring* springs, int count,
                              RigidContactOutput* out, int bodies);
+
+/// How far the point at arm `a` (world, at the start) of a body moved from `s0` to `s1`.
+void body_point_displacement(const RigidState& s0, const RigidState& s1, const double* a, double* d);
+
+/// The force on spring sp's positive side as the solved step applied it: f − K·Δ − C·v_rel at
+/// the step's end (Δ, v_rel: its sides' relative displacement and end velocity; tissue from x0
+/// to x with end velocities v, bodies from `start` to `end`, rows mapped by row_body).
+void rigid_spring_force_after_step(const ContactSpring& sp, const double* x0, const double* x, const double* v,
+                                   const RigidState* start, const RigidState* end, const int32_t* row_body,
+                                   double* f);
 
 /// After a step from tissue positions x0 to x and rigid states `start` to `end` (per body;
 /// `row_body` maps the springs' rows to bodies): the speculative contacts whose spring ends

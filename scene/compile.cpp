@@ -11,6 +11,7 @@
 #include "io/surface_io.hpp"
 #include "rigid/mass_properties.hpp"
 #include "rigid/rigid_contact.hpp"
+#include "tissue/tet_walk.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/model.hpp"
 #include "engine/model_check.hpp"
@@ -491,6 +492,55 @@ void compile_probes(const ScenarioSpec& spec, const std::vector<PreparedMesh>& m
 }
 
 /// Tools with their automatic values resolved (contact and grasp stiffness), and their scripts.
+/// Needles (rigid/needle_track.hpp): each tissue body's `material.needle` resolved (automatic
+/// track stiffness 100·E per m, spacing half the body's mean surface edge), the elements' face
+/// neighbours for the track's walks, and each needle's track capacity.
+void compile_needles(const ScenarioSpec& spec, Model& model) {
+  model.has_needles = std::any_of(model.rigid_bodies.begin(), model.rigid_bodies.end(),
+                                  [](const RigidBodyModel& b) { return b.shape == RigidShape::Needle; });
+  if (!model.has_needles) return;
+  for (size_t ti = 0; ti < spec.tools.size(); ++ti)
+    if (spec.tools[ti].spec.cuts)
+      throw InputError(spec.tools[ti].where.file, spec.tools[ti].where.line, fmt::format("tools[{}].cuts", ti),
+                       "a scenario with a needle cannot have a cutting tool yet (a cut re-makes the tetrahedra the "
+                       "needle's track is embedded in)");
+  const FemModel& fem = model.fem;
+  model.needle_tissue.assign(fem.bodies.size(), NeedleTissue{});
+  double spacing_min = 1e300;
+  for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
+    const MaterialSpec& mat = spec.bodies[bi].material;
+    if (!mat.needle) continue;
+    const NeedleTissueSpec& n = *mat.needle;
+    NeedleTissue& t = model.needle_tissue[bi];
+    t.enabled = true;
+    t.puncture_force = n.puncture_force;
+    t.cutting_force = n.cutting_force;
+    t.friction_static = n.friction_static;
+    t.friction_kinetic = n.friction_kinetic;
+    t.track_stiffness = n.track_stiffness > 0 ? n.track_stiffness : 100.0 * mat.young_modulus;
+    double edges = 0;
+    int count = 0;
+    for (const Tri& tri : fem.bodies[bi].boundary)
+      for (int k = 0; k < 3; ++k) {
+        const int32_t a = tri[size_t(k)], c = tri[size_t((k + 1) % 3)];
+        double d2 = 0;
+        for (int j = 0; j < 3; ++j) d2 += (fem.rest[size_t(3 * a + j)] - fem.rest[size_t(3 * c + j)]) * (fem.rest[size_t(3 * a + j)] - fem.rest[size_t(3 * c + j)]);
+        edges += std::sqrt(d2);
+        ++count;
+      }
+    t.track_spacing = n.track_spacing > 0 ? n.track_spacing : 0.5 * edges / std::max(count, 1);
+    spacing_min = std::min(spacing_min, t.track_spacing);
+  }
+  if (spacing_min == 1e300) spacing_min = 1e-3;  // no body can be punctured: the track stays empty
+  for (RigidBodyModel& b : model.rigid_bodies)
+    if (b.shape == RigidShape::Needle)  // points ≤ the needle's length / spacing, and an exit's and the ends'
+      b.track_capacity = static_cast<int32_t>(std::ceil((b.needle.length + b.needle.wire_radius) / spacing_min)) + 8;
+  model.tet_neighbours = tet_face_neighbours(fem.elements);
+  model.node_tet.assign(size_t(fem.num_nodes), 0);
+  for (size_t e = 0; e < fem.elements.size(); ++e)
+    for (const int32_t n : fem.elements[e].node) model.node_tet[size_t(n)] = static_cast<int32_t>(e);
+}
+
 /// `rigid_bodies:` → RigidBodyModel: mass properties from the shape (a mesh read, checked
 /// closed and scaled), the body frame moved to the centre of mass, the initial state.
 void compile_rigid_bodies(const ScenarioSpec& spec, Model& model) {
@@ -528,6 +578,17 @@ void compile_rigid_bodies(const ScenarioSpec& spec, Model& model) {
           b.shape = RigidShape::Capsule, b.radius = r.radius, b.length = r.length;
           p = capsule_mass_properties(r.radius, r.length, r.density);
           break;
+        case RigidShapeKind::Needle: {
+          b.shape = RigidShape::Needle;
+          NeedleGeometry& g = b.needle;
+          g.wire_radius = r.wire_radius;
+          g.curved = r.angle_deg > 0;
+          g.arc_radius = g.curved ? r.radius : 0.0;
+          g.angle = r.angle_deg * M_PI / 180.0;
+          g.length = g.curved ? g.arc_radius * g.angle : r.length;
+          p = needle_mass_properties(g, r.density);
+          break;
+        }
         case RigidShapeKind::Mesh: {
           b.shape = RigidShape::Mesh;
           SurfaceMesh sm = read_surface_mesh(r.mesh_path);  // InputError naming the file
@@ -572,6 +633,7 @@ void compile_rigid_bodies(const ScenarioSpec& spec, Model& model) {
     model.rigid_bodies.push_back(std::move(b));
     model.has_contact = true;
   }
+  compile_needles(spec, model);
 }
 
 void compile_tools(const ScenarioSpec& spec, Model& model, std::vector<Trajectory>& scripts) {

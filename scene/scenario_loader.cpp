@@ -312,7 +312,7 @@ LockingFreeSpec parse_locking_free(const Field& f) {
 MaterialSpec parse_material(const Field& f) {
   const MapReader m = f.map({"model", "rotation", "young_modulus", "poisson_ratio", "density",
                              "rayleigh_mass", "rayleigh_stiffness", "damage", "fibres", "viscoelastic",
-                             "locking_free", "mass_lumping"});
+                             "locking_free", "mass_lumping", "needle"});
   MaterialSpec mat;
   mat.where = location_of(m);
   Range nu = open_interval(-1, 0.5);
@@ -349,6 +349,25 @@ MaterialSpec parse_material(const Field& f) {
                "st_venant_kirchhoff (its overstresses live in the element's polar frame)");
     if (mat.viscoelastic->model == "kelvin_voigt" && m.opt("rayleigh_stiffness"))
       f2->fail("kelvin_voigt is stiffness damping with rayleigh_stiffness = tau: give one of them");
+  }
+  if (auto f2 = m.opt("needle")) {
+    const MapReader nm = f2->map({"puncture_force", "cutting_force", "friction", "track_stiffness", "track_spacing"});
+    NeedleTissueSpec n;
+    n.where = location_of(nm);
+    const Range force = physical_range(1e-6, 1e3, "N: needles puncture soft tissue at ~0.1..5 N");
+    nm.require("puncture_force", n.puncture_force, force);
+    nm.require("cutting_force", n.cutting_force, force);
+    const MapReader fm = nm.req("friction").map({"static", "kinetic"});
+    const Range per_length = physical_range(0, 1e5, "N per m of inserted length: liver ~1..50 N/m");
+    fm.require("static", n.friction_static, per_length);
+    fm.require("kinetic", n.friction_kinetic, per_length);
+    if (n.friction_kinetic > n.friction_static)
+      fm.req("kinetic").fail("kinetic friction (" + format_number(n.friction_kinetic) + " N/m) exceeds static (" +
+                             format_number(n.friction_static) + " N/m)");
+    nm.read("track_stiffness", n.track_stiffness,
+            physical_range(1e-6, 1e12, "N/m per m of track (automatic: 100 * young_modulus)"));
+    nm.read("track_spacing", n.track_spacing, physical_range(1e-6, 1, "m between track points (automatic: half the mean surface edge)"));
+    mat.needle = n;
   }
   if (auto f2 = m.opt("locking_free")) {
     mat.locking_free = parse_locking_free(*f2);
@@ -750,7 +769,8 @@ std::array<double, 4> parse_unit_quaternion(const Field& o) {
 const Choices<RigidShapeKind> kRigidShapes = {{"sphere", RigidShapeKind::Sphere},
                                                     {"box", RigidShapeKind::Box},
                                                     {"capsule", RigidShapeKind::Capsule},
-                                                    {"mesh", RigidShapeKind::Mesh}};
+                                                    {"mesh", RigidShapeKind::Mesh},
+                                                    {"needle", RigidShapeKind::Needle}};
 
 RigidBodySpec parse_rigid_body(const MapReader& m, const Context& ctx) {
   RigidBodySpec r;
@@ -758,11 +778,11 @@ RigidBodySpec parse_rigid_body(const MapReader& m, const Context& ctx) {
   m.require("name", r.name);
   const Field shape = m.req("shape");
   r.shape_where = {ctx.file, shape.key_line()};
-  const MapReader sm = shape.map({"type", "radius", "length", "size", "file", "scale"});
+  const MapReader sm = shape.map({"type", "radius", "length", "size", "file", "scale", "wire_radius", "angle"});
   sm.require("type", r.shape, kRigidShapes);
   const Range length = physical_range(1e-6, 10, "m: a suture needle's wire is ~1e-4 m, an instrument ~0.01..0.3 m");
   auto only = [&](std::initializer_list<const char*> keys) {
-    for (const char* k : {"radius", "length", "size", "file", "scale"}) {
+    for (const char* k : {"radius", "length", "size", "file", "scale", "wire_radius", "angle"}) {
       bool ok = false;
       for (const char* a : keys) ok = ok || std::string(a) == k;
       if (!ok)
@@ -785,6 +805,22 @@ RigidBodySpec parse_rigid_body(const MapReader& m, const Context& ctx) {
       r.size = f.vec3();
       for (double v : r.size)
         if (!(v >= 1e-6 && v <= 10)) f.fail("box sizes must be within 1e-6..10 m, got " + format_number(v));
+      break;
+    }
+    case RigidShapeKind::Needle: {
+      only({"wire_radius", "length", "radius", "angle"});
+      sm.require("wire_radius", r.wire_radius, physical_range(1e-6, 0.01, "m: suture needles' wires are ~1e-4..1e-3 m"));
+      const auto len = sm.opt("length"), rad = sm.opt("radius"), ang = sm.opt("angle");
+      if (len && (rad || ang)) (rad ? *rad : *ang).fail("a needle is straight (length) or curved (radius and angle), not both");
+      if (!len && !rad && !ang)
+        shape.fail("a needle without a tip: give its length (straight, along z) or its radius and angle (curved)");
+      if (len) {
+        sm.require("length", r.length, physical_range(1e-4, 1, "m: the wire from tail to tip"));
+      } else {
+        sm.require("radius", r.radius, physical_range(1e-4, 1, "m: the arc's radius (suture needles ~3..20 mm)"));
+        sm.require("angle", r.angle_deg, physical_range(1, 360, "degrees of arc: 135 is a 3/8 circle, 180 a 1/2 circle"));
+        if (!(r.radius > r.wire_radius)) sm.req("radius").fail("a curved needle's radius must exceed its wire_radius");
+      }
       break;
     }
     case RigidShapeKind::Mesh: {

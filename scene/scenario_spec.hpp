@@ -162,6 +162,19 @@ struct LockingFreeSpec {
   }
 };
 
+/// `needle:` of a material (rigid/needle_track.hpp): how needles puncture, cut and slide in this
+/// tissue. Invariants: puncture_force, cutting_force > 0; 0 ≤ friction_kinetic ≤ friction_static;
+/// track_stiffness, track_spacing ≥ 0 (0: automatic).
+struct NeedleTissueSpec {
+  double puncture_force = 0;    ///< N
+  double cutting_force = 0;     ///< N
+  double friction_static = 0;   ///< N/m of inserted length
+  double friction_kinetic = 0;  ///< N/m
+  double track_stiffness = 0;   ///< N/m per m (0: 100·E)
+  double track_spacing = 0;     ///< m (0: half the body's mean surface edge)
+  SourceLocation where;
+};
+
 struct MaterialSpec {
   ElementModel model = ElementModel::Corotational;
   RotationMethod rotation = RotationMethod::Polar;
@@ -177,6 +190,7 @@ struct MaterialSpec {
   /// `mass_lumping`: false (`volume`, the default) ρV/4 per tetrahedron node; true (`uniform`)
   /// the body's mass ΣρV shared equally by its nodes (SOFA's UniformMass).
   bool uniform_mass = false;
+  std::optional<NeedleTissueSpec> needle;  ///< needles puncture it (none: they only press it)
   SourceLocation where;
 };
 
@@ -312,7 +326,7 @@ struct BodyContactSpec {
 /// density, posed and moving, or fixed. Invariants after load: density > 0 and the shape's
 /// dimensions > 0 (capsule length ≥ 0); the orientation a unit quaternion (w, x, y, z); a mesh
 /// path resolved (its closedness is checked when compiled, where the file is read).
-enum class RigidShapeKind { Sphere, Box, Capsule, Mesh };
+enum class RigidShapeKind { Sphere, Box, Capsule, Mesh, Needle };
 struct RigidBodySpec {
   std::string name;
   RigidShapeKind shape = RigidShapeKind::Sphere;
@@ -321,6 +335,8 @@ struct RigidBodySpec {
   Vec3 size{0, 0, 0};        ///< box: full side lengths (m)
   std::string mesh_path;     ///< mesh: a closed surface (.obj .stl .off .ply), in the body's frame
   double mesh_scale = 1;     ///< mesh: multiplies its coordinates
+  double wire_radius = 0;    ///< needle: its wire's radius (m); `length` straight, `radius` + `angle` curved
+  double angle_deg = 0;      ///< needle: a curved one's arc (degrees; 135 is a 3/8 circle)
   double density = 0;        ///< kg/m³
   Vec3 position{0, 0, 0};    ///< where the shape's frame origin is, world (m)
   std::array<double, 4> orientation{1, 0, 0, 0};  ///< the shape's frame → world, unit (w, x, y, z)

@@ -1,0 +1,283 @@
+// A needle's insertion (issue 42; rigid/needle_track.hpp, docs/NEEDLE.md): a grasper drives a
+// straight needle into a tissue block at constant speed and pulls it out again. The three phases
+// of Okamura, Simone & O'Leary (IEEE TBME 51(10), 2004) — stiffness before puncture, then
+// cutting + friction, friction alone on the way out — are checked against their own model's
+// expectations from the scenario's parameters.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "engine/state.hpp"
+#include "engine/state_bytes.hpp"
+#include "rigid/needle_shape.hpp"
+#include "engine/tick.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
+#include "tests/test_labels.hpp"
+#include "tests/input_error_message.hpp"
+
+using namespace stroma;
+using stroma::test_support::message_of;
+
+namespace {
+
+const std::string kSrc = STROMA_SOURCE_DIR;
+
+struct Params {
+  double puncture = 0.3, cutting = 0.15, f_static = 5.0, f_kinetic = 3.0;
+  bool can_puncture = true;
+};
+
+/// A 50 mm cube of 30 kPa tissue (5 mm tetrahedra), its bottom bonded, no gravity; a straight
+/// 40 mm needle (wire 0.4 mm) held by a grasper 3 mm from its tail, tip 0.5 mm above the top.
+std::string needle_yaml(const Params& p) {
+  std::string needle_block;
+  if (p.can_puncture)
+    needle_block = ", needle: {puncture_force: " + std::to_string(p.puncture) + ", cutting_force: " +
+                   std::to_string(p.cutting) + ", friction: {static: " + std::to_string(p.f_static) +
+                   ", kinetic: " + std::to_string(p.f_kinetic) + "}}";
+  return R"(name: needle_insertion
+time_step: 0.001
+gravity: [0, 0, 0]
+solver: {integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-9}
+bodies:
+  - name: block
+    mesh: )" + kSrc + R"(/scenarios/meshes/cube_tet4_h5p000mm.msh
+    material: {young_modulus: 3.0e4, poisson_ratio: 0.45, density: 1000, rayleigh_mass: 20)" + needle_block + R"(}
+    fixed:
+      - box: {min: [-1, -1.0e-9, -1], max: [1, 1.0e-9, 1]}
+tools:
+  - name: grasper
+    shape: {type: grasper, radius: 0.002, length: 0.01}
+    grasp: {close: 0.05, open: 0.1, stiffness: 1.0e5}
+    pose: {position: [0.0237, 0.0925, 0.0262], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
+rigid_bodies:
+  - name: needle
+    shape: {type: needle, wire_radius: 0.0004, length: 0.04}
+    density: 7800
+    pose: {position: [0.0237, 0.0905, 0.0262], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
+)";
+}
+
+struct Sample {
+  double t, tool_y, force_y, inserted, tip_force;
+  NeedlePhase phase;
+  double needle_y;
+  int contacts;
+};
+
+std::vector<Sample> run(const Params& p, double depth, double speed, bool withdraw) {
+  const auto m = compile_model(parse_scenario(needle_yaml(p), "needle.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const double y0 = 0.0925, t0 = 0.05, t_in = t0 + (depth + 0.0005) / speed, t_hold = t_in + 0.2;
+  const double t_end = withdraw ? t_hold + (depth + 0.004) / speed : t_in;
+  std::vector<Sample> out;
+  while (s.time < t_end - 1e-9) {
+    ToolInput in;
+    in.tool = 0;
+    in.seq = static_cast<uint64_t>(s.step + 1);
+    in.pose.orientation = {std::sqrt(0.5), std::sqrt(0.5), 0, 0};
+    in.pose.position = {0.0237, y0, 0.0262};
+    const double t = s.time;
+    double y = y0;
+    if (t > t0) y -= speed * (std::min(t, t_in) - t0);
+    if (t > t_hold) y += speed * (t - t_hold);
+    in.pose.position[1] = y;
+    in.pose.jaw = 0.0;
+    const TickReport& r = tick(*m, s, w, &in, 1);
+    EXPECT_TRUE(r.status == TickStatus::Ok) << s.time;
+    const NeedleOutput& n = r.needles[0];
+    out.push_back({s.time, y, r.tools[0].force[1], n.inserted_length, n.tip_force, n.phase, s.rigid[0].x[1],
+                   r.rigid_contact[0].contacts});
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(Needle, PuncturesCutsAndSlidesWithTheThreePhasesForces) {
+  STROMA_LONG_TEST();  // 4.6 s of a 1,331-node block (10 s; the short tests below run its code under the sanitizers)
+  const Params p;
+  const auto run1 = run(p, 0.02, 0.01, true);
+  // Puncture: the force the grasper feels peaks at the puncture force, then drops to the
+  // cutting force as the dimple relaxes around the tip.
+  double peak = 0;
+  size_t entry = 0;
+  for (size_t i = 0; i < run1.size() && run1[i].phase == NeedlePhase::Outside; ++i) {
+    peak = std::max(peak, run1[i].force_y);
+    entry = i + 1;
+  }
+  ASSERT_LT(entry, run1.size()) << "never punctured";
+  EXPECT_NEAR(peak, p.puncture, 0.05 * p.puncture);
+  std::printf("puncture: peak %.4f N (configured %.4f N)\n", peak, p.puncture);
+  // Insertion at constant speed: cutting + kinetic friction × inserted length (Okamura's model
+  // with the scenario's parameters), point by point within 5 %, and its least-squares line.
+  double sx = 0, sy = 0, sxx = 0, sxy = 0, worst = 0;
+  int n = 0;
+  size_t i = entry;
+  for (; i < run1.size() && run1[i].tool_y > run1[i + 1].tool_y; ++i) {
+    const Sample& q = run1[i];
+    if (q.inserted < 0.002) continue;
+    const double expect = p.cutting + p.f_kinetic * q.inserted;
+    worst = std::max(worst, std::abs(q.force_y - expect) / expect);
+    sx += q.inserted, sy += q.force_y, sxx += q.inserted * q.inserted, sxy += q.inserted * q.force_y, ++n;
+  }
+  ASSERT_GT(n, 1000);
+  const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx), intercept = (sy - slope * sx) / n;
+  std::printf("insertion: F = %.4f + %.4f x depth (expected %.4f + %.4f); worst point %.2f %%\n", intercept, slope,
+              p.cutting, p.f_kinetic, 100 * worst);
+  EXPECT_LT(worst, 0.05);
+  EXPECT_NEAR(intercept, p.cutting, 0.05 * p.cutting);
+  EXPECT_NEAR(slope, p.f_kinetic, 0.05 * p.f_kinetic);
+  // Withdrawal at constant speed (after the static friction has given way): friction alone,
+  // pulling the other way.
+  double worst_out = 0;
+  int m = 0;
+  for (; i + 1 < run1.size(); ++i) {
+    const Sample& q = run1[i];
+    if (!(q.tool_y < run1[i + 1].tool_y) || q.tool_y < 0.073 || q.inserted < 0.002) continue;
+    const double expect = -p.f_kinetic * q.inserted;
+    worst_out = std::max(worst_out, std::abs(q.force_y - expect) / std::abs(expect));
+    ++m;
+  }
+  ASSERT_GT(m, 1000);
+  std::printf("withdrawal: worst point %.2f %% off -f_k x depth\n", 100 * worst_out);
+  EXPECT_LT(worst_out, 0.05);
+  EXPECT_EQ(run1.back().phase, NeedlePhase::Outside) << "withdrawn, the needle has left the tissue";
+}
+
+TEST(Needle, BeforePunctureTheTipPressesAsAContactDoes) {
+  // The same insertion into the same tissue without a `needle:` block: it is never punctured,
+  // and up to the other's puncture the two press alike, tick for tick.
+  Params p;
+  const auto pierced = run(p, 0.002, 0.01, false);
+  p.can_puncture = false;
+  const auto pressed = run(p, 0.002, 0.01, false);
+  ASSERT_EQ(pierced.size(), pressed.size());
+  size_t entry = 0;
+  while (entry < pierced.size() && pierced[entry].phase == NeedlePhase::Outside) ++entry;
+  ASSERT_LT(entry, pierced.size());
+  for (size_t i = 0; i < entry; ++i) ASSERT_EQ(pierced[i].force_y, pressed[i].force_y) << i;
+  for (const Sample& q : pressed) ASSERT_EQ(q.phase, NeedlePhase::Outside);
+  EXPECT_GT(pressed.back().force_y, 1.5 * p.puncture) << "pressed on, the tissue pushes back harder";
+  // The pressing force rises with the depth (a stiffness): monotone while it is driven in.
+  for (size_t i = 100; i < entry; ++i) ASSERT_GE(pressed[i].force_y, pressed[i - 1].force_y - 1e-6) << i;
+}
+
+namespace {
+
+/// The block and needle of needle_yaml with `edit` applied (a string replaced), compiled; the
+/// error's message if it is refused.
+std::string refusal(const std::string& from, const std::string& to) {
+  std::string yaml = needle_yaml(Params{});
+  const size_t at = yaml.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  yaml.replace(at, from.size(), to);
+  return message_of([&] { compile_model(parse_scenario(yaml, "needle.yaml", kSrc)); });
+}
+
+}  // namespace
+
+TEST(Needle, BadNeedlesAndTissuesAreRefusedAtTheirLineAndField) {
+  const std::string shape = "{type: needle, wire_radius: 0.0004, length: 0.04}";
+  struct Case {
+    std::string from, to, want;
+  };
+  const std::vector<Case> cases = {
+      {shape, "{type: needle, wire_radius: 0.0004}", "needle.yaml:18: rigid_bodies[0].shape: a needle without a tip"},
+      {shape, "{type: needle, wire_radius: 0.0004, length: 0.04, angle: 90}", "not both"},
+      {shape, "{type: needle, wire_radius: 0.0004, radius: 0.0003, angle: 180}", "must exceed its wire_radius"},
+      {shape, "{type: needle, wire_radius: 0.0004, radius: 0.01, angle: 400}", "angle"},
+      {shape, "{type: needle, length: 0.04}", "wire_radius"},
+      {shape, "{type: needle, wire_radius: 0.0004, length: 0.04, size: [1, 1, 1]}", "a needle has no size"},
+      {"puncture_force: 0.300000", "puncture_force: -0.3", "needle.yaml:8: bodies[0].material.needle.puncture_force"},
+      {"kinetic: 3.000000", "kinetic: 9", "kinetic friction (9 N/m) exceeds static (5 N/m)"},
+      {"cutting_force: 0.150000, ", "", "cutting_force"},
+      {"tools:", "tools:\n  - {name: knife, shape: {type: blade, radius: 0.001, length: 0.01}, cut: {}}\n", "cannot have a cutting tool"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.to);
+    const std::string m = refusal(c.from, c.to);
+    EXPECT_NE(m.find(c.want), std::string::npos) << m;
+  }
+}
+
+TEST(Needle, ItsMassPropertiesAreAWiresAndItsDistanceTheSweptWires) {
+  // Straight: a cylinder of radius r and length L (its rounded ends are contact, not mass).
+  NeedleGeometry g;
+  g.wire_radius = 0.0004;
+  g.length = 0.04;
+  const double rho = 7800;
+  MassProperties p = needle_mass_properties(g, rho);
+  const double m = rho * M_PI * g.wire_radius * g.wire_radius * g.length;
+  EXPECT_NEAR(p.mass, m, 1e-12 * m);
+  EXPECT_NEAR(p.centre[2], 0.5 * g.length, 1e-12);
+  const double ixx = m * (3 * g.wire_radius * g.wire_radius + g.length * g.length) / 12;
+  EXPECT_NEAR(p.inertia[0], ixx, 1e-6 * ixx);
+  EXPECT_NEAR(p.inertia[4], ixx, 1e-6 * ixx);
+  EXPECT_NEAR(p.inertia[8], 0.5 * m * g.wire_radius * g.wire_radius, 1e-9 * m * g.wire_radius * g.wire_radius);
+  // Curved, a half circle of R = 12 mm: a thin ring's arc — centre of mass at R sin(θ/2)/(θ/2)
+  // on the bisector, I_zz about it m R² − m d² (the wire's own section: O((r/R)²) = 1e-3).
+  g.curved = true;
+  g.arc_radius = 0.012;
+  g.angle = M_PI;
+  g.length = g.arc_radius * g.angle;
+  p = needle_mass_properties(g, rho);
+  const double mc = rho * M_PI * g.wire_radius * g.wire_radius * g.length, d = g.arc_radius * std::sin(0.5 * g.angle) / (0.5 * g.angle);
+  EXPECT_NEAR(p.mass, mc, 1e-12 * mc);
+  EXPECT_NEAR(std::hypot(p.centre[0], p.centre[1]), d, 1e-9);
+  EXPECT_NEAR(std::atan2(p.centre[1], p.centre[0]), 0.5 * g.angle, 1e-9);
+  const double izz = mc * (g.arc_radius * g.arc_radius - d * d);
+  EXPECT_NEAR(p.inertia[8], izz, 2e-3 * izz);
+  std::string why;
+  EXPECT_TRUE(is_physical(p, &why)) << why;
+  // Signed distance: on the arc's circle past the tip, beside the wire, and its inside.
+  double n[3];
+  const double beside[3] = {0.013, 0, 0};  // 1 mm out from the tail's centre, radially
+  EXPECT_NEAR(needle_distance(g, beside, n), 0.001 - g.wire_radius, 1e-12);
+  EXPECT_NEAR(n[0], 1.0, 1e-12);
+  const double past_tip[3] = {-0.012, -0.002, 0};  // 2 mm beyond the tip along the circle's tangent
+  EXPECT_NEAR(needle_distance(g, past_tip, n), 0.002 - g.wire_radius, 1e-12);
+  const double inside[3] = {0, 0.012, 0.0001};
+  EXPECT_NEAR(needle_distance(g, inside, n), 0.0001 - g.wire_radius, 1e-12);
+  EXPECT_NEAR(needle_nearest_s(g, inside), 0.5 * g.length, 1e-12);
+  EXPECT_THROW(needle_mass_properties(NeedleGeometry{}, rho), std::invalid_argument);
+}
+
+TEST(Needle, ASnapshotMidInsertionReplaysBitForBit) {
+  const Params p;
+  const auto m = compile_model(parse_scenario(needle_yaml(p), "needle.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  auto step_to = [&](State& st, TickWorkspace& ws, double t_end) {
+    while (st.time < t_end - 1e-9) {
+      ToolInput in;
+      in.tool = 0;
+      in.seq = static_cast<uint64_t>(st.step + 1);
+      in.pose.orientation = {std::sqrt(0.5), std::sqrt(0.5), 0, 0};
+      in.pose.position = {0.0237, 0.0925 - 0.02 * std::max(0.0, st.time - 0.05), 0.0262};
+      in.pose.jaw = 0.0;
+      tick(*m, st, ws, &in, 1);
+    }
+  };
+  step_to(s, w, 0.4);  // punctured at ~0.11 s, 5 mm in
+  ASSERT_EQ(s.needles[0].phase, NeedlePhase::Inserted);
+  ASSERT_GT(s.needles[0].count, 2);
+  const uint64_t fp = model_fingerprint(*m);
+  uint64_t fp_read = 0;
+  State copy = decode_state(encode_state(s, fp), &fp_read);
+  EXPECT_EQ(fp_read, fp);
+  std::string why;
+  EXPECT_TRUE(state_fits_model(copy, *m, &why)) << why;
+  step_to(s, w, 0.6);
+  TickWorkspace w2(*m);
+  step_to(copy, w2, 0.6);
+  EXPECT_EQ(copy.tissue.x, s.tissue.x);
+  EXPECT_EQ(copy.needles[0].count, s.needles[0].count);
+  for (int32_t i = 0; i < s.needles[0].count; ++i) EXPECT_EQ(copy.needles[0].track[size_t(i)].s, s.needles[0].track[size_t(i)].s);
+  EXPECT_EQ(encode_state(copy, fp), encode_state(s, fp));
+}
