@@ -68,7 +68,7 @@ TrackPoint point_from_walk(const TetWalkResult& r, const FemModel& fem) {
 /// kinetic limit, its spring at the kinetic force of a nominal share, pulling it along the
 /// insertion: its needle point just ahead of it).
 TrackPoint sliding_back(TrackPoint tp, const NeedleTissue& nt, double k, double s_max) {
-  tp.sliding = 1;
+  tp.sliding = 2;
   tp.s = std::min(tp.s + nt.friction_kinetic * nt.track_spacing / k, s_max);
   return tp;
 }
@@ -214,7 +214,8 @@ int needle_track_springs(const RigidBodyModel& b, const RigidState& s, int32_t r
     const double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
     const double e = dot3(d, t);
     if (tp.sliding) {  // across: the spring; along: the kinetic friction, constant over the step
-      const double fk = tissue.friction_kinetic * share_of(ns, i, top), sign = e >= 0 ? 1.0 : -1.0;
+      // The way it slid last (e, its elongation, is ±f_k/k then — or 0 without friction).
+      const double fk = tissue.friction_kinetic * share_of(ns, i, top), sign = tp.sliding == 1 ? 1.0 : -1.0;
       for (int a = 0; a < 3; ++a) {
         sp.force[a] = -k * (d[a] - e * t[a]) - sign * fk * t[a];
         for (int c2 = 0; c2 < 3; ++c2) sp.K[3 * a + c2] = k * ((a == c2 ? 1.0 : 0.0) - t[a] * t[c2]);
@@ -356,9 +357,9 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
     const double limit = (tp.sliding ? nt.friction_kinetic : nt.friction_static) * share;
     if (k * std::abs(e) > limit) {
       const double e_new = (e > 0 ? 1.0 : -1.0) * nt.friction_kinetic * share / k;
+      tp.sliding = e > 0 ? 1 : 2;  // the way it slides (e_new is 0 without friction)
       tp.s += e - e_new;
       e = e_new;
-      tp.sliding = 1;
     } else {
       tp.sliding = 0;
     }

@@ -69,7 +69,7 @@ struct TrackPoint {
   double s = 0;          ///< m: the arc length it is tied to
   int32_t tet = -1;
   std::array<int32_t, 4> node{};
-  uint8_t sliding = 0;   ///< 1: slid last step (the kinetic limit holds)
+  uint8_t sliding = 0;   ///< 0: stuck; slid last step (the kinetic limit holds) with 1: e > 0, 2: e < 0
   uint8_t surface = 0;   ///< 1: an entry or exit point (contact is skipped around it)
   uint8_t pad[2] = {0, 0};
 };
