@@ -202,7 +202,7 @@ class PySimulation {
       const RigidBodyModel& b = m.rigid_bodies[k];
       py::dict d;
       d["name"] = b.name;
-      static const char* kShapes[] = {"sphere", "box", "capsule", "mesh"};
+      static const char* kShapes[] = {"sphere", "box", "capsule", "mesh", "needle"};
       d["shape"] = kShapes[static_cast<int>(b.shape)];
       d["mass"] = b.mass.mass;
       d["inertia"] = std::vector<double>(b.mass.inertia.begin(), b.mass.inertia.end());
@@ -213,6 +213,32 @@ class PySimulation {
       d["contact_force"] = has ? std::vector<double>(last_->rigid_contact[k].force.begin(),
                                                      last_->rigid_contact[k].force.end())
                                : std::vector<double>(3, 0.0);
+      if (b.shape == RigidShape::Needle) {  // its insertion (rigid/needle_track.hpp)
+        const NeedleState& ns = sim_->state().needles[k];
+        const bool tick = last_ && k < last_->needles.size();
+        py::dict n;
+        n["phase"] = needle_phase_name(ns.phase);
+        n["punctures"] = ns.punctures;
+        n["inserted_length"] = tick ? last_->needles[k].inserted_length : 0.0;
+        n["tip_force"] = tick ? last_->needles[k].tip_force : 0.0;
+        n["friction_force"] = tick ? last_->needles[k].friction_force : 0.0;
+        // The track: each point's tissue position (m, world) and the needle's arc length it is at.
+        std::vector<double> pts, arc;
+        for (int32_t i = 0; i < ns.count; ++i) {
+          const TrackPoint& tp = ns.track[size_t(i)];
+          for (int c = 0; c < 3; ++c) {
+            double v = 0;
+            for (int a = 0; a < 4; ++a) v += tp.w[a] * sim_->state().tissue.x[size_t(3 * tp.node[size_t(a)] + c)];
+            pts.push_back(v);
+          }
+          arc.push_back(tp.s);
+        }
+        py::array_t<double> track({static_cast<py::ssize_t>(ns.count), py::ssize_t{3}});
+        std::copy(pts.begin(), pts.end(), track.mutable_data());
+        n["track"] = track;
+        n["track_s"] = arc;
+        d["needle"] = n;
+      }
       out.append(d);
     }
     return out;
@@ -404,5 +430,7 @@ PYBIND11_MODULE(_stroma, mod) {
                              "(rad/s), world")
       .def_property_readonly("rigid_bodies", &PySimulation::rigid_bodies,
                              "Per rigid body: name, shape, mass, inertia (body frame), fixed, and the last tick's "
-                             "contacts, contact_energy and contact_force (N, on the body)");
+                             "contacts, contact_energy and contact_force (N, on the body); a needle's `needle`: phase "
+                             "(outside, inserted, exited), punctures, inserted_length (m), tip_force and friction_force "
+                             "(N, along its tip), track ((p, 3) tissue points, m) and track_s (their arc lengths, m)");
 }

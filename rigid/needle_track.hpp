@@ -61,6 +61,10 @@ struct NeedleTissue {
 };
 
 enum class NeedlePhase : uint8_t { Outside = 0, Inserted = 1, Exited = 2 };
+/// "outside", "inserted", "exited" (outputs, DDS, Python).
+inline const char* needle_phase_name(NeedlePhase p) {
+  return p == NeedlePhase::Inserted ? "inserted" : (p == NeedlePhase::Exited ? "exited" : "outside");
+}
 
 /// A material point of the tissue tied to the needle's curve. Invariants: w ≥ 0, Σw = 1;
 /// node are the element's nodes. No padding (copied and hashed as bytes).

@@ -52,9 +52,13 @@ class MetricsWriter {
     for (const ToolSpec& t : m.tools)
       buf_ += fmt::format(",{0}_fx,{0}_fy,{0}_fz,{0}_contacts,{0}_feedback_fx,{0}_feedback_fy,{0}_feedback_fz", t.name);
     if (m.has_damage) buf_ += ",elements_warned,elements_damaged,elements_ruptured";
-    for (const RigidBodyModel& b : m.rigid_bodies)
+    for (const RigidBodyModel& b : m.rigid_bodies) {
       buf_ += fmt::format(",{0}_x,{0}_y,{0}_z,{0}_qw,{0}_qx,{0}_qy,{0}_qz,{0}_vx,{0}_vy,{0}_vz,{0}_contacts,{0}_fx,{0}_fy,{0}_fz",
                           b.name);
+      if (b.shape == RigidShape::Needle)  // its insertion (rigid/needle_track.hpp)
+        buf_ += fmt::format(",{0}_phase,{0}_inserted_length,{0}_track_points,{0}_tip_force,{0}_friction_force,{0}_punctures",
+                            b.name);
+    }
     buf_ += ",over_budget,degradation,error_energy,error_position,energy_removed";
     if (m.cutting) buf_ += ",cut_edges,topology_version,elements_split,nodes_created,faces_created,cut_area";
     buf_ += '\n';
@@ -89,6 +93,11 @@ class MetricsWriter {
       fmt::format_to(out, ",{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.9e},{:.9e},{:.9e},{},{:.9e},{:.9e},{:.9e}",
                      b.x[0], b.x[1], b.x[2], b.q[0], b.q[1], b.q[2], b.q[3], b.v[0], b.v[1], b.v[2], c.contacts,
                      c.force[0], c.force[1], c.force[2]);
+      if (m_->rigid_bodies[k].shape == RigidShape::Needle) {
+        const NeedleOutput n = k < r.needles.size() ? r.needles[k] : NeedleOutput{};
+        fmt::format_to(out, ",{},{:.9e},{},{:.9e},{:.9e},{}", needle_phase_name(s.needles[k].phase), n.inserted_length,
+                       s.needles[k].count, n.tip_force, n.friction_force, s.needles[k].punctures);
+      }
     }
     fmt::format_to(out, ",{},{},{:.3e},{:.3e},{:.3e}", r.over_budget ? 1 : 0, degradation_name(r.degradation),
                    r.solve.error_energy, r.solve.error_position, r.energy_removed);
@@ -271,6 +280,15 @@ void RunOutputs::finish(RunResult& res) {
         const RigidContactOutput& c = res.final_rigid[k];
         b["contacts"] = c.contacts;
         b["contact_force"] = {c.force[0], c.force[1], c.force[2]};
+      }
+      if (m.rigid_bodies[k].shape == RigidShape::Needle) {
+        const NeedleState& n = s.needles[k];
+        double inserted = 0;
+        for (int32_t i = 0; i + 1 < n.count; ++i) inserted += n.track[size_t(i + 1)].s - n.track[size_t(i)].s;
+        b["needle"] = {{"phase", std::string(needle_phase_name(n.phase))},
+                       {"track_points", n.count},
+                       {"punctures", n.punctures},
+                       {"track_length", inserted}};
       }
       rigid[m.rigid_bodies[k].name] = b;
     }

@@ -499,3 +499,31 @@ def test_rigid_bodies_are_read_as_poses_velocities_and_contacts():
     np.testing.assert_array_equal(sim.rigid_poses[1], [0.3, 0, 0, 1, 0, 0, 0])
     sim.restore(pickle.loads(pickle.dumps(before)))
     assert poses[0, 2] == z_before
+
+
+def test_a_needle_is_read_with_its_phase_and_track():
+    """A needle's `rigid_bodies[k]["needle"]` (docs/NEEDLE.md): outside, then — driven in by the
+    shipped scenario's grasper — inserted, with its track's tissue points on the needle's axis and
+    the force along it cutting + friction × inserted length; a snapshot restores the track."""
+    sim = stroma.Simulation(str(SCENARIOS / "needle_insertion.yaml"))
+    needle = sim.rigid_bodies[0]
+    assert needle["shape"] == "needle" and needle["needle"]["phase"] == "outside"
+    assert needle["needle"]["track"].shape == (0, 3)
+    sim.step(400)
+    n = sim.rigid_bodies[0]["needle"]
+    assert n["phase"] == "inserted" and n["punctures"] == 1
+    track = n["track"]
+    assert track.shape[0] >= 2 and len(n["track_s"]) == track.shape[0]
+    # The track is on the needle's axis (its body z through its centre of mass), in the block.
+    x, (w, qx, qy, qz) = sim.rigid_poses[0, :3], sim.rigid_poses[0, 3:]
+    axis = np.array([2 * (qx * qz + w * qy), 2 * (qy * qz - w * qx), 1 - 2 * (qx * qx + qy * qy)])
+    off = (track - x) - np.outer((track - x) @ axis, axis)
+    assert np.abs(off).max() < 2e-6
+    assert (track[:, 1] < 0.0505).all()
+    assert n["tip_force"] == pytest.approx(0.15, rel=1e-6)  # the scenario's cutting force
+    assert n["friction_force"] == pytest.approx(-3 * n["inserted_length"], rel=0.05)
+    before = sim.snapshot()
+    sim.step(100)
+    assert sim.rigid_bodies[0]["needle"]["track"].shape[0] >= track.shape[0]
+    sim.restore(pickle.loads(pickle.dumps(before)))
+    np.testing.assert_array_equal(sim.rigid_bodies[0]["needle"]["track"], track)
