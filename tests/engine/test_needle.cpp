@@ -6,6 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+
 #include <cmath>
 #include <string>
 #include <vector>
@@ -13,6 +16,7 @@
 #include "engine/state.hpp"
 #include "engine/state_bytes.hpp"
 #include "rigid/needle_shape.hpp"
+#include "rigid/rigid_motion.hpp"
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
@@ -362,4 +366,149 @@ TEST(Needle, ACurvedNeedleTurnedAboutItsCentreFollowsItsArcInAndOut) {
   // 0.3 N dimpled it 1.4 mm, 0.15 N of cutting moved it 0.9 mm — at most 6 mm/N.
   EXPECT_LT(r.max_tissue_displacement, 6e-3 * (cutting + puncture));
   EXPECT_LT(r.max_track_offset, 0.05e-3);
+}
+
+namespace {
+
+/// An independent linear finite-element solve on the same tetrahedra (its own element
+/// stiffnesses V·BᵀDB, Eigen's sparse LDLᵀ): the nodes `line` moved by their prescribed
+/// displacements `u_line` (3 each), `fixed` held, the rest free; returns the force the line's
+/// nodes put on the tissue (the reaction, summed).
+Vec3 line_inclusion_reaction(const FemModel& fem, double E, double nu, const std::vector<int32_t>& line,
+                             const std::vector<double>& u_line, const std::vector<bool>& fixed) {
+  const int n = fem.num_nodes;
+  const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
+  std::vector<Eigen::Triplet<double>> trips;
+  for (const ElementParams& e : fem.elements) {
+    Eigen::Matrix3d Dm;
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k) Dm(k, j) = fem.rest[size_t(3 * e.node[size_t(j + 1)] + k)] - fem.rest[size_t(3 * e.node[0] + k)];
+    const double V = std::abs(Dm.determinant()) / 6;
+    const Eigen::Matrix3d G = Dm.inverse();  // rows: ∇N1..∇N3
+    Eigen::Matrix<double, 4, 3> grad;
+    grad.row(0) = -(G.row(0) + G.row(1) + G.row(2));
+    for (int a = 1; a < 4; ++a) grad.row(a) = G.row(a - 1);
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) {
+            // K_ab,ij = V (λ ∂_i N_a ∂_j N_b + μ ∂_j N_a ∂_i N_b + μ δ_ij ∇N_a·∇N_b)
+            const double v = V * (lambda * grad(a, i) * grad(b, j) + mu * grad(a, j) * grad(b, i) +
+                                  (i == j ? mu * grad.row(a).dot(grad.row(b)) : 0.0));
+            trips.emplace_back(3 * e.node[size_t(a)] + i, 3 * e.node[size_t(b)] + j, v);
+          }
+  }
+  Eigen::SparseMatrix<double> K(3 * n, 3 * n);
+  K.setFromTriplets(trips.begin(), trips.end());
+  // Unknowns: the free DOFs; the line's are prescribed, the fixed ones zero.
+  std::vector<int> prescribed(size_t(3 * n), 0), index(size_t(3 * n), -1);
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * n);
+  for (size_t i = 0; i < line.size(); ++i)
+    for (int k = 0; k < 3; ++k) prescribed[size_t(3 * line[i] + k)] = 1, u[3 * line[i] + k] = u_line[3 * i + k];
+  for (int i = 0; i < n; ++i)
+    if (fixed[size_t(i)])
+      for (int k = 0; k < 3; ++k) prescribed[size_t(3 * i + k)] = 1;
+  int free = 0;
+  for (int d = 0; d < 3 * n; ++d)
+    if (!prescribed[size_t(d)]) index[size_t(d)] = free++;
+  std::vector<Eigen::Triplet<double>> kf;
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(free);
+  for (int c = 0; c < K.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(K, c); it; ++it) {
+      const int r = static_cast<int>(it.row()), col = static_cast<int>(it.col());
+      if (index[size_t(r)] < 0) continue;
+      if (index[size_t(col)] >= 0) kf.emplace_back(index[size_t(r)], index[size_t(col)], it.value());
+      else rhs[index[size_t(r)]] -= it.value() * u[col];
+    }
+  Eigen::SparseMatrix<double> Kf(free, free);
+  Kf.setFromTriplets(kf.begin(), kf.end());
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Kf);
+  const Eigen::VectorXd uf = ldlt.solve(rhs);
+  for (int d = 0; d < 3 * n; ++d)
+    if (index[size_t(d)] >= 0) u[d] = uf[index[size_t(d)]];
+  const Eigen::VectorXd f = K * u;
+  Vec3 r{0, 0, 0};
+  for (const int32_t i : line)
+    for (int k = 0; k < 3; ++k) r[size_t(k)] += f[3 * i + k];
+  return r;
+}
+
+}  // namespace
+
+TEST(Needle, MovedSidewaysItDragsTheTissueAsARigidLineInclusionDoes) {
+  STROMA_LONG_TEST();  // 3.6 s of the block
+  // The straight needle on a block's node line x = z = 25 mm (a mesh made with that line of
+  // nodes: tests/data/meshes/needle/block_line.geo; linear elasticity, frictionless
+  // but for the track's stiffness across the needle), 20 mm in; then the grasper moves it 0.3 mm
+  // along x and it settles. The change of the force the grasper feels against an independent
+  // linear FE solve of the same mesh with the line's nodes moved rigidly as the needle moved.
+  Params p;
+  p.f_static = p.f_kinetic = 0.0;
+  std::string yaml = needle_yaml(p);
+  const auto swap = [&](const std::string& a, const std::string& b) {
+    const size_t at = yaml.find(a);
+    ASSERT_NE(at, std::string::npos) << a;
+    yaml.replace(at, a.size(), b);
+  };
+  swap("material: {young_modulus: 3.0e4", "material: {model: linear, young_modulus: 3.0e4");
+  swap(kSrc + "/scenarios/meshes/cube_tet4_h5p000mm.msh", std::string(STROMA_GENERATED_DATA) + "/needle/block_line_h5.msh");
+  swap("position: [0.0237, 0.0925, 0.0262]", "position: [0.025, 0.0925, 0.025]");
+  swap("position: [0.0237, 0.0905, 0.0262]", "position: [0.025, 0.0905, 0.025]");
+  const auto m = compile_model(parse_scenario(yaml, "needle.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const double speed = 0.01, depth = 0.0195, delta = 3e-4;
+  const double t_in = 0.05 + (depth + 0.0005) / speed;
+  auto step_to = [&](double t_end) {
+    while (s.time < t_end - 1e-9) {
+      ToolInput in;
+      in.tool = 0;
+      in.seq = static_cast<uint64_t>(s.step + 1);
+      in.pose.orientation = {std::sqrt(0.5), std::sqrt(0.5), 0, 0};
+      in.pose.position = {0.025, 0.0925 - speed * std::clamp(s.time - 0.05, 0.0, t_in - 0.05), 0.025};
+      in.pose.position[0] += delta * std::clamp((s.time - (t_in + 0.5)) / 0.3, 0.0, 1.0);
+      in.pose.jaw = 0.0;
+      const TickReport& r = tick(*m, s, w, &in, 1);
+      ASSERT_TRUE(r.status == TickStatus::Ok) << s.time;
+    }
+  };
+  step_to(t_in + 0.5);
+  ASSERT_EQ(s.needles[0].phase, NeedlePhase::Inserted);
+  const Vec3 f0 = w.report.tools[0].force;
+  const RigidState n0 = s.rigid[0];
+  const std::vector<double> x0 = s.tissue.x;
+  step_to(t_in + 1.6);
+  const Vec3 f1 = w.report.tools[0].force;
+  const RigidState n1 = s.rigid[0];
+  // The line's nodes the track holds: on x = z = 25 mm, from the top down to the track's deepest point.
+  const NeedleState& ns = s.needles[0];
+  double deepest = 1;
+  for (int32_t i = 0; i < ns.count; ++i) {
+    double y = 0;
+    for (int a = 0; a < 4; ++a) y += ns.track[size_t(i)].w[a] * s.tissue.x[size_t(3 * ns.track[size_t(i)].node[size_t(a)] + 1)];
+    deepest = std::min(deepest, y);
+  }
+  std::vector<int32_t> line;
+  std::vector<double> u_line;
+  std::vector<bool> fixed(size_t(m->fem.num_nodes), false);
+  const std::array<double, 9> R0 = rotation_of(n0.q), R1 = rotation_of(n1.q);
+  for (int32_t i = 0; i < m->fem.num_nodes; ++i) {
+    const double* r = &m->fem.rest[size_t(3 * i)];
+    if (r[1] < 1e-9) fixed[size_t(i)] = true;
+    if (std::abs(r[0] - 0.025) > 1e-9 || std::abs(r[2] - 0.025) > 1e-9 || r[1] < deepest - 2.5e-3) continue;
+    // The needle's rigid motion from n0 to n1 applied to the node where it was at n0.
+    const double* p = &x0[size_t(3 * i)];
+    double body[3], now[3];
+    const double d[3] = {p[0] - n0.x[0], p[1] - n0.x[1], p[2] - n0.x[2]};
+    for (int k = 0; k < 3; ++k) body[k] = R0[size_t(k)] * d[0] + R0[size_t(3 + k)] * d[1] + R0[size_t(6 + k)] * d[2];
+    for (int k = 0; k < 3; ++k) now[k] = n1.x[size_t(k)] + R1[size_t(3 * k)] * body[0] + R1[size_t(3 * k + 1)] * body[1] + R1[size_t(3 * k + 2)] * body[2];
+    line.push_back(i);
+    for (int k = 0; k < 3; ++k) u_line.push_back(now[k] - p[k]);
+  }
+  ASSERT_GE(line.size(), 4u);
+  const Vec3 reaction = line_inclusion_reaction(m->fem, 3.0e4, 0.45, line, u_line, fixed);
+  const double felt = f1[0] - f0[0];
+  std::printf("moved %.3f mm (tip %.3f mm): the grasper felt %.5f N more along x; the line inclusion (%zu nodes) %.5f N\n",
+              1e3 * (n1.x[0] - n0.x[0]), 1e3 * u_line[3 * (line.size() - 1)], felt, line.size(), -reaction[0]);
+  EXPECT_NEAR(felt, -reaction[0], 0.1 * std::abs(reaction[0]));
 }
