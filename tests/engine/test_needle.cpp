@@ -106,7 +106,7 @@ std::vector<Sample> run(const Params& p, double depth, double speed, bool withdr
 TEST(Needle, PuncturesCutsAndSlidesWithTheThreePhasesForces) {
   STROMA_LONG_TEST();  // 4.6 s of a 1,331-node block (10 s; the short tests below run its code under the sanitizers)
   const Params p;
-  const auto run1 = run(p, 0.02, 0.01, true);
+  const auto run1 = run(p, 0.02, 0.02, true);
   // Puncture: the force the grasper feels peaks at the puncture force, then drops to the
   // cutting force as the dimple relaxes around the tip.
   double peak = 0;
@@ -130,7 +130,7 @@ TEST(Needle, PuncturesCutsAndSlidesWithTheThreePhasesForces) {
     worst = std::max(worst, std::abs(q.force_y - expect) / expect);
     sx += q.inserted, sy += q.force_y, sxx += q.inserted * q.inserted, sxy += q.inserted * q.force_y, ++n;
   }
-  ASSERT_GT(n, 1000);
+  ASSERT_GT(n, 500);
   const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx), intercept = (sy - slope * sx) / n;
   std::printf("insertion: F = %.4f + %.4f x depth (expected %.4f + %.4f); worst point %.2f %%\n", intercept, slope,
               p.cutting, p.f_kinetic, 100 * worst);
@@ -148,7 +148,7 @@ TEST(Needle, PuncturesCutsAndSlidesWithTheThreePhasesForces) {
     worst_out = std::max(worst_out, std::abs(q.force_y - expect) / std::abs(expect));
     ++m;
   }
-  ASSERT_GT(m, 1000);
+  ASSERT_GT(m, 500);
   std::printf("withdrawal: worst point %.2f %% off -f_k x depth\n", 100 * worst_out);
   EXPECT_LT(worst_out, 0.05);
   EXPECT_EQ(run1.back().phase, NeedlePhase::Outside) << "withdrawn, the needle has left the tissue";
@@ -320,8 +320,8 @@ CurvedRun turn_curved(double f_static, double f_kinetic, double cutting, double 
   TickWorkspace w(*m);
   const double cx = 0.025, cy = 0.054, phi_g = 0.2, R = 0.01;
   CurvedRun out;
-  while (s.time < 3.3 - 1e-9) {
-    const double a = M_PI * std::clamp((s.time - 0.05) / 3.0, 0.0, 1.0);
+  while (s.time < 1.8 - 1e-9) {
+    const double a = M_PI * std::clamp((s.time - 0.05) / 1.5, 0.0, 1.0);
     ToolInput in;
     in.tool = 0;
     in.seq = static_cast<uint64_t>(s.step + 1);
@@ -331,7 +331,7 @@ CurvedRun turn_curved(double f_static, double f_kinetic, double cutting, double 
     const TickReport& r = tick(*m, s, w, &in, 1);
     EXPECT_TRUE(r.status == TickStatus::Ok) << s.time;
     if (out.phases.empty() || out.phases.back() != s.needles[0].phase) out.phases.push_back(s.needles[0].phase);
-    if (s.needles[0].phase != NeedlePhase::Outside && s.time > 1.0)  // the puncture's dimple relaxed
+    if (s.needles[0].phase != NeedlePhase::Outside && s.time > 0.6)  // the puncture's dimple relaxed
       for (size_t i = 0; i < s.tissue.x.size(); ++i)
         out.max_tissue_displacement = std::max(out.max_tissue_displacement, std::abs(s.tissue.x[i] - m->fem.rest[i]));
     const NeedleState& ns = s.needles[0];
@@ -457,7 +457,7 @@ TEST(Needle, MovedSidewaysItDragsTheTissueAsARigidLineInclusionDoes) {
   const auto m = compile_model(parse_scenario(yaml, "needle.yaml", kSrc));
   State s = State::initial(*m);
   TickWorkspace w(*m);
-  const double speed = 0.01, depth = 0.0195, delta = 3e-4;
+  const double speed = 0.02, depth = 0.0195, delta = 3e-4;
   const double t_in = 0.05 + (depth + 0.0005) / speed;
   auto step_to = [&](double t_end) {
     while (s.time < t_end - 1e-9) {
@@ -466,18 +466,18 @@ TEST(Needle, MovedSidewaysItDragsTheTissueAsARigidLineInclusionDoes) {
       in.seq = static_cast<uint64_t>(s.step + 1);
       in.pose.orientation = {std::sqrt(0.5), std::sqrt(0.5), 0, 0};
       in.pose.position = {0.025, 0.0925 - speed * std::clamp(s.time - 0.05, 0.0, t_in - 0.05), 0.025};
-      in.pose.position[0] += delta * std::clamp((s.time - (t_in + 0.5)) / 0.3, 0.0, 1.0);
+      in.pose.position[0] += delta * std::clamp((s.time - (t_in + 0.3)) / 0.3, 0.0, 1.0);
       in.pose.jaw = 0.0;
       const TickReport& r = tick(*m, s, w, &in, 1);
       ASSERT_TRUE(r.status == TickStatus::Ok) << s.time;
     }
   };
-  step_to(t_in + 0.5);
+  step_to(t_in + 0.3);
   ASSERT_EQ(s.needles[0].phase, NeedlePhase::Inserted);
   const Vec3 f0 = w.report.tools[0].force;
   const RigidState n0 = s.rigid[0];
   const std::vector<double> x0 = s.tissue.x;
-  step_to(t_in + 1.6);
+  step_to(t_in + 1.2);
   const Vec3 f1 = w.report.tools[0].force;
   const RigidState n1 = s.rigid[0];
   // The line's nodes the track holds: on x = z = 25 mm, from the top down to the track's deepest point.
