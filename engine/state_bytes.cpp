@@ -257,7 +257,9 @@ std::string encode_state(const State& s, uint64_t fingerprint) {
     w.array(n.track);
     w.value(n.front);
     w.value(n.has_front);
+    w.value(n.tip_touching);
     w.value(n.punctures);
+    w.value(n.tip_offset);
   }
   w.array(s.damage);
   w.array(s.damage_level);
@@ -328,7 +330,9 @@ State decode_state(const std::string& bytes, uint64_t* fingerprint) {
     r.array(n.track, "needle.track");
     r.value(n.front, "needle.front");
     r.value(n.has_front, "needle.has_front");
+    r.value(n.tip_touching, "needle.tip_touching");
     r.value(n.punctures, "needle.punctures");
+    r.value(n.tip_offset, "needle.tip_offset");
     if (n.count < 0 || size_t(n.count) > n.track.size() || static_cast<uint8_t>(n.phase) > 2)
       throw InputError(kWhat, 0, "needle", "a needle's track count or phase is out of range");
   }

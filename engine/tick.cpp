@@ -175,7 +175,7 @@ namespace {
 
 /// The rigid bodies' contacts (rigid/rigid_contact.hpp) with the tissue's surface and with each
 /// other; a free body that touches something gets a row in the step (tissue/rigid_rows.hpp).
-void rigid_contacts(const Model& m, const State& s, TickWorkspace& w, const ContactSurface& surf, const double* x,
+void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSurface& surf, const double* x,
                     const double* px, const double* v) {
   const int32_t nb = static_cast<int32_t>(m.rigid_bodies.size());
   std::fill(w.body_row.begin(), w.body_row.end(), -1);
@@ -216,7 +216,8 @@ void rigid_contacts(const Model& m, const State& s, TickWorkspace& w, const Cont
                          holes, n_holes, hole_radius);
     w.tip_spring[size_t(k)] = -1;
     if (needle && ns.phase == NeedlePhase::Outside)
-      w.tip_spring[size_t(k)] = needle_tip_contact(b, s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, m.fem_step,
+      w.tip_spring[size_t(k)] = needle_tip_contact(b, s.rigid[size_t(k)], tentative(k, 0), s.needles[size_t(k)], surf,
+                                                   w.bvh, px, m.fem_step,
                                                    w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)]);
     if (needle && ns.phase != NeedlePhase::Outside)
       needle_track_springs(b, s.rigid[size_t(k)], tentative(k, 0), ns, m.needle_tissue[size_t(ns.tissue_body)], m.fem,

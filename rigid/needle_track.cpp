@@ -102,9 +102,10 @@ int32_t body_of_node(const FemModel& fem, int32_t node) {
   return -1;
 }
 
-int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, const ContactSurface& surf,
-                           const TriangleBvh& bvh, const double* x, double h, std::vector<ContactSpring>& springs,
-                           std::vector<RigidContactPair>& pairs, RigidContactOutput& out) {
+int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, NeedleState& ns,
+                           const ContactSurface& surf, const TriangleBvh& bvh, const double* x, double h,
+                           std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                           RigidContactOutput& out) {
   if (springs.size() == springs.capacity() || pairs.size() == pairs.capacity()) return -1;
   const double r = b.needle.wire_radius;
   double apex[3], t[3], arm[3];
@@ -146,6 +147,8 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
     }
   });
   if (best < 0 || best_depth < -reach) return -1;
+  if (!ns.tip_touching) ns.tip_offset = std::max(best_depth, 0.0);  // found in: it pushes from there
+  best_depth -= ns.tip_offset;
   const double k = b.contact_stiffness * M_PI * r * r;
   ContactSpring sp;
   set_spring_point(surf.dofs[size_t(best)], best_w[0], best_w[1], best_w[2], sp);
@@ -308,12 +311,14 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
 
   // Outside, the tip's push on the tissue (its contact spring's force after the step, along t):
   // above the touched body's puncture force, the tip enters.
+  if (tip_spring < 0) ns.tip_touching = 0;
   if (ns.phase == NeedlePhase::Outside && tip_spring >= 0) {
     const ContactSpring& sp = springs[tip_spring];
     double f[3];
     rigid_spring_force_after_step(sp, x0, x, v, start, end, row_body, f);
     const double push = dot3(f, t_tip);
     out.tip_force = push;
+    ns.tip_touching = push > 0;
     int32_t node = sp.node[0];
     for (int a = 1; a < sp.n; ++a)
       if (sp.w[a] > sp.w[0]) node = sp.node[a];
@@ -332,6 +337,7 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
         ns.front = tp;
         ns.front.surface = 0;
         ns.has_front = 1;
+        ns.tip_touching = 0;
         out.punctured = true;
         ++ns.punctures;
       }

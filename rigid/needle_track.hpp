@@ -89,7 +89,13 @@ struct NeedleState {
   std::vector<TrackPoint> track;
   TrackPoint front;          ///< the cutting front (valid when has_front)
   uint8_t has_front = 0;
+  uint8_t tip_touching = 0;  ///< 1: the tip pressed the tissue at the end of the last step
   int32_t punctures = 0;     ///< entries and exits so far (events)
+  /// m: how deep the tip's apex already was when its contact began (0 for one found in front, as
+  /// an approach finds it). A contact found deep — the apex left in its own hole as the needle
+  /// came out — pushes only from there: a penalty found deep would hold energy no approach paid
+  /// for. Kept while it touches.
+  double tip_offset = 0;
 };
 
 /// What a needle did in one tick (TickReport): its events and the forces along it.
@@ -135,11 +141,12 @@ int stick_reversed_slips(const double* x0, const double* x, const RigidState* st
 /// the axis — a sharp point on a surface, where the rounded end's samples would slide off a
 /// coarse triangle sideways. Stiffness: the body's contact stiffness over the wire's
 /// cross-section (a frictionless point: no force across the axis).
-/// Speculative in front of the surface (released if it ends pulling). Returns the spring's
-/// index, or −1.
-int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, const ContactSurface& surf,
-                           const TriangleBvh& bvh, const double* x, double h, std::vector<ContactSpring>& springs,
-                           std::vector<RigidContactPair>& pairs, RigidContactOutput& out);
+/// Speculative in front of the surface (released if it ends pulling). Sets ns.tip_offset when a
+/// contact begins. Returns the spring's index, or −1.
+int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, NeedleState& ns,
+                           const ContactSurface& surf, const TriangleBvh& bvh, const double* x, double h,
+                           std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                           RigidContactOutput& out);
 
 /// Where contact is skipped for needle ns: the track's surface points' positions (world) into
 /// `pts` (3 each); returns how many (≤ 2).

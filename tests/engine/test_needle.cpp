@@ -20,6 +20,7 @@
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
+#include "haptics/tool_shape.hpp"
 #include "tests/test_labels.hpp"
 #include "tests/input_error_message.hpp"
 
@@ -511,4 +512,115 @@ TEST(Needle, MovedSidewaysItDragsTheTissueAsARigidLineInclusionDoes) {
   std::printf("moved %.3f mm (tip %.3f mm): the grasper felt %.5f N more along x; the line inclusion (%zu nodes) %.5f N\n",
               1e3 * (n1.x[0] - n0.x[0]), 1e3 * u_line[3 * (line.size() - 1)], felt, line.size(), -reaction[0]);
   EXPECT_NEAR(felt, -reaction[0], 0.1 * std::abs(reaction[0]));
+}
+
+TEST(Needle, ItsEnergyNeverGrowsBeyondTheWorkTheGrasperDoes) {
+  STROMA_LONG_TEST();  // 2 s of the block
+  // Insertion (15 mm at 20 mm/s), a quarter turn about the needle's own axis while it is in,
+  // withdrawal: the energy of everything — tissue (kinetic, elastic), needle (kinetic), the
+  // grasp's, the track's, the front's and the contacts' springs — less the work the grasper has
+  // done on the needle never rises above its start (friction, cutting, damping and the step
+  // only take energy out).
+  const Params p;
+  const auto m = compile_model(parse_scenario(needle_yaml(p), "needle.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  TimeStepper& st = w.stepper();
+  const RigidBodyModel& nb = m->rigid_bodies[0];
+  const NeedleTissue& nt = m->needle_tissue[0];
+  const double k_track = nt.track_stiffness * nt.track_spacing, k_hold = m->tools[0].grasp_stiffness;
+  auto springs = [&]() {
+    double e = 0;
+    const ToolState& ts = s.tools[0];
+    if (ts.grasped_body == 0) {  // the grasp's three springs
+      double Rt[9];
+      quaternion_to_matrix(ts.pose.orientation, Rt);
+      const std::array<double, 9> Rb = rotation_of(s.rigid[0].q);
+      const Vec3& c = tool_center(m->tools[0], ts);
+      for (int i = 0; i < 3; ++i) {
+        const Vec3 &o = ts.tool_hold_point[size_t(i)], &b = ts.body_hold_point[size_t(i)];
+        double d2 = 0;
+        for (int a = 0; a < 3; ++a) {
+          const double anchor = c[size_t(a)] + Rt[3 * a] * o[0] + Rt[3 * a + 1] * o[1] + Rt[3 * a + 2] * o[2];
+          const double body = s.rigid[0].x[size_t(a)] + Rb[size_t(3 * a)] * b[0] + Rb[size_t(3 * a + 1)] * b[1] + Rb[size_t(3 * a + 2)] * b[2];
+          d2 += (anchor - body) * (anchor - body);
+        }
+        e += 0.5 * k_hold * d2;
+      }
+    }
+    const NeedleState& ns = s.needles[0];
+    auto point = [&](const TrackPoint& tp, double* q) {
+      for (int j = 0; j < 3; ++j) {
+        q[j] = 0;
+        for (int a = 0; a < 4; ++a) q[j] += tp.w[a] * s.tissue.x[size_t(3 * tp.node[size_t(a)] + j)];
+      }
+    };
+    for (int32_t i = 0; i < ns.count; ++i) {  // the track's springs (their elastic part)
+      double q[3], c[3], t[3], arm[3];
+      point(ns.track[size_t(i)], q);
+      needle_world_point(nb, s.rigid[0], ns.track[size_t(i)].s, c, t, arm);
+      e += 0.5 * k_track * ((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) + (q[2] - c[2]) * (q[2] - c[2]));
+    }
+    if (ns.has_front) {  // the front's, pushed
+      double q[3], c[3], t[3], arm[3];
+      point(ns.front, q);
+      needle_world_point(nb, s.rigid[0], nb.needle.length + nb.needle.wire_radius, c, t, arm);
+      const double f = std::max(0.0, (c[0] - q[0]) * t[0] + (c[1] - q[1]) * t[1] + (c[2] - q[2]) * t[2]);
+      e += 0.5 * k_track * f * f;
+    }
+    return e;
+  };
+  auto state_energy = [&]() {
+    return st.kinetic_energy(s.tissue) + st.elastic_energy(s.tissue) + st.external_potential(s.tissue) +
+           rigid_kinetic_energy(nb.mass.mass, nb.mass.inertia, s.rigid[0]) + springs();
+  };
+  const double y0 = 0.0925, speed = 0.02, t_in = 0.05 + 0.0155 / speed, t_turn = t_in + 0.5;
+  double work = 0, e0 = 0, worst_above = -1e300, worst_rise = -1e300, last = 0, total_work = 0;
+  ToolPose prev;
+  bool first = true;
+  while (s.time < t_turn + 0.0165 / speed + 0.1 - 1e-9) {
+    ToolInput in;
+    in.tool = 0;
+    in.seq = static_cast<uint64_t>(s.step + 1);
+    const double t = s.time;
+    const double turn = 0.5 * M_PI * std::clamp((t - t_in - 0.1) / 0.3, 0.0, 1.0);  // about the tool's z: the needle's axis
+    const std::array<double, 4> down = {std::sqrt(0.5), std::sqrt(0.5), 0, 0}, spin = {std::cos(0.5 * turn), 0, 0, std::sin(0.5 * turn)};
+    in.pose.orientation = {down[0] * spin[0] - down[1] * spin[1], down[0] * spin[1] + down[1] * spin[0],
+                           -down[1] * spin[3], down[0] * spin[3]};  // down ⊗ spin
+    in.pose.position = {0.0237, y0 - speed * std::clamp(t - 0.05, 0.0, t_in - 0.05) + speed * std::max(0.0, t - t_turn), 0.0262};
+    in.pose.jaw = 0.0;
+    const double e_state = state_energy();
+    const TickReport& r = tick(*m, s, w, &in, 1);
+    ASSERT_TRUE(r.status == TickStatus::Ok) << s.time;
+    const double e_start = e_state + r.rigid_contact[0].energy;  // the tick's contacts, at its start
+    if (first) e0 = e_start, first = false;
+    worst_above = std::max(worst_above, e_start - work - e0);
+    if (s.step > 2) worst_rise = std::max(worst_rise, (e_start - work) - last);
+    last = e_start - work;
+    // The grasper's work on the needle this tick: its force (on the tool) and torque (about its
+    // centre) at the step's end, against its motion.
+    if (s.step > 1) {
+      const Vec3& f = r.tools[0].force;
+      const Vec3& tq = r.tools[0].torque;
+      double dtheta[3];  // the turn from prev to this pose (about world axes; small)
+      const std::array<double, 4>& q1 = in.pose.orientation;
+      const std::array<double, 4> q0c = {prev.orientation[0], -prev.orientation[1], -prev.orientation[2], -prev.orientation[3]};
+      const double dw = q1[0] * q0c[0] - q1[1] * q0c[1] - q1[2] * q0c[2] - q1[3] * q0c[3];
+      const double dv[3] = {q1[0] * q0c[1] + q1[1] * q0c[0] + q1[2] * q0c[3] - q1[3] * q0c[2],
+                            q1[0] * q0c[2] - q1[1] * q0c[3] + q1[2] * q0c[0] + q1[3] * q0c[1],
+                            q1[0] * q0c[3] + q1[1] * q0c[2] - q1[2] * q0c[1] + q1[3] * q0c[0]};
+      for (int k = 0; k < 3; ++k) dtheta[k] = 2 * (dw < 0 ? -dv[k] : dv[k]);
+      double dw_tick = 0;
+      for (int k = 0; k < 3; ++k)
+        dw_tick -= f[size_t(k)] * (in.pose.position[size_t(k)] - prev.position[size_t(k)]) + tq[size_t(k)] * dtheta[k];
+      work += dw_tick;
+      total_work += std::abs(dw_tick);
+    }
+    prev = in.pose;
+  }
+  EXPECT_EQ(s.needles[0].phase, NeedlePhase::Outside);
+  std::printf("work done %.3e J (|work| %.3e J); energy less work: at most %.3e J above its start, largest rise in a tick %.3e J\n",
+              work, total_work, worst_above, worst_rise);
+  EXPECT_LT(worst_above, 1e-9 * total_work);
+  EXPECT_LT(worst_rise, 1e-6 * total_work) << "tick to tick";
 }
