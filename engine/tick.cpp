@@ -94,6 +94,7 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     report.rigid_contact.resize(nb);
     report.needles.resize(nb);
     tip_spring.assign(nb, -1);
+    tip_element.assign(nb, -1);
     size_t slip_capacity = 0;
     for (const RigidBodyModel& b : m.rigid_bodies) slip_capacity += size_t(b.track_capacity) + 1;
     needle_slips.reserve(slip_capacity);
@@ -214,11 +215,17 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
     rigid_tissue_contact(b, s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, v, m.fem.constrained.data(),
                          m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)],
                          holes, n_holes, hole_radius);
-    w.tip_spring[size_t(k)] = -1;
-    if (needle && ns.phase == NeedlePhase::Outside)
+    w.tip_spring[size_t(k)] = w.tip_element[size_t(k)] = -1;
+    if (needle && ns.phase == NeedlePhase::Outside) {
+      int32_t tri = -1;
       w.tip_spring[size_t(k)] = needle_tip_contact(b, s.rigid[size_t(k)], tentative(k, 0), s.needles[size_t(k)], surf,
-                                                   w.bvh, px, m.fem_step,
-                                                   w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)]);
+                                                   w.bvh, px, m.fem_step, w.springs, w.rigid_pairs,
+                                                   w.report.rigid_contact[size_t(k)], &tri);
+      if (tri >= 0) {
+        const auto& fe = m.collision_face_elem[size_t(tri)];
+        w.tip_element[size_t(k)] = fe[0] >= 0 ? fe[0] : fe[1];
+      }
+    }
     if (needle && ns.phase != NeedlePhase::Outside)
       needle_track_springs(b, s.rigid[size_t(k)], tentative(k, 0), ns, m.needle_tissue[size_t(ns.tissue_body)], m.fem,
                            x, m.fem_step, w.springs, w.rigid_pairs, w.needle_slips);
@@ -386,7 +393,7 @@ bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, 
     for (size_t k = 0; k < m.rigid_bodies.size(); ++k)
       if (m.rigid_bodies[k].shape == RigidShape::Needle)
         needle_after_step(m.rigid_bodies[k], static_cast<int32_t>(k), w.backup_rigid.data(), s.rigid.data(),
-                          w.row_body.data(), w.springs.data(), w.tip_spring[k], m.needle_tissue,
+                          w.row_body.data(), w.springs.data(), w.tip_spring[k], w.tip_element[k], m.needle_tissue,
                           m.fem, m.node_tet.data(), m.tet_neighbours.data(), w.backup_x.data(), s.tissue.x.data(),
                           s.tissue.v.data(), s.needles[k], r.needles[k]);
   }

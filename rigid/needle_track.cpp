@@ -105,7 +105,7 @@ int32_t body_of_node(const FemModel& fem, int32_t node) {
 int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, NeedleState& ns,
                            const ContactSurface& surf, const TriangleBvh& bvh, const double* x, double h,
                            std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
-                           RigidContactOutput& out) {
+                           RigidContactOutput& out, int32_t* triangle) {
   if (springs.size() == springs.capacity() || pairs.size() == pairs.capacity()) return -1;
   const double r = b.needle.wire_radius;
   double apex[3], t[3], arm[3];
@@ -147,6 +147,7 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
     }
   });
   if (best < 0 || best_depth < -reach) return -1;
+  *triangle = best;
   if (!ns.tip_touching) ns.tip_offset = std::max(best_depth, 0.0);  // found in: it pushes from there
   best_depth -= ns.tip_offset;
   const double k = b.contact_stiffness * M_PI * r * r;
@@ -297,7 +298,7 @@ int stick_reversed_slips(const double* x0, const double* x, const RigidState* st
 
 void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidState* start, const RigidState* end,
                        const int32_t* row_body, const ContactSpring* springs, int32_t tip_spring,
-                       const std::vector<NeedleTissue>& tissue, const FemModel& fem, const int32_t* node_tet,
+                       int32_t tip_element, const std::vector<NeedleTissue>& tissue, const FemModel& fem, const int32_t* node_tet,
                        const int32_t* neighbours, const double* x0, const double* x, const double* v,
                        NeedleState& ns, NeedleOutput& out) {
   const RigidState& se = end[size_t(body_index)];
@@ -325,13 +326,17 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
     const int32_t body = body_of_node(fem, node);
     if (body >= 0 && tissue[size_t(body)].enabled && push > tissue[size_t(body)].puncture_force) {
       // The material point at the apex (or the nearest point of the boundary there).
-      const TetWalkResult wr = walk_to_point(fem.elements, neighbours, x, node_tet[node], apex);
+      const int32_t from = tip_element >= 0 ? tip_element : node_tet[node];  // the touched face's element
+      const TetWalkResult wr = walk_to_point(fem.elements, neighbours, x, from, apex);
       TrackPoint tp = point_from_walk(wr, fem);
       double q[3];
       material_point(tp, x, q);
       tp.s = project_s(b, se, q);
       tp.surface = 1;
-      if (push_point(ns, sliding_back(tp, nt_of(body), k_of(body), Lapex))) {
+      // The entry is a track point if the apex has reached it; if it is still ahead (the apex
+      // short of the dimpled surface), it is the front alone, and the first cut makes the entry.
+      const bool reached = dot3(t_tip, apex) - dot3(t_tip, q) >= 0;
+      if (!reached || push_point(ns, sliding_back(tp, nt_of(body), k_of(body), Lapex))) {
         ns.phase = NeedlePhase::Inserted;
         ns.tissue_body = body;
         ns.front = tp;
@@ -400,6 +405,7 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
         ns.front = tp;
         ns.front.sliding = 1;  // cutting: the next step pushes it with the cutting force
         const double last = ns.count > 0 ? ns.track[size_t(ns.count - 1)].s : -1e300;
+        tp.surface = ns.count == 0;  // the entry, when the puncture left the front alone
         if (tp.s - last >= nt.track_spacing) push_point(ns, sliding_back(tp, nt, k, Lapex));
       }
     }
@@ -422,7 +428,15 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
     ns.track[size_t(kept++)] = tp;
   }
   ns.count = kept;
-  if (ns.count == 0) {
+  // Left: no track point on the needle and no front it still reaches (drawn back out of the
+  // hole by more than half a spacing, or none).
+  bool front_reached = false;
+  if (ns.has_front) {
+    double q[3];
+    material_point(ns.front, x, q);
+    front_reached = dot3(t_tip, apex) - dot3(t_tip, q) > -0.5 * nt.track_spacing;
+  }
+  if (ns.count == 0 && !front_reached) {
     ns.phase = NeedlePhase::Outside;
     ns.has_front = 0;
     ns.tissue_body = -1;

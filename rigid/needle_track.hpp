@@ -81,7 +81,8 @@ static_assert(sizeof(TrackPoint) == 64, "TrackPoint has padding");
 
 /// Everything of a needle's insertion the next tick depends on. Invariants: track.size() is
 /// the capacity (fixed at load), count ≤ it; track[0..count) in order of increasing s (entry
-/// first); has_front ⇒ phase == Inserted; phase == Outside ⇔ count == 0.
+/// first); has_front ⇒ phase == Inserted; phase == Outside ⇒ count == 0 (an Inserted needle
+/// may have its front alone: punctured where the apex had not reached the dimpled surface yet).
 struct NeedleState {
   NeedlePhase phase = NeedlePhase::Outside;
   int32_t tissue_body = -1;  ///< the FEM body it is in (−1: outside)
@@ -142,11 +143,11 @@ int stick_reversed_slips(const double* x0, const double* x, const RigidState* st
 /// coarse triangle sideways. Stiffness: the body's contact stiffness over the wire's
 /// cross-section (a frictionless point: no force across the axis).
 /// Speculative in front of the surface (released if it ends pulling). Sets ns.tip_offset when a
-/// contact begins. Returns the spring's index, or −1.
+/// contact begins. Returns the spring's index (and its surface triangle in `triangle`), or −1.
 int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, NeedleState& ns,
                            const ContactSurface& surf, const TriangleBvh& bvh, const double* x, double h,
                            std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
-                           RigidContactOutput& out);
+                           RigidContactOutput& out, int32_t* triangle);
 
 /// Where contact is skipped for needle ns: the track's surface points' positions (world) into
 /// `pts` (3 each); returns how many (≤ 2).
@@ -157,13 +158,14 @@ int32_t body_of_node(const FemModel& fem, int32_t node);
 
 /// After a solved step: puncture, the track's friction (return mapping), the front's cutting,
 /// new track points, exit, points leaving the needle. `tip_spring`: the tip's contact spring
-/// this step (needle_tip_contact; −1: none), whose force after the step decides puncture; x0/x/v the
+/// this step (needle_tip_contact; −1: none), whose force after the step decides puncture, and
+/// `tip_element` an element with its triangle's face (the entry's walk starts there); x0/x/v the
 /// tissue at the step's start and end; start/end the needle's rigid state; row_body maps rows
 /// to bodies (for the springs' other sides). `node_tet` gives an element of each node (walks
 /// start there), `neighbours` the elements' face neighbours.
 void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidState* start, const RigidState* end,
                        const int32_t* row_body, const ContactSpring* springs, int32_t tip_spring,
-                       const std::vector<NeedleTissue>& tissue, const FemModel& fem, const int32_t* node_tet,
+                       int32_t tip_element, const std::vector<NeedleTissue>& tissue, const FemModel& fem, const int32_t* node_tet,
                        const int32_t* neighbours, const double* x0, const double* x, const double* v,
                        NeedleState& ns, NeedleOutput& out);
 
