@@ -139,6 +139,8 @@ struct ModelTopology {
   /// (tissue/tet_walk.hpp: 4 per element, −1 on the boundary) and an element of each node —
   /// where a needle's walks start.
   std::vector<int32_t> tet_neighbours, node_tet;
+  /// Needles: per collision triangle, the element it is a face of (where a puncture's walk starts).
+  std::vector<int32_t> collision_tri_elem;
 
   std::shared_ptr<const CutTopology> topology;  ///< this model's topology (the uncut one's too)
   int32_t topology_version = 0;  ///< 0: uncut; +1 per swapped-in cut model

@@ -109,17 +109,13 @@ int rigid_grasp_springs(const ToolSpec& spec, const ToolState& ts, const RigidSt
 
 void rigid_grasp_feedback(const ContactSpring* springs, int begin, int end, const RigidState& start,
                           const RigidState& end_state, const Vec3& tool_centre, ToolOutput& out) {
-  const std::array<double, 9> R0 = rotation_of(start.q), R1 = rotation_of(end_state.q);
   for (int i = begin; i < end; ++i) {
     const ContactSpring& sp = springs[i];
-    double body[3], now[3], f[3];
-    for (int k = 0; k < 3; ++k)
-      body[k] = R0[size_t(k)] * sp.arm_p[0] + R0[size_t(3 + k)] * sp.arm_p[1] + R0[size_t(6 + k)] * sp.arm_p[2];
-    for (int k = 0; k < 3; ++k)
-      now[k] = R1[size_t(3 * k)] * body[0] + R1[size_t(3 * k + 1)] * body[1] + R1[size_t(3 * k + 2)] * body[2];
+    double disp[3], now[3], f[3];
+    body_point_displacement(start, end_state, sp.arm_p, disp);
     for (int k = 0; k < 3; ++k) {
-      const double disp = end_state.x[size_t(k)] - start.x[size_t(k)] + now[k] - sp.arm_p[k];
-      f[k] = sp.force[k] - sp.K[4 * k] * disp;  // on the body at the step's end
+      now[k] = sp.arm_p[k] + disp[k] - (end_state.x[size_t(k)] - start.x[size_t(k)]);  // the arm at the end
+      f[k] = sp.force[k] - sp.K[4 * k] * disp[k];  // on the body at the step's end
     }
     for (int k = 0; k < 3; ++k) {
       out.force[size_t(k)] -= f[k];

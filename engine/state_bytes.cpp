@@ -374,12 +374,30 @@ State decode_state(const std::string& bytes, uint64_t* fingerprint) {
 }
 
 namespace {
-bool needle_tracks_fit(const State& s, const State& ref, std::string* why) {
-  for (size_t k = 0; k < s.needles.size() && k < ref.needles.size(); ++k)
-    if (s.needles[k].track.size() != ref.needles[k].track.size()) {
-      if (why) *why = "needle " + std::to_string(k) + "'s track capacity differs from the model's";
-      return false;
-    }
+/// Needle states (rigid/needle_track.hpp's invariants) that index the model only where it has
+/// the elements, nodes and bodies they name: bytes from a file or another process never index
+/// out of bounds.
+bool needle_tracks_fit(const State& s, const State& ref, const Model& m, std::string* why) {
+  auto fail = [&](size_t k, const std::string& what) {
+    if (why) *why = "needle " + std::to_string(k) + ": " + what;
+    return false;
+  };
+  auto point_fits = [&](const TrackPoint& tp) {
+    return tp.tet >= 0 && size_t(tp.tet) < m.fem.elements.size() && tp.node == m.fem.elements[size_t(tp.tet)].node;
+  };
+  for (size_t k = 0; k < s.needles.size() && k < ref.needles.size(); ++k) {
+    const NeedleState& n = s.needles[k];
+    if (n.track.size() != ref.needles[k].track.size()) return fail(k, "its track capacity differs from the model's");
+    if (n.phase == NeedlePhase::Outside && (n.count != 0 || n.has_front)) return fail(k, "outside with a track");
+    if (n.phase != NeedlePhase::Outside && (n.tissue_body < 0 || size_t(n.tissue_body) >= m.fem.bodies.size() ||
+                                            m.needle_tissue.size() != m.fem.bodies.size()))
+      return fail(k, "in a tissue body the model does not have");
+    if (n.phase == NeedlePhase::Exited && (n.count < 1 || n.has_front)) return fail(k, "exited without an exit point");
+    if (n.phase == NeedlePhase::Inserted && n.count == 0 && !n.has_front) return fail(k, "inserted with no track");
+    for (int32_t i = 0; i < n.count; ++i)
+      if (!point_fits(n.track[size_t(i)])) return fail(k, "a track point names an element the model does not have");
+    if (n.has_front && !point_fits(n.front)) return fail(k, "its front names an element the model does not have");
+  }
   return true;
 }
 }  // namespace
@@ -398,7 +416,7 @@ bool state_fits_model(const State& s, const Model& m, std::string* why) {
          check(s.tissue.visco_q.size(), ref.tissue.visco_q.size(), "visco-elastic branches") &&
          check(s.tissue.visco_s0.size(), ref.tissue.visco_s0.size(), "visco-elastic stresses") &&
          check(s.tools.size(), ref.tools.size(), "tools") && check(s.rigid.size(), ref.rigid.size(), "rigid bodies") &&
-         check(s.needles.size(), ref.needles.size(), "needles") && needle_tracks_fit(s, ref, why) && check(s.damage.size(), ref.damage.size(), "damage") &&
+         check(s.needles.size(), ref.needles.size(), "needles") && needle_tracks_fit(s, ref, m, why) && check(s.damage.size(), ref.damage.size(), "damage") &&
          check(s.damage_level.size(), ref.damage_level.size(), "damage levels") &&
          check(s.node_mass.size(), ref.node_mass.size(), "node masses") &&
          check(s.face_active.size(), ref.face_active.size(), "collision faces") &&

@@ -227,7 +227,7 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
                                          w.row_body.data(), w.rigid_pairs, w.springs);
     if (!w.needle_slips.empty())  // a needle turned back against a sliding track point sticks it
       n += stick_reversed_slips(w.backup_x.data(), s.tissue.x.data(), w.backup_rigid.data(), s.rigid.data(),
-                                w.row_body.data(), w.needle_slips, w.springs);
+                                w.row_body.data(), w.rigid_pairs, w.needle_slips, w.springs);
     return n;
   };
   while (ok && (m.body_contact || !w.rigid_pairs.empty() || !w.needle_slips.empty()) && r.contact_releases < kMaxContactReleases &&

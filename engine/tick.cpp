@@ -221,10 +221,7 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
       w.tip_spring[size_t(k)] = needle_tip_contact(b, s.rigid[size_t(k)], tentative(k, 0), s.needles[size_t(k)], surf,
                                                    w.bvh, px, m.fem_step, w.springs, w.rigid_pairs,
                                                    w.report.rigid_contact[size_t(k)], &tri);
-      if (tri >= 0) {
-        const auto& fe = m.collision_face_elem[size_t(tri)];
-        w.tip_element[size_t(k)] = fe[0] >= 0 ? fe[0] : fe[1];
-      }
+      if (tri >= 0 && size_t(tri) < m.collision_tri_elem.size()) w.tip_element[size_t(k)] = m.collision_tri_elem[size_t(tri)];
     }
     if (needle && ns.phase != NeedlePhase::Outside)
       needle_track_springs(b, s.rigid[size_t(k)], tentative(k, 0), ns, m.needle_tissue[size_t(ns.tissue_body)], m.fem,

@@ -156,7 +156,7 @@ class TickWorkspace {
   std::vector<int32_t> hold_begin, hold_end;
   /// Per rigid body, a needle's tip contact spring this tick (−1: none; rigid/needle_track.hpp).
   std::vector<int32_t> tip_spring;
-  /// Per rigid body, an element with the face its tip touches (−1: none, or a face of no element).
+  /// Per rigid body, the element whose face its tip touches (−1: none; Model::collision_tri_elem).
   std::vector<int32_t> tip_element;
   /// The needles' sliding track points and cutting fronts this tick (capacity fixed at load).
   std::vector<NeedleSlip> needle_slips;

@@ -264,6 +264,7 @@ int needle_track_springs(const RigidBodyModel& b, const RigidState& s, int32_t r
       if (cutting) {
         NeedleSlip sl;
         sl.spring = pr.spring;
+        sl.pair = static_cast<int32_t>(pairs.size() - 1);
         std::copy(t, t + 3, sl.t);
         sl.d = -1.0;  // (front − apex)·t < 0 while it cuts
         sl.k = k;
@@ -277,10 +278,15 @@ int needle_track_springs(const RigidBodyModel& b, const RigidState& s, int32_t r
 }
 
 int stick_reversed_slips(const double* x0, const double* x, const RigidState* start, const RigidState* end,
-                         const int32_t* row_body, std::vector<NeedleSlip>& slips, std::vector<ContactSpring>& springs) {
+                         const int32_t* row_body, const std::vector<RigidContactPair>& pairs,
+                         std::vector<NeedleSlip>& slips, std::vector<ContactSpring>& springs) {
   int stuck = 0;
   for (NeedleSlip& sl : slips) {
     if (!sl.active) continue;
+    if (sl.pair >= 0 && !pairs[size_t(sl.pair)].active) {  // a front released as it ended pulling: gone
+      sl.active = false;
+      continue;
+    }
     ContactSpring& sp = springs[size_t(sl.spring)];
     double p0[3], p1[3], dn[3] = {0, 0, 0};
     spring_point(sp, x0, p0);
@@ -388,12 +394,27 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
     if (k * e >= nt.cutting_force * (1 - 1e-9)) {
       const double lag = nt.cutting_force / k;
       const double target[3] = {apex[0] - lag * t_tip[0], apex[1] - lag * t_tip[1], apex[2] - lag * t_tip[2]};
-      const TetWalkResult wr = walk_to_point(fem.elements, neighbours, x, ns.front.tet, target);
+      TetWalkResult wr = walk_to_point(fem.elements, neighbours, x, ns.front.tet, target);
+      if (!wr.inside && !wr.lost) {
+        // Cut through: the exit is where the segment from the front to the target leaves the
+        // last element (its weights along the segment, clipped at the first that reaches 0).
+        double wa[4], wb[4], lam = 1.0;
+        tet_weights(fem.elements[size_t(wr.tet)], x, q, wa);
+        tet_weights(fem.elements[size_t(wr.tet)], x, target, wb);
+        for (int c = 0; c < 4; ++c)
+          if (wb[c] < 0 && wa[c] > wb[c]) lam = std::min(lam, std::max(0.0, wa[c]) / (std::max(0.0, wa[c]) - wb[c]));
+        double sum = 0;
+        for (int c = 0; c < 4; ++c) sum += (wr.w[c] = std::max(0.0, wa[c] + lam * (wb[c] - wa[c])));
+        for (double& v : wr.w) v = sum > 0 ? v / sum : 0.25;
+      }
       TrackPoint tp = point_from_walk(wr, fem);
       double pq[3];
       material_point(tp, x, pq);
       tp.s = project_s(b, se, pq);
-      if (!wr.inside) {  // cut through: the boundary point it crossed is the exit
+      if (wr.lost) {
+        // The walk found neither the target nor the boundary (a degenerate path): the front
+        // stays where it is this step.
+      } else if (!wr.inside) {  // cut through: the boundary point it crossed is the exit
         tp.surface = 1;
         if (push_point(ns, tp)) {
           ns.phase = NeedlePhase::Exited;
@@ -421,6 +442,7 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
         ns.phase = NeedlePhase::Inserted;
         ns.front = tp;
         ns.front.surface = 0;
+        ns.front.sliding = 0;  // pushed again, it is a spring before it cuts
         ns.has_front = 1;
       }
       continue;

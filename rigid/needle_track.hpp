@@ -118,6 +118,7 @@ struct NeedleSlip {
   double t[3] = {0, 0, 0};  ///< the needle's tangent there
   double d = 0;             ///< the sign of (tissue point − needle point)·t while it slides
   double k = 0;             ///< N/m: the axial stiffness it gets back
+  int32_t pair = -1;        ///< a front's speculative pair (released: the slip goes with it)
   bool active = true;
 };
 
@@ -135,7 +136,8 @@ int needle_track_springs(const RigidBodyModel& b, const RigidState& s, int32_t r
 /// After a step: the sliding track points and fronts (slips) the needle turned back against
 /// stick (their springs get k·t tᵀ back). Returns how many; the caller redoes the step.
 int stick_reversed_slips(const double* x0, const double* x, const RigidState* start, const RigidState* end,
-                         const int32_t* row_body, std::vector<NeedleSlip>& slips, std::vector<ContactSpring>& springs);
+                         const int32_t* row_body, const std::vector<RigidContactPair>& pairs,
+                         std::vector<NeedleSlip>& slips, std::vector<ContactSpring>& springs);
 
 /// The tip's own contact while the needle is outside: its apex (the point one wire radius past
 /// the curve's end) against the tissue surface where the needle's axis crosses it, pushing along

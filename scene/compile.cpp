@@ -541,6 +541,27 @@ void compile_needles(const ScenarioSpec& spec, Model& model) {
     for (const int32_t n : fem.elements[e].node) model.node_tet[size_t(n)] = static_cast<int32_t>(e);
 }
 
+/// Needles: each collision triangle's element (the one it is a face of), where a puncture's walk
+/// starts (the collision faces of bodies that cannot tear name no element).
+void compile_needle_faces(Model& model) {
+  std::map<std::array<int32_t, 3>, int32_t> face_elem;
+  for (size_t e = 0; e < model.fem.elements.size(); ++e)
+    for (int i = 0; i < 4; ++i) {
+      std::array<int32_t, 3> f;
+      for (int k = 0, j = 0; k < 4; ++k)
+        if (k != i) f[size_t(j++)] = model.fem.elements[e].node[size_t(k)];
+      std::sort(f.begin(), f.end());
+      face_elem.emplace(f, static_cast<int32_t>(e));
+    }
+  model.collision_tri_elem.assign(model.collision_triangles.size(), -1);
+  for (size_t t = 0; t < model.collision_triangles.size(); ++t) {
+    std::array<int32_t, 3> f = model.collision_triangles[t];
+    std::sort(f.begin(), f.end());
+    const auto it = face_elem.find(f);
+    if (it != face_elem.end()) model.collision_tri_elem[t] = it->second;
+  }
+}
+
 /// `rigid_bodies:` → RigidBodyModel: mass properties from the shape (a mesh read, checked
 /// closed and scaled), the body frame moved to the centre of mass, the initial state.
 void compile_rigid_bodies(const ScenarioSpec& spec, Model& model) {
@@ -855,6 +876,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
   compile_rigid_bodies(spec, *model);
   if (spec.body_contact) model->has_contact = true;
   if (model->has_contact) compile_collision_faces(*model);
+  if (model->has_needles) compile_needle_faces(*model);
   if (spec.body_contact) compile_body_contact(*spec.body_contact, spec, *model);
   if (std::any_of(model->tools.begin(), model->tools.end(), [](const ToolSpec& t) { return t.cuts; }))
     enable_cutting(*model);

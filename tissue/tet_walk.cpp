@@ -63,7 +63,7 @@ TetWalkResult walk_to_point(const std::vector<ElementParams>& elements, const in
       return r;
     }
     int32_t next = neighbours[4 * e + i];
-    if (next == prev) {  // would step straight back: leave by the next most negative face instead
+    if (next == prev && prev >= 0) {  // would step straight back: leave by the next most negative face instead
       int j = -1;
       for (int k = 0; k < 4; ++k)
         if (k != i && w[k] < -1e-9 && (j < 0 || w[k] < w[j])) j = k;
@@ -79,6 +79,7 @@ TetWalkResult walk_to_point(const std::vector<ElementParams>& elements, const in
     e = next;
   }
   r.w[0] = r.w[1] = r.w[2] = r.w[3] = 0.25;
+  r.lost = true;
   return r;
 }
 

@@ -7,7 +7,7 @@
 /// Each step leaves the current tetrahedron through the face opposite its most negative
 /// barycentric weight; the walk ends inside one (every weight ≥ −1e-9), or where that face is on
 /// the mesh's boundary (the point is outside the tissue there: a needle's tip leaving it), or
-/// after `max_steps` (a degenerate or non-convex path: reported as outside).
+/// after `max_steps` (a degenerate or cycling path: reported as lost).
 
 #include <cstdint>
 #include <vector>
@@ -27,6 +27,7 @@ struct TetWalkResult {
   int32_t tet = -1;        ///< the tetrahedron reached (holding p when inside)
   double w[4] = {0, 0, 0, 0};  ///< p's weights in it (inside: ≥ 0, sum 1; outside: clamped to it)
   bool inside = false;
+  bool lost = false;       ///< max_steps reached (a degenerate or cycling path): neither inside nor a boundary
   int32_t steps = 0;
 };
 

@@ -290,6 +290,21 @@ TEST(Needle, ASnapshotMidInsertionReplaysBitForBit) {
   EXPECT_EQ(copy.needles[0].count, s.needles[0].count);
   for (int32_t i = 0; i < s.needles[0].count; ++i) EXPECT_EQ(copy.needles[0].track[size_t(i)].s, s.needles[0].track[size_t(i)].s);
   EXPECT_EQ(encode_state(copy, fp), encode_state(s, fp));
+  // A state whose track names an element the model does not have, or an exited needle with no
+  // exit point, does not fit the model (bytes from a file or another process never index out
+  // of bounds).
+  State bad = s;
+  bad.needles[0].track[0].tet = static_cast<int32_t>(m->fem.elements.size());
+  EXPECT_FALSE(state_fits_model(bad, *m, &why));
+  EXPECT_NE(why.find("element"), std::string::npos) << why;
+  bad = s;
+  bad.needles[0].phase = NeedlePhase::Exited;
+  bad.needles[0].count = 0;
+  bad.needles[0].has_front = 0;
+  EXPECT_FALSE(state_fits_model(bad, *m, &why));
+  bad = s;
+  bad.needles[0].tissue_body = 7;
+  EXPECT_FALSE(state_fits_model(bad, *m, &why));
 }
 
 namespace {
