@@ -110,8 +110,8 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
   const double r = b.needle.wire_radius;
   double apex[3], t[3], arm[3];
   needle_world_point(b, s, apex_s(b), apex, t, arm);
-  const double va[3] = {s.v[0] + s.w[1] * arm[2] - s.w[2] * arm[1], s.v[1] + s.w[2] * arm[0] - s.w[0] * arm[2],
-                        s.v[2] + s.w[0] * arm[1] - s.w[1] * arm[0]};
+  double va[3];
+  body_point_velocity(s, arm, va);
   const double reach = 2.0 * h * std::sqrt(dot3(va, va)) + 0.25 * r;
   // Where the needle's axis through the apex crosses the surface (a front-facing triangle,
   // n·t < 0): the crossing nearest the apex. Its depth is how far the apex is past it along t.
@@ -245,8 +245,8 @@ int needle_track_springs(const RigidBodyModel& b, const RigidState& s, int32_t r
     material_point(ns.front, x, q);
     needle_world_point(b, s, apex_s(b), c, t, arm);
     const double e = dot3(t, c) - dot3(t, q);  // > 0: the apex is past the front, pushing it
-    const double vt[3] = {s.v[0] + s.w[1] * arm[2] - s.w[2] * arm[1], s.v[1] + s.w[2] * arm[0] - s.w[0] * arm[2],
-                          s.v[2] + s.w[0] * arm[1] - s.w[1] * arm[0]};
+    double vt[3];
+    body_point_velocity(s, arm, vt);
     const double reach = 2.0 * h * std::sqrt(dot3(vt, vt)) + 1e-12;
     if (e > -reach) {
       ContactSpring sp;

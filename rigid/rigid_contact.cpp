@@ -22,12 +22,6 @@ inline void rot_t(const std::array<double, 9>& R, const double* x, double* y) {
   for (int i = 0; i < 3; ++i) y[i] = R[size_t(i)] * x[0] + R[size_t(3 + i)] * x[1] + R[size_t(6 + i)] * x[2];
 }
 
-/// Velocity of the body's point at arm r (world): v + ω × r.
-inline void body_point_velocity(const RigidState& s, const double* r, double* out) {
-  out[0] = s.v[0] + s.w[1] * r[2] - s.w[2] * r[1];
-  out[1] = s.v[1] + s.w[2] * r[0] - s.w[0] * r[2];
-  out[2] = s.v[2] + s.w[0] * r[1] - s.w[1] * r[0];
-}
 
 /// Solid angle of triangle (a, b, c) seen from the origin (Van Oosterom & Strackee 1983).
 double solid_angle(const double* a, const double* b, const double* c) {

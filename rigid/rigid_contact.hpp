@@ -94,6 +94,13 @@ void rigid_forces_after_step(const double* x0, const double* x, const double* v,
                              const RigidState* end, const int32_t* row_body, const ContactSpring* springs, int count,
                              RigidContactOutput* out, int bodies);
 
+/// Velocity of the body's point at arm r (world): v + ω × r.
+inline void body_point_velocity(const RigidState& s, const double* r, double* out) {
+  out[0] = s.v[0] + s.w[1] * r[2] - s.w[2] * r[1];
+  out[1] = s.v[1] + s.w[2] * r[0] - s.w[0] * r[2];
+  out[2] = s.v[2] + s.w[0] * r[1] - s.w[1] * r[0];
+}
+
 /// How far the point at arm `a` (world, at the start) of a body moved from `s0` to `s1`.
 void body_point_displacement(const RigidState& s0, const RigidState& s1, const double* a, double* d);
 
