@@ -12,7 +12,8 @@ namespace {
 
 constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
 /// 2: the solver's history (SolverHistory) after the step counter.
-constexpr uint32_t kVersion = 6;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body; 6: needles
+constexpr uint32_t kVersion = 7;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body; 6: needles;
+                                  // 7: refresh ids as presence flags (one encoding per state)
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
@@ -60,6 +61,13 @@ class Reader {
     need(sizeof v, field);
     std::memcpy(&v, b_.data() + at_, sizeof v);
     at_ += sizeof v;
+  }
+  /// A byte that must be 0 or 1 (any other value would re-encode differently).
+  bool flag(const char* field) {
+    uint8_t b = 0;
+    value(b, field);
+    if (b > 1) throw InputError(kWhat, 0, field, "a flag of " + std::to_string(b) + " (0 or 1)");
+    return b == 1;
   }
   template <class T>
   void array(std::vector<T>& v, const char* field) {
@@ -272,11 +280,13 @@ std::string encode_state(const State& s, uint64_t fingerprint) {
   w.value(s.step);
   const SolverHistory& h = s.tissue.solver;
   w.value(h.converged_in_a_row);
-  w.value(h.factor_id);
+  // A refresh id names a factor within one process only (decode gives fresh ones), so the bytes
+  // say whether there is one, not which: a decoded state re-encodes to the same bytes.
+  w.value(static_cast<uint8_t>(h.factor_id != 0));
   w.value(h.factor_key);
   w.array(h.factor_matrix);
   w.array(h.factor_rot);
-  w.value(h.pending_id);
+  w.value(static_cast<uint8_t>(h.pending_id != 0));
   w.value(h.pending_key);
   w.array(h.pending_matrix);
   w.array(h.pending_rot);
@@ -347,28 +357,26 @@ State decode_state(const std::string& bytes, uint64_t* fingerprint) {
   r.value(s.step, "step");
   SolverHistory& h = s.tissue.solver;
   r.value(h.converged_in_a_row, "solver.converged_in_a_row");
-  r.value(h.factor_id, "solver.factor_id");
+  const bool has_factor = r.flag("solver.factor_id");
   r.value(h.factor_key, "solver.factor_key");
   r.array(h.factor_matrix, "solver.factor_matrix");
   r.array(h.factor_rot, "solver.factor_rot");
-  r.value(h.pending_id, "solver.pending_id");
+  const bool has_pending = r.flag("solver.pending_id");
   r.value(h.pending_key, "solver.pending_key");
   r.array(h.pending_matrix, "solver.pending_matrix");
   r.array(h.pending_rot, "solver.pending_rot");
   r.value(h.steps_since_offer, "solver.steps_since_offer");
   r.value(h.period, "solver.period");
   r.value(h.lag, "solver.lag");
-  uint8_t demand = 0;
-  r.value(demand, "solver.demand");
-  h.demand = demand != 0;
+  h.demand = r.flag("solver.demand");
   r.value(h.pace_iterations, "solver.pace_iterations");
   r.value(h.typical_iterations, "solver.typical_iterations");
   r.value(h.warped_solves, "solver.warped_solves");
   r.finish();
   // Refresh ids name factors within one process: a state from elsewhere gets fresh ones, so no
   // stepper here mistakes them for a factor it holds (it remakes them from the systems kept).
-  if (h.factor_id != 0) h.factor_id = new_refresh_id();
-  if (h.pending_id != 0) h.pending_id = new_refresh_id();
+  h.factor_id = has_factor ? new_refresh_id() : 0;
+  h.pending_id = has_pending ? new_refresh_id() : 0;
   if (fingerprint) *fingerprint = fp;
   return s;
 }

@@ -134,3 +134,35 @@ TEST(StateBytes, BadBytesAreInputErrorsNamingTheField) {
   std::memcpy(&bad[28], &huge, sizeof huge);
   EXPECT_EQ(field_of(bad), "x");
 }
+
+// The format has one encoding per state (the fuzz target's invariant): refresh ids, which name a
+// factor within one process only, are stored as presence flags, and a flag byte other than 0 or
+// 1 is refused rather than read as "set".
+TEST(StateBytes, ADecodedStateReencodesToTheSameBytes) {
+  const CompiledScenario sc = compile_scenario(load_scenario(kDir + "regression/liver_probe_damage.yaml"));
+  State s = State::initial(*sc.model);
+  s.tissue.solver.factor_id = 12345;
+  s.tissue.solver.pending_id = 678;
+  s.tissue.solver.demand = true;
+  const std::string bytes = encode_state(s, 7);
+  const State t = decode_state(bytes, nullptr);
+  EXPECT_NE(t.tissue.solver.factor_id, 0u);
+  EXPECT_NE(t.tissue.solver.pending_id, 0u);
+  EXPECT_NE(t.tissue.solver.factor_id, s.tissue.solver.factor_id) << "decode gives this process's own ids";
+  EXPECT_TRUE(t.tissue.solver.demand);
+  EXPECT_EQ(encode_state(t, 7), bytes);
+  s.tissue.solver.factor_id = s.tissue.solver.pending_id = 0;
+  const State u = decode_state(encode_state(s, 7), nullptr);
+  EXPECT_EQ(u.tissue.solver.factor_id, 0u);
+  EXPECT_EQ(u.tissue.solver.pending_id, 0u);
+
+  // demand is the byte before the last three 8-byte fields.
+  std::string bad = bytes;
+  bad[bad.size() - 25] = 2;
+  try {
+    decode_state(bad, nullptr);
+    ADD_FAILURE() << "a flag byte of 2 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "solver.demand");
+  }
+}
