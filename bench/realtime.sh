@@ -6,6 +6,7 @@
 #        (after scripts/build.sh; default scenarios/liver.yaml with trajectories/liver_press.yaml;
 #         the physical scenes: scenarios/physical/liver_16cm.yaml
 #         scenarios/trajectories/physical_liver_press.yaml, and so on)
+# TOOL_NAME=NAME drives that tool of the scenario (default probe).
 # TOOL_ARGS="--loop" replays a trajectory that ends where it starts for the whole duration (the
 # physical trajectories do); without it the tool holds the script's last pose.
 # SERVE_ARGS="..." passes more options to the server (e.g. "--phase-lead-us 0": the fixed
@@ -39,10 +40,10 @@ fi
 ./build/stroma serve "$scenario" "${dds[@]}" "${crtk[@]}" --domain "$domain" --duration "$serve_for" \
   --stats "$out/stats.json" ${SERVE_ARGS:-} > "$out/serve.log" 2>&1 & srv=$!
 sleep 1
-./build/stroma tool --name probe --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
+./build/stroma tool --name "${TOOL_NAME:-probe}" --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
   --duration "$dur" --domain "$domain" --out "$out/tool.csv" 2> "$out/tool.log" | tee "$out/tool_summary.txt"
 if [ -n "${CRTK:-}" ]; then
-  ./build/stroma tool --crtk --name probe --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
+  ./build/stroma tool --crtk --name "${TOOL_NAME:-probe}" --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
     --duration "$dur" --domain "$domain" --out "$out/tool_crtk.csv" 2> "$out/tool_crtk.log" | tee -a "$out/tool_summary.txt"
 fi
 wait $srv

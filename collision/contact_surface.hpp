@@ -75,6 +75,40 @@ inline void for_each_triangle_sample(int ns, F&& f) {
     }
 }
 
+/// Sub-triangle rows and columns per block of for_each_triangle_sample_culled.
+inline constexpr int kSampleBlock = 4;
+
+/// for_each_triangle_sample, in the same order, skipping whole blocks of kSampleBlock ×
+/// kSampleBlock sub-triangle cells: keep(u, v, half) is asked once per block (the first time one
+/// of its samples comes up) with the block's centre (barycentric, of vertices 1 and 2) and its
+/// half-width as a fraction of the triangle's edges; its samples are visited only if it returns
+/// true. A toucher small beside the triangle (a needle's wire on a coarse organ) then costs
+/// the blocks near it, not all s² samples.
+template <class Keep, class F>
+inline void for_each_triangle_sample_culled(int ns, Keep&& keep, F&& f) {
+  constexpr int B = kSampleBlock, kMaxBlocks = (24 + B - 1) / B;
+  if (ns <= B || ns > 24) return for_each_triangle_sample(ns, f);
+  int8_t state[kMaxBlocks][kMaxBlocks];  // −1 not asked, 0 skip, 1 keep
+  for (auto& row : state)
+    for (int8_t& v : row) v = -1;
+  const double inv = 1.0 / ns;
+  auto kept = [&](int i, int j) {
+    int8_t& st = state[i / B][j / B];
+    if (st < 0) {
+      const int i0 = (i / B) * B, j0 = (j / B) * B;
+      const double half = 0.5 * B * inv;
+      st = keep(i0 * inv + half, j0 * inv + half, half) ? 1 : 0;
+    }
+    return st == 1;
+  };
+  for (int i = 0; i < ns; ++i)
+    for (int j = 0; j < ns - i; ++j) {
+      if (!kept(i, j)) continue;
+      f((i + 1.0 / 3.0) * inv, (j + 1.0 / 3.0) * inv);
+      if (j < ns - i - 1) f((i + 2.0 / 3.0) * inv, (j + 2.0 / 3.0) * inv);
+    }
+}
+
 /// Sets sp's DOFs, weights and slots to the point with barycentric (b0, b1, b2) on a triangle.
 inline void set_spring_point(const SurfaceTriangleDofs& td, double b0, double b1, double b2, ContactSpring& sp) {
   sp.n = td.n;

@@ -39,13 +39,14 @@ const char* const kCrtkDeviceOut[] = {"measured_cp", "measured_cf", "operating_s
 const char* const kRos2NodeTopics[] = {"ros_discovery_info", "rt/rosout", "rt/parameter_events", "rq/*", "rr/*"};
 
 /// Server → client topics (the server writes them; readers as permitted).
-const char* const kServerTopics[] = {"stroma_ToolFeedback", "stroma_TissueMesh", "stroma_TissueState",
-                                     "stroma_ToolState",    "stroma_Scene",      "stroma_DamageEvent",
-                                     "stroma_SimStatus",    "stroma_TopologyEvent"};
+const char* const kServerTopics[] = {"stroma_ToolFeedback", "stroma_TissueMesh",     "stroma_TissueState",
+                                     "stroma_ToolState",    "stroma_Scene",          "stroma_DamageEvent",
+                                     "stroma_SimStatus",    "stroma_TopologyEvent",  "stroma_RigidBody",
+                                     "stroma_RigidBodyState", "stroma_NeedleEvent"};
 /// What the renderer reads.
-const char* const kRendererTopics[] = {"stroma_TissueMesh", "stroma_TissueState", "stroma_ToolState",
-                                       "stroma_Scene",      "stroma_DamageEvent", "stroma_SimStatus",
-                                       "stroma_TopologyEvent"};
+const char* const kRendererTopics[] = {"stroma_TissueMesh", "stroma_TissueState",    "stroma_ToolState",
+                                       "stroma_Scene",      "stroma_DamageEvent",    "stroma_SimStatus",
+                                       "stroma_TopologyEvent", "stroma_RigidBody",   "stroma_RigidBodyState"};
 
 /// Certificate subjects: no spaces (Cyclone compares subject names token by token). `group`
 /// (empty, or an organisational unit chosen by make_identity) steers the handshake order.

@@ -13,7 +13,8 @@ namespace {
 constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
 /// 2: the solver's history (SolverHistory) after the step counter.
 constexpr uint32_t kVersion = 7;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body; 6: needles;
-                                  // 7: refresh ids as presence flags (one encoding per state)
+                                  // 7: refresh ids as presence flags (one encoding per state); track
+                                  // points name their body (needles through two bites)
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
@@ -391,7 +392,9 @@ bool needle_tracks_fit(const State& s, const State& ref, const Model& m, std::st
     return false;
   };
   auto point_fits = [&](const TrackPoint& tp) {
-    return tp.tet >= 0 && size_t(tp.tet) < m.fem.elements.size() && tp.node == m.fem.elements[size_t(tp.tet)].node;
+    return tp.tet >= 0 && size_t(tp.tet) < m.fem.elements.size() && tp.node == m.fem.elements[size_t(tp.tet)].node &&
+           tp.body >= 0 && size_t(tp.body) < m.fem.bodies.size() && tp.tet >= m.fem.bodies[size_t(tp.body)].element_begin &&
+           tp.tet < m.fem.bodies[size_t(tp.body)].element_end && tp.surface <= 2 && tp.sliding <= 2;
   };
   for (size_t k = 0; k < s.needles.size() && k < ref.needles.size(); ++k) {
     const NeedleState& n = s.needles[k];

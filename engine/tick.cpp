@@ -201,7 +201,7 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
     // A needle (rigid/needle_track.hpp): its tip has a contact of its own, and the tissue none
     // around its holes once it is in.
     const bool needle = b.shape == RigidShape::Needle;
-    double holes[9];
+    double holes[3 * (kMaxNeedleHoles + 1)];
     int n_holes = 0;
     double hole_radius = 0;
     if (needle) {
@@ -216,7 +216,7 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
                          m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)],
                          holes, n_holes, hole_radius);
     w.tip_spring[size_t(k)] = w.tip_element[size_t(k)] = -1;
-    if (needle && ns.phase == NeedlePhase::Outside) {
+    if (needle && ns.phase != NeedlePhase::Inserted) {  // outside, or exited: its tip may bite again
       int32_t tri = -1;
       w.tip_spring[size_t(k)] = needle_tip_contact(b, s.rigid[size_t(k)], tentative(k, 0), s.needles[size_t(k)], surf,
                                                    w.bvh, px, m.fem_step, w.springs, w.rigid_pairs,
@@ -224,7 +224,7 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
       if (tri >= 0 && size_t(tri) < m.collision_tri_elem.size()) w.tip_element[size_t(k)] = m.collision_tri_elem[size_t(tri)];
     }
     if (needle && ns.phase != NeedlePhase::Outside)
-      needle_track_springs(b, s.rigid[size_t(k)], tentative(k, 0), ns, m.needle_tissue[size_t(ns.tissue_body)], m.fem,
+      needle_track_springs(b, s.rigid[size_t(k)], tentative(k, 0), ns, m.needle_tissue, m.fem,
                            x, m.fem_step, w.springs, w.rigid_pairs, w.needle_slips);
     if (w.springs.size() > before) commit(k);
   }

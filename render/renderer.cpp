@@ -193,12 +193,13 @@ struct Renderer::Impl {
   Camera camera;
   std::vector<Body> bodies;
   std::vector<ToolView> tools;
-  GpuMesh tool_mesh;
-  std::vector<float> tool_vertices;
-  std::vector<uint32_t> tool_indices;
-  GLuint marker_vao = 0, marker_vbo = 0;
-  std::vector<float> markers;  // 3 per marker
-  size_t marker_capacity = 0;
+  std::vector<RigidView> rigid;
+  GpuMesh tool_mesh, rigid_mesh;  // steel (tools, needles); the other rigid bodies
+  std::vector<float> tool_vertices, rigid_vertices;
+  std::vector<uint32_t> tool_indices, rigid_indices;
+  GLuint marker_vao = 0, marker_vbo = 0, track_vao = 0, track_vbo = 0;
+  std::vector<float> markers, track_marks;  // 3 per marker
+  size_t marker_capacity = 0, track_capacity = 0;
   GLuint prog_mesh = 0, prog_background = 0, prog_marker = 0, empty_vao = 0;
   GLuint fbo_ms = 0, color_ms = 0, depth_ms = 0, fbo = 0, color = 0, depth = 0;
   int samples = 0;
@@ -268,15 +269,54 @@ struct Renderer::Impl {
     b.dirty = false;
   }
 
-  /// Tool capsules → one triangle mesh (rebuilt per frame: a few thousand vertices at most).
+  /// Tool capsules (and needles' tubes) → one steel triangle mesh, the other rigid bodies → one
+  /// more (rebuilt per frame: a few thousand vertices at most, or a rigid mesh's faces).
   void build_tools() {
     tool_vertices.clear();
     tool_indices.clear();
+    rigid_vertices.clear();
+    rigid_indices.clear();
     for (const ToolView& t : tools)
       for (const ToolView::Capsule& c : t.capsules)
         append_capsule(c.a, c.b, c.r, tool_vertices, tool_indices, kFloatsPerVertex);
+    for (const RigidView& b : rigid) {
+      std::vector<float>& vert = b.steel ? tool_vertices : rigid_vertices;
+      std::vector<uint32_t>& idx = b.steel ? tool_indices : rigid_indices;
+      for (const ToolView::Capsule& c : b.capsules) append_capsule(c.a, c.b, c.r, vert, idx, kFloatsPerVertex);
+      for (size_t t = 0; t + 8 < b.triangles.size(); t += 9) {  // flat: the face's normal at its corners
+        const Vector3f p0(&b.triangles[t]), p1(&b.triangles[t + 3]), p2(&b.triangles[t + 6]);
+        Vector3f n = (p1 - p0).cross(p2 - p0);
+        if (n.norm() > 0) n.normalize();
+        for (const Vector3f* p : {&p0, &p1, &p2}) {
+          idx.push_back(static_cast<uint32_t>(vert.size() / kFloatsPerVertex));
+          vert.insert(vert.end(), {p->x(), p->y(), p->z(), n.x(), n.y(), n.z()});
+          vert.resize(vert.size() + kFloatsPerVertex - 6, 0.0f);
+        }
+      }
+    }
     tool_mesh.upload_vertices(tool_vertices.data(), tool_vertices.size() / kFloatsPerVertex);
     tool_mesh.upload_indices(tool_indices.data(), tool_indices.size());
+    rigid_mesh.upload_vertices(rigid_vertices.data(), rigid_vertices.size() / kFloatsPerVertex);
+    rigid_mesh.upload_indices(rigid_indices.data(), rigid_indices.size());
+  }
+
+  /// A needle's track points → marks (drawn like contact markers, in Look::track).
+  void build_track_marks() {
+    track_marks.clear();
+    for (const RigidView& b : rigid)
+      for (const Vec3f& p : b.track) track_marks.insert(track_marks.end(), p.begin(), p.end());
+    upload_points(track_vbo, track_marks, track_capacity);
+  }
+
+  static void upload_points(GLuint vbo, const std::vector<float>& pts, size_t& capacity) {
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
+    const size_t n = pts.size() / 3;
+    if (n > capacity) {
+      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(pts.size() * sizeof(float)), pts.data(), GL_STREAM_DRAW);
+      capacity = n;
+    } else if (n > 0) {
+      glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(pts.size() * sizeof(float)), pts.data());
+    }
   }
 
   /// Surface vertices inside a tool (within 2 % of its radius): where it touches the tissue.
@@ -294,14 +334,7 @@ struct Renderer::Impl {
             if (segment_distance(p, a, bb) <= c.r * 1.02f) markers.insert(markers.end(), {p.x(), p.y(), p.z()});
           }
       }
-    glBindBuffer(GL_ARRAY_BUFFER, marker_vbo);
-    const size_t n = markers.size() / 3;
-    if (n > marker_capacity) {
-      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(markers.size() * sizeof(float)), markers.data(), GL_STREAM_DRAW);
-      marker_capacity = n;
-    } else if (n > 0) {
-      glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(markers.size() * sizeof(float)), markers.data());
-    }
+    upload_points(marker_vbo, markers, marker_capacity);
   }
 
   /// Bounding box of every body's rest positions (zero box without bodies).
@@ -434,20 +467,35 @@ struct Renderer::Impl {
       glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(tool_mesh.indices), GL_UNSIGNED_INT, nullptr);
       last_triangles += tool_mesh.indices / 3;
     }
+    if (rigid_mesh.indices > 0) {
+      const Vector3f c = linear(look.rigid);
+      glUniform3f(loc("u_base"), c.x(), c.y(), c.z());
+      glUniform1i(loc("u_field"), 0);
+      glUniform1f(loc("u_shininess"), 32.0f);
+      glUniform1f(loc("u_specular"), 0.4f);
+      glBindVertexArray(rigid_mesh.vao);
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(rigid_mesh.indices), GL_UNSIGNED_INT, nullptr);
+      last_triangles += rigid_mesh.indices / 3;
+    }
   }
 
-  /// Contact markers: round points drawn over the surface they sit on.
+  /// Contact markers and track marks: round points drawn over the surface they sit on.
   void draw_markers(const View& v) {
-    if (markers.empty()) return;
+    draw_points(v, marker_vao, markers, look.marker);
+    draw_points(v, track_vao, track_marks, look.track);
+  }
+
+  void draw_points(const View& v, GLuint vao, const std::vector<float>& pts, const Vec3f& colour) {
+    if (pts.empty()) return;
     glUseProgram(prog_marker);
     glUniformMatrix4fv(glGetUniformLocation(prog_marker, "u_view_proj"), 1, GL_FALSE, v.view_proj.data());
-    const Vector3f mc = v3(look.marker);
+    const Vector3f mc = v3(colour);
     glUniform3f(glGetUniformLocation(prog_marker, "u_color"), mc.x(), mc.y(), mc.z());
     glUniform1f(glGetUniformLocation(prog_marker, "u_size"), std::max(3.0f, 5.0f * static_cast<float>(height) / 480.0f));
     glEnable(GL_PROGRAM_POINT_SIZE);
     glDepthFunc(GL_LEQUAL);
-    glBindVertexArray(marker_vao);
-    glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(markers.size() / 3));
+    glBindVertexArray(vao);
+    glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(pts.size() / 3));
     glDepthFunc(GL_LESS);
   }
 
@@ -489,12 +537,15 @@ Renderer::Renderer(int width, int height, const Look& look) : impl_(std::make_un
   s.prog_marker = link(kMarkerVertexShader, kMarkerFragmentShader);
   glGenVertexArrays(1, &s.empty_vao);
   s.tool_mesh.create();
-  glGenVertexArrays(1, &s.marker_vao);
-  glGenBuffers(1, &s.marker_vbo);
-  glBindVertexArray(s.marker_vao);
-  glBindBuffer(GL_ARRAY_BUFFER, s.marker_vbo);
-  glEnableVertexAttribArray(0);
-  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
+  s.rigid_mesh.create();
+  for (auto [vao, vbo] : {std::pair{&s.marker_vao, &s.marker_vbo}, std::pair{&s.track_vao, &s.track_vbo}}) {
+    glGenVertexArrays(1, vao);
+    glGenBuffers(1, vbo);
+    glBindVertexArray(*vao);
+    glBindBuffer(GL_ARRAY_BUFFER, *vbo);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
+  }
   glBindVertexArray(0);
   s.create_framebuffers();
   s.rgba.resize(static_cast<size_t>(width) * height * 4);
@@ -504,8 +555,11 @@ Renderer::~Renderer() {
   Impl& s = *impl_;
   for (Body& b : s.bodies) b.gpu.destroy();
   s.tool_mesh.destroy();
+  s.rigid_mesh.destroy();
   glDeleteVertexArrays(1, &s.marker_vao);
   glDeleteBuffers(1, &s.marker_vbo);
+  glDeleteVertexArrays(1, &s.track_vao);
+  glDeleteBuffers(1, &s.track_vbo);
   glDeleteVertexArrays(1, &s.empty_vao);
   glDeleteProgram(s.prog_mesh);
   glDeleteProgram(s.prog_background);
@@ -569,6 +623,7 @@ void Renderer::update_body(int id, const float* positions, const float* stress, 
 }
 
 void Renderer::set_tools(std::vector<ToolView> tools) { impl_->tools = std::move(tools); }
+void Renderer::set_rigid_bodies(std::vector<RigidView> bodies) { impl_->rigid = std::move(bodies); }
 void Renderer::set_camera(const Camera& camera) { impl_->camera = camera; }
 void Renderer::set_look(const Look& look) {
   const bool resample = look.msaa != impl_->look.msaa;
@@ -583,6 +638,7 @@ int Renderer::width() const { return impl_->width; }
 int Renderer::height() const { return impl_->height; }
 size_t Renderer::last_triangles() const { return impl_->last_triangles; }
 size_t Renderer::last_markers() const { return impl_->markers.size() / 3; }
+size_t Renderer::last_track_marks() const { return impl_->track_marks.size() / 3; }
 
 Camera Renderer::fit_camera(Vec3f view_direction, Vec3f up, float fov_deg) const {
   Vector3f lo, hi;
@@ -639,6 +695,7 @@ void Renderer::render(Image& out) {
     if (b.dirty) s.upload_body(b);
   s.build_tools();
   s.build_markers();
+  s.build_track_marks();
   const Impl::View v = s.view();
   glBindFramebuffer(GL_FRAMEBUFFER, s.samples > 0 ? s.fbo_ms : s.fbo);
   glViewport(0, 0, s.width, s.height);

@@ -2,7 +2,8 @@
 /// \file renderer.hpp
 /// Draws tissue surfaces and tools into an off-screen image: smooth per-frame vertex normals,
 /// Blinn–Phong lighting (key + fill + hemisphere ambient + rim), a stress or damage colour map
-/// over the tissue colour, tools as capsules, contact markers, optional wireframe, multisample
+/// over the tissue colour, tools as capsules, rigid bodies (needles as steel tubes with their
+/// track marks), contact markers, optional wireframe, multisample
 /// anti-aliasing. Knows nothing of DDS or the engine: the render process and the tests feed it
 /// plain arrays. Needs a current GL 3.3+ core context (GlContext) on the calling thread.
 
@@ -33,6 +34,8 @@ struct Look {
   Vec3f cut_tissue{0.85f, 0.10f, 0.09f};  ///< the inner faces a cut exposed: fresh, bloody red
   Vec3f tool{0.80f, 0.82f, 0.86f};    ///< brushed steel
   Vec3f marker{1.0f, 0.85f, 0.15f};   ///< contact markers
+  Vec3f rigid{0.35f, 0.55f, 0.80f};   ///< rigid bodies other than needles (needles are steel: `tool`)
+  Vec3f track{0.12f, 0.03f, 0.05f};   ///< a needle's track marks: dark, where the tissue was pierced
   /// Key light direction in world coordinates (from the light towards the scene); all zero:
   /// above and to the left of the camera, following it.
   Vec3f light_direction{0, 0, 0};
@@ -52,6 +55,16 @@ struct ToolView {
   };
   std::vector<Capsule> capsules;
   bool in_contact = false;
+};
+
+/// A rigid body to draw, in world coordinates (render/rigid_view.hpp makes it from a shape and a
+/// pose): capsules (spheres, capsules, a needle's tube), flat triangles (9 floats each,
+/// counter-clockwise from outside) and a needle's track points, drawn as dark marks.
+struct RigidView {
+  std::vector<ToolView::Capsule> capsules;
+  std::vector<float> triangles;
+  std::vector<Vec3f> track;
+  bool steel = false;  ///< drawn in the tools' steel (a needle) rather than Look::rigid
 };
 
 /// Off-screen renderer of bodies (triangle surfaces with per-vertex fields) and tools.
@@ -79,6 +92,7 @@ class Renderer {
   /// New positions (3 per vertex) and optional per-vertex stress (Pa) and damage (0..1).
   void update_body(int id, const float* positions, const float* stress, const float* damage);
   void set_tools(std::vector<ToolView> tools);
+  void set_rigid_bodies(std::vector<RigidView> bodies);
   void set_camera(const Camera& camera);
   void set_look(const Look& look);
   const Look& look() const;
@@ -97,9 +111,11 @@ class Renderer {
 
   int width() const;
   int height() const;
-  /// Triangles drawn in the last frame (tissue + tools), and contact markers.
+  /// Triangles drawn in the last frame (tissue, tools and rigid bodies), contact markers and
+  /// track marks.
   size_t last_triangles() const;
   size_t last_markers() const;
+  size_t last_track_marks() const;
 
  private:
   struct Impl;

@@ -61,6 +61,8 @@ TrackPoint point_from_walk(const TetWalkResult& r, const FemModel& fem) {
   tp.tet = r.tet;
   tp.node = fem.elements[size_t(r.tet)].node;
   for (int k = 0; k < 4; ++k) tp.w[k] = r.w[k];
+  for (size_t b = 0; b < fem.bodies.size(); ++b)
+    if (r.tet >= fem.bodies[b].element_begin && r.tet < fem.bodies[b].element_end) tp.body = static_cast<int16_t>(b);
   return tp;
 }
 
@@ -176,19 +178,21 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
 
 int needle_hole_points(const NeedleState& ns, const double* x, double* pts) {
   int n = 0;
-  for (int32_t i = 0; i < ns.count && n < 2; ++i)
+  for (int32_t i = 0; i < ns.count && n < kMaxNeedleHoles; ++i)
     if (ns.track[size_t(i)].surface) material_point(ns.track[size_t(i)], x, pts + 3 * n++);
   return n;
 }
 
 namespace {
 
-/// Track point i's share of the inserted length: from the midpoints to its neighbours (the
-/// entry's from itself; the deepest's to the apex while the tip is in, to itself once out).
+/// Track point i's share of the inserted length: from the midpoints to its neighbours (an
+/// entry's from itself, an exit's to itself — the gap between two bites is not in tissue; the
+/// deepest's to the apex while the tip is in).
 double share_of(const NeedleState& ns, int32_t i, double top) {
-  const double s = ns.track[size_t(i)].s;
-  const double lo = i == 0 ? s : 0.5 * (ns.track[size_t(i - 1)].s + s);
-  const double hi = i + 1 == ns.count ? std::max(top, s) : 0.5 * (s + ns.track[size_t(i + 1)].s);
+  const TrackPoint& tp = ns.track[size_t(i)];
+  const double s = tp.s;
+  const double lo = i == 0 || tp.surface == 1 ? s : 0.5 * (ns.track[size_t(i - 1)].s + s);
+  const double hi = tp.surface == 2 ? s : i + 1 == ns.count ? std::max(top, s) : 0.5 * (s + ns.track[size_t(i + 1)].s);
   return std::max(0.0, hi - lo);
 }
 
@@ -200,16 +204,17 @@ double track_top(const RigidBodyModel& b, const NeedleState& ns) {
 }  // namespace
 
 int needle_track_springs(const RigidBodyModel& b, const RigidState& s, int32_t row, const NeedleState& ns,
-                         const NeedleTissue& tissue, const FemModel& fem, const double* x, double h,
+                         const std::vector<NeedleTissue>& tissues, const FemModel& fem, const double* x, double h,
                          std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
                          std::vector<NeedleSlip>& slips) {
   if (ns.phase == NeedlePhase::Outside) return 0;
-  const double k = tissue.track_stiffness * tissue.track_spacing;
   const double top = track_top(b, ns);
   int made = 0;
   for (int32_t i = 0; i < ns.count; ++i) {
     if (springs.size() == springs.capacity() || slips.size() == slips.capacity()) return made;
     const TrackPoint& tp = ns.track[size_t(i)];
+    const NeedleTissue& tissue = tissues[size_t(tp.body)];  // its own body's (bites may be in two)
+    const double k = tissue.track_stiffness * tissue.track_spacing;
     double p[3], c[3], t[3], arm[3];
     material_point(tp, x, p);
     needle_world_point(b, s, tp.s, c, t, arm);
@@ -241,6 +246,8 @@ int needle_track_springs(const RigidBodyModel& b, const RigidState& s, int32_t r
   }
   if (ns.has_front && springs.size() < springs.capacity() && pairs.size() < pairs.capacity() &&
       slips.size() < slips.capacity()) {
+    const NeedleTissue& tissue = tissues[size_t(ns.front.body)];
+    const double k = tissue.track_stiffness * tissue.track_spacing;
     double q[3], c[3], t[3], arm[3];
     material_point(ns.front, x, q);
     needle_world_point(b, s, apex_s(b), c, t, arm);
@@ -316,10 +323,10 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
   needle_world_point(b, se, L, tip, t_tip, arm_tip);
   for (int k = 0; k < 3; ++k) apex[k] = tip[k] + r * t_tip[k];
 
-  // Outside, the tip's push on the tissue (its contact spring's force after the step, along t):
-  // above the touched body's puncture force, the tip enters.
+  // Outside (or exited: a second bite), the tip's push on the tissue (its contact spring's force
+  // after the step, along t): above the touched body's puncture force, the tip enters.
   if (tip_spring < 0) ns.tip_touching = 0;
-  if (ns.phase == NeedlePhase::Outside && tip_spring >= 0) {
+  if (ns.phase != NeedlePhase::Inserted && tip_spring >= 0) {
     const ContactSpring& sp = springs[tip_spring];
     double f[3];
     rigid_spring_force_after_step(sp, x0, x, v, start, end, row_body, f);
@@ -346,7 +353,7 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
         ns.phase = NeedlePhase::Inserted;
         ns.tissue_body = body;
         ns.front = tp;
-        ns.front.surface = 0;
+        ns.front.surface = reached ? 0 : 1;  // 1: its first cut makes the entry
         ns.has_front = 1;
         ns.tip_touching = 0;
         out.punctured = true;
@@ -355,8 +362,6 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
     }
   }
   if (ns.phase == NeedlePhase::Outside) return;
-  const NeedleTissue& nt = tissue[size_t(ns.tissue_body)];
-  const double k = nt.track_stiffness * nt.track_spacing;
 
   // The track's friction: each point's share of the inserted length sets its limits; a point
   // past its limit slips to the kinetic force (s moves), and keeps that limit while it slides.
@@ -364,6 +369,8 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
   double inserted = 0, along = 0;
   for (int32_t i = 0; i < ns.count; ++i) {
     TrackPoint& tp = ns.track[size_t(i)];
+    const NeedleTissue& nt = nt_of(tp.body);
+    const double k = k_of(tp.body);
     const double share = share_of(ns, i, top);
     inserted += share;
     double p[3], c[3], t[3], arm[3];
@@ -386,6 +393,8 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
 
   // The cutting front: pushed past the cutting force, it moves on to F_c/k behind the apex.
   if (ns.phase == NeedlePhase::Inserted && ns.has_front) {
+    const NeedleTissue& nt = nt_of(ns.front.body);
+    const double k = k_of(ns.front.body);
     double q[3];
     material_point(ns.front, x, q);
     const double e = dot3(t_tip, apex) - dot3(t_tip, q);
@@ -415,7 +424,7 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
         // The walk found neither the target nor the boundary (a degenerate path): the front
         // stays where it is this step.
       } else if (!wr.inside) {  // cut through: the boundary point it crossed is the exit
-        tp.surface = 1;
+        tp.surface = 2;
         if (push_point(ns, tp)) {
           ns.phase = NeedlePhase::Exited;
           ns.has_front = 0;
@@ -423,11 +432,12 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
           ++ns.punctures;
         }
       } else {
+        const bool entry = ns.front.surface == 1;  // the puncture left the front alone
         ns.front = tp;
         ns.front.sliding = 1;  // cutting: the next step pushes it with the cutting force
         const double last = ns.count > 0 ? ns.track[size_t(ns.count - 1)].s : -1e300;
-        tp.surface = ns.count == 0;  // the entry, when the puncture left the front alone
-        if (tp.s - last >= nt.track_spacing) push_point(ns, sliding_back(tp, nt, k, Lapex));
+        tp.surface = entry ? 1 : 0;
+        if (entry || tp.s - last >= nt.track_spacing) push_point(ns, sliding_back(tp, nt, k, Lapex));
       }
     }
   }
@@ -440,6 +450,7 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
     if (tp.s > Lapex) {
       if (ns.phase == NeedlePhase::Exited && i + 1 == ns.count) {  // withdrawn back through the exit
         ns.phase = NeedlePhase::Inserted;
+        ns.tissue_body = tp.body;
         ns.front = tp;
         ns.front.surface = 0;
         ns.front.sliding = 0;  // pushed again, it is a spring before it cuts
@@ -456,15 +467,23 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
   if (ns.has_front) {
     double q[3];
     material_point(ns.front, x, q);
-    front_reached = dot3(t_tip, apex) - dot3(t_tip, q) > -0.5 * nt.track_spacing;
+    front_reached = dot3(t_tip, apex) - dot3(t_tip, q) > -0.5 * nt_of(ns.front.body).track_spacing;
+  }
+  if (ns.phase == NeedlePhase::Inserted && ns.count > 0 && ns.track[size_t(ns.count - 1)].surface == 2 && !front_reached) {
+    // Drawn back out of a later bite: between the bites again, through the earlier ones.
+    ns.phase = NeedlePhase::Exited;
+    ns.has_front = 0;
+    ns.tissue_body = ns.track[size_t(ns.count - 1)].body;
   }
   if (ns.count == 0 && !front_reached) {
     ns.phase = NeedlePhase::Outside;
     ns.has_front = 0;
+    out.tissue_body = ns.tissue_body;  // the one it left
     ns.tissue_body = -1;
     out.left = true;
   }
   out.phase = ns.phase;
+  if (ns.tissue_body >= 0) out.tissue_body = ns.tissue_body;
   out.inserted_length = ns.count > 0 ? inserted : 0.0;
   out.track_points = ns.count;
 }

@@ -6,7 +6,10 @@
 /// one kind"), and a short update of the needle's state after each step.
 ///
 /// Phases (NeedleState::phase): Outside → (puncture) → Inserted → (exit) → Exited, and back to
-/// Outside once no track point is left on the needle (withdrawn, or pulled through).
+/// Outside once no track point is left on the needle (withdrawn, or pulled through). An exited
+/// needle punctures again as an outside one does (a second bite: the other lip of a wound, or
+/// another body): Exited → Inserted, the first bite's track kept; drawn back out of the second
+/// bite it is Exited again.
 ///
 ///  - **Puncture.** Outside, the tip presses the tissue through the ordinary contact springs
 ///    (rigid/rigid_contact.hpp). After a step, the force those within 1.5 wire radii of the tip's
@@ -74,15 +77,17 @@ struct TrackPoint {
   int32_t tet = -1;
   std::array<int32_t, 4> node{};
   uint8_t sliding = 0;   ///< 0: stuck; slid last step (the kinetic limit holds) with 1: e > 0, 2: e < 0
-  uint8_t surface = 0;   ///< 1: an entry or exit point (contact is skipped around it)
-  uint8_t pad[2] = {0, 0};
+  uint8_t surface = 0;   ///< 1: an entry, 2: an exit (contact is skipped around them); a front: 1 makes its first cut an entry
+  int16_t body = 0;      ///< the FEM body it is in (a needle through two lips has points in both)
 };
 static_assert(sizeof(TrackPoint) == 64, "TrackPoint has padding");
 
 /// Everything of a needle's insertion the next tick depends on. Invariants: track.size() is
 /// the capacity (fixed at load), count ≤ it; track[0..count) in order of increasing s (entry
-/// first); has_front ⇒ phase == Inserted; phase == Outside ⇒ count == 0 (an Inserted needle
-/// may have its front alone: punctured where the apex had not reached the dimpled surface yet).
+/// first) — one run from an entry (surface 1) per bite, each but the one being cut ending in its
+/// exit (surface 2); has_front ⇒ phase == Inserted; phase == Outside ⇒ count == 0 (an Inserted
+/// needle may have its front alone: punctured where the apex had not reached the dimpled
+/// surface yet).
 struct NeedleState {
   NeedlePhase phase = NeedlePhase::Outside;
   int32_t tissue_body = -1;  ///< the FEM body it is in (−1: outside)
@@ -103,6 +108,7 @@ struct NeedleState {
 struct NeedleOutput {
   NeedlePhase phase = NeedlePhase::Outside;
   bool punctured = false, exited = false, left = false;  ///< events this tick
+  int32_t tissue_body = -1;    ///< the FEM body it is in (left: the one it left); −1: none
   double tip_force = 0;        ///< N: the tip's contact push along t (outside), or the front's (inside)
   double friction_force = 0;   ///< N: Σ the track's axial forces on the needle along t at the tip (signed)
   double inserted_length = 0;  ///< m
@@ -129,7 +135,7 @@ void needle_world_point(const RigidBodyModel& b, const RigidState& s, double arc
 /// (speculative: a RigidContactPair). `row`: the needle's rigid row (−1: fixed). Appends up to
 /// the vectors' capacity; returns the springs made.
 int needle_track_springs(const RigidBodyModel& b, const RigidState& s, int32_t row, const NeedleState& ns,
-                         const NeedleTissue& tissue, const FemModel& fem, const double* x, double h,
+                         const std::vector<NeedleTissue>& tissue, const FemModel& fem, const double* x, double h,
                          std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
                          std::vector<NeedleSlip>& slips);
 
@@ -139,7 +145,7 @@ int stick_reversed_slips(const double* x0, const double* x, const RigidState* st
                          const int32_t* row_body, const std::vector<RigidContactPair>& pairs,
                          std::vector<NeedleSlip>& slips, std::vector<ContactSpring>& springs);
 
-/// The tip's own contact while the needle is outside: its apex (the point one wire radius past
+/// The tip's own contact while the needle is outside or exited (not cutting): its apex (the point one wire radius past
 /// the curve's end) against the tissue surface where the needle's axis crosses it, pushing along
 /// the axis — a sharp point on a surface, where the rounded end's samples would slide off a
 /// coarse triangle sideways. Stiffness: the body's contact stiffness over the wire's
@@ -151,8 +157,11 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
                            std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
                            RigidContactOutput& out, int32_t* triangle);
 
+/// Most holes (entries and exits) around which contact is skipped for one needle: two bites.
+inline constexpr int kMaxNeedleHoles = 4;
+
 /// Where contact is skipped for needle ns: the track's surface points' positions (world) into
-/// `pts` (3 each); returns how many (≤ 2).
+/// `pts` (3 each); returns how many (≤ kMaxNeedleHoles).
 int needle_hole_points(const NeedleState& ns, const double* x, double* pts);
 
 /// The tissue body of DOF node n (by the bodies' node ranges), or −1.

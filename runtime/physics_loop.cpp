@@ -37,6 +37,10 @@ StateFrame frame_for(const Model& m) {
   f.dofs = nodes;
   if (m.has_damage) f.damage.assign(m.cutting ? 4 * tets : tets, 0.0f);
   f.elements = m.has_damage ? tets : 0;
+  f.rigid.resize(m.rigid_bodies.size());
+  size_t track = 0;
+  for (const RigidBodyModel& b : m.rigid_bodies) track += static_cast<size_t>(b.track_capacity);
+  f.track.resize(track);
   return f;
 }
 
@@ -108,7 +112,8 @@ void PhysicsLoop::publish_feedback(const TickReport& r) {
   feedback_published.notify_one();
 }
 
-void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, uint64_t frame) {
+void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, const TickReport& body_report,
+                                      uint64_t frame) {
   StateFrame& f = state_out.write_slot();
   f.frame = frame;
   f.sim_time = tissue.time;
@@ -126,8 +131,35 @@ void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, 
   f.tool_count = static_cast<int>(std::min<size_t>(sim_.state().tools.size(), kMaxTools));
   for (int t = 0; t < f.tool_count; ++t) {
     const ToolState& ts = sim_.state().tools[t];
-    f.tools[t] = ToolSnapshot{ts.pose, tool_center(sim_.model().tools[t], ts), r.tools[t].feedback.force, ts.active,
-                              ts.last_command_time >= 0, r.tools[t].contacts, ts.grasped};
+    f.tools[t] = ToolSnapshot{ts.pose,      tool_center(sim_.model().tools[t], ts), r.tools[t].feedback.force, ts.active,
+                              ts.last_command_time >= 0, r.tools[t].contacts, ts.grasped, ts.grasped_body};
+  }
+  // The rigid bodies and the needles' tracks (the frame is sized for every track's capacity).
+  int32_t track = 0;
+  for (size_t k = 0; k < f.rigid.size() && k < tissue.rigid.size(); ++k) {
+    RigidSnapshot& b = f.rigid[k];
+    b = RigidSnapshot{};
+    b.state = tissue.rigid[k];
+    if (k < body_report.rigid_contact.size()) {
+      b.contacts = body_report.rigid_contact[k].contacts;
+      b.contact_force = body_report.rigid_contact[k].force;
+    }
+    b.track_begin = track;
+    if (k < tissue.needles.size()) {
+      const NeedleState& n = tissue.needles[k];
+      b.phase = n.phase;
+      b.tissue_body = n.tissue_body;
+      b.punctures = n.punctures;
+      b.track_count = std::clamp<int32_t>(n.count, 0, static_cast<int32_t>(f.track.size()) - track);
+      std::copy_n(n.track.begin(), b.track_count, f.track.begin() + track);
+      track += b.track_count;
+    }
+    if (k < body_report.needles.size()) {
+      const NeedleOutput& o = body_report.needles[k];
+      b.inserted_length = o.inserted_length;
+      b.tip_force = o.tip_force;
+      b.friction_force = o.friction_force;
+    }
   }
   state_out.publish();
   outputs_published.fetch_add(1, std::memory_order_release);
@@ -140,6 +172,35 @@ void PhysicsLoop::publish_damage_events(const TickReport& r) {
     if (sim_.model().topology_version > 0) ev.element = sim_.model().topology->copies[ev.element].tet;
     if (!damage_out.push(ev)) damage_dropped.fetch_add(1, std::memory_order_relaxed);
   }
+  outputs_published.fetch_add(1, std::memory_order_release);
+  outputs_published.notify_one();
+}
+
+void PhysicsLoop::publish_needle_events(const TickReport& r, const State& tissue) {
+  const Model& m = sim_.model();
+  bool pushed = false;
+  for (size_t k = 0; k < r.needles.size() && k < tissue.needles.size(); ++k) {
+    const NeedleOutput& o = r.needles[k];
+    if (!o.punctured && !o.exited && !o.left) continue;
+    const RigidBodyModel& b = m.rigid_bodies[k];
+    NeedleEventRecord ev;
+    ev.body = static_cast<int32_t>(k);
+    ev.tissue_body = o.tissue_body;
+    ev.punctures = tissue.needles[k].punctures;
+    ev.time = tissue.time;
+    ev.tip_force = o.tip_force;
+    double t[3], arm[3];
+    needle_world_point(b, tissue.rigid[k], b.needle.length + b.needle.wire_radius, ev.apex.data(), t, arm);
+    // In the order they happened: an exit or a leaving ends an insertion a puncture began.
+    for (const auto& [happened, kind] : {std::pair{o.punctured, NeedleEventRecord::Puncture},
+                                        std::pair{o.exited, NeedleEventRecord::Exit}, std::pair{o.left, NeedleEventRecord::Left}})
+      if (happened) {
+        ev.kind = kind;
+        if (!needle_out.push(ev)) needle_dropped.fetch_add(1, std::memory_order_relaxed);
+        pushed = true;
+      }
+  }
+  if (!pushed) return;
   outputs_published.fetch_add(1, std::memory_order_release);
   outputs_published.notify_one();
 }
@@ -261,10 +322,11 @@ void PhysicsLoop::multirate_step_done(const TickReport& step, const State& tissu
   ++stats_.tissue_steps;
   account_tick(step, rs, win, false);
   if (step.damage_events > 0) publish_damage_events(step);
+  if (sim_.model().has_needles) publish_needle_events(step, tissue);
   if (state_wanted.load(std::memory_order_relaxed) &&
       (ticks_since_frame_ += static_cast<uint64_t>(ticks)) >= static_cast<uint64_t>(opt_.publish_every)) {
     ticks_since_frame_ = 0;
-    publish_state_frame(tick_report, tissue, ++frame);
+    publish_state_frame(tick_report, tissue, step, ++frame);
   }
 }
 
@@ -345,7 +407,6 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       // scheduled start (a late wake-up eats into it).
       Deadline budget;
       budget.at_ns = opt_.budget ? deadline + stats_.budget_ns : 0;
-      // The newest accepted command of each tool (checked by the DDS thread as it submitted it).
       // The newest accepted command of each tool (checked by the DDS thread as it submitted it),
       // then the tick — with the multirate worker, each finished tissue step handed off here.
       const TickReport& r =
@@ -369,9 +430,10 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       // Hand-off to the server's threads, timed under the hand_off stage.
       const int64_t h0 = steady_now_ns();
       if (r.damage_events > 0) publish_damage_events(r);
+      if (!multirate_ && m.has_needles) publish_needle_events(r, sim_.state());
       if (!sim_.state().tools.empty()) publish_feedback(r);
       if (!multirate_ && state_wanted.load(std::memory_order_relaxed) && sim_.state().step % opt_.publish_every == 0)
-        publish_state_frame(r, sim_.state(), ++frame);
+        publish_state_frame(r, sim_.state(), r, ++frame);
       if (sim_.cutter()) service_cuts(r.cut_edges);  // last: a swap retires the workspace r is in
       const int64_t handoff = steady_now_ns() - h0;
       stats_.stage_ns_total[static_cast<int>(Stage::HandOff)] += handoff;

@@ -49,6 +49,33 @@ struct ToolSnapshot {
   bool active = false;     ///< a client is driving it now
   bool commanded = false;  ///< it has had a command (it is somewhere in the scene)
   int contacts = 0, grasped = 0;
+  int32_t holding_body = -1;  ///< the rigid body its jaws hold (−1: none)
+};
+
+/// What renderers need of a rigid body, copied with each state frame: its pose and velocities,
+/// last step's contacts and a needle's insertion. Its track points are the frame's
+/// track[track_begin, track_begin + track_count) (material points: weights on the frame's x).
+struct RigidSnapshot {
+  RigidState state;
+  int32_t contacts = 0;
+  Vec3 contact_force{0, 0, 0};
+  NeedlePhase phase = NeedlePhase::Outside;
+  int32_t tissue_body = -1;
+  int32_t punctures = 0;
+  double inserted_length = 0, tip_force = 0, friction_force = 0;
+  int32_t track_begin = 0, track_count = 0;
+};
+
+/// A needle's puncture, exit or leaving the tissue, as the physics thread reports it (the DDS
+/// stroma_NeedleEvent).
+struct NeedleEventRecord {
+  enum Kind : uint8_t { Puncture, Exit, Left } kind = Puncture;
+  int32_t body = 0;         ///< the rigid body
+  int32_t tissue_body = 0;  ///< the FEM body
+  int32_t punctures = 0;    ///< the needle's count after it
+  double time = 0;
+  double tip_force = 0;     ///< N
+  Vec3 apex{0, 0, 0};       ///< the tip's apex, world (m)
 };
 
 /// Full positions for the publisher (which extracts surfaces and stresses off the physics
@@ -66,6 +93,8 @@ struct StateFrame {
   int32_t topology_version = 0;
   int tool_count = 0;
   std::array<ToolSnapshot, kMaxTools> tools{};
+  std::vector<RigidSnapshot> rigid;  ///< one per Model::rigid_bodies
+  std::vector<TrackPoint> track;     ///< the needles' track points (capacity: Σ track_capacity)
 };
 
 /// What a cut made, as the physics thread reports it when a cut model is swapped in (or a
@@ -186,6 +215,8 @@ class PhysicsLoop {
   SpscQueue<SessionEvent, 8192> record;      ///< physics → recorder thread
   SpscQueue<DamageEventRecord, 4096> damage_out;  ///< physics → publisher (reliable events)
   SpscQueue<TopologyEventRecord, 256> topology_out;  ///< physics → publisher (reliable events)
+  SpscQueue<NeedleEventRecord, 256> needle_out;      ///< physics → publisher (reliable events)
+  std::atomic<uint64_t> needle_dropped{0};  ///< events lost because the publisher fell behind
   std::atomic<uint64_t> topology_dropped{0};  ///< events lost because the publisher fell behind
   /// Cut models built for this loop (by its cut worker), for the readers of its state frames.
   CutModelRegistry cut_models;
@@ -219,12 +250,16 @@ class PhysicsLoop {
   /// whose ticks are counted by the physics thread); a non-finite step faults the run.
   void account_tick(const TickReport& r, RunState& rs, StatusWindow& win, bool tick = true);
   void publish_feedback(const TickReport& r);
-  void publish_state_frame(const TickReport& r, const State& tissue, uint64_t frame);
+  /// A state frame of `tissue` (its positions, rigid bodies and needles; `body_report`: the
+  /// report of the step that moved them) with the tools of tick report r.
+  void publish_state_frame(const TickReport& r, const State& tissue, const TickReport& body_report, uint64_t frame);
   /// Multirate: a tissue step the Simulation's worker finished, taken up at this tick — its
   /// statistics, damage events and (every publish_every ticks) a state frame of its state.
   void multirate_step_done(const TickReport& step, const State& tissue, int64_t ticks, const TickReport& tick_report,
                            RunState& rs, StatusWindow& win, uint64_t& frame);
   void publish_damage_events(const TickReport& r);
+  /// The needles' punctures, exits and leavings of the step that made `tissue` (report r).
+  void publish_needle_events(const TickReport& r, const State& tissue);
   void publish_topology_event();
   /// Cutting, at the end of a tick (or of a paused loop's turn): a pending Reset, a finished cut
   /// model swapped in, this tick's cuts handed to the worker — each logged for the replay.

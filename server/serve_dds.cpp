@@ -36,6 +36,7 @@ struct Endpoints {
   std::vector<int> command_reader_tool;
   dds_entity_t feedback_writer = 0, damage_writer = 0, topology_writer = 0;
   dds_entity_t tool_state_writer = 0, scene_writer = 0;
+  dds_entity_t rigid_body_writer = 0, rigid_state_writer = 0, needle_writer = 0;
   dds_entity_t waitset = 0;
 };
 
@@ -72,6 +73,18 @@ class WriterSeqs {
   std::vector<std::pair<dds_instance_handle_t, uint64_t>> last_;
 };
 
+/// A topic added after protected domains existed (the rigid bodies' and needles'): a security
+/// directory made before it does not permit it, which is said plainly.
+dds_entity_t newer_topic(dds_entity_t pp, const dds_topic_descriptor_t* d, const char* name) {
+  const dds_entity_t e = dds_create_topic(pp, d, name, nullptr, nullptr);
+  if (e == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
+    throw std::runtime_error(std::string("topic ") + name + ": not allowed by the security directory's permissions for "
+                             "'server' (a directory made by `stroma security init` before 2026-12-06, when the rigid "
+                             "bodies' topics were added): run `stroma security init NEW_DIR` with the same clients and "
+                             "serve with --security NEW_DIR");
+  return dds_check(e, name);
+}
+
 Endpoints create_endpoints(dds_entity_t pp, const Model& model, bool per_tool_partitions) {
   Endpoints e;
   const dds_entity_t t_mesh = dds_check(dds_create_topic(pp, &stroma_TissueMesh_desc, "stroma_TissueMesh", nullptr, nullptr), "topic stroma_TissueMesh");
@@ -103,6 +116,8 @@ Endpoints create_endpoints(dds_entity_t pp, const Model& model, bool per_tool_pa
   e.damage_writer = dds_check(dds_create_writer(pp, t_damage, q_events, nullptr), "writer stroma_DamageEvent");
   const dds_entity_t t_topology = dds_check(dds_create_topic(pp, &stroma_TopologyEvent_desc, "stroma_TopologyEvent", nullptr, nullptr), "topic stroma_TopologyEvent");
   e.topology_writer = dds_check(dds_create_writer(pp, t_topology, q_events, nullptr), "writer stroma_TopologyEvent");
+  const dds_entity_t t_needle = newer_topic(pp, &stroma_NeedleEvent_desc, "stroma_NeedleEvent");
+  e.needle_writer = dds_check(dds_create_writer(pp, t_needle, q_events, nullptr), "writer stroma_NeedleEvent");
   dds_delete_qos(q_events);
   dds_delete_qos(q_fast);
   dds_qos_t* q_mesh = make_qos(true, true);
@@ -116,6 +131,10 @@ Endpoints create_endpoints(dds_entity_t pp, const Model& model, bool per_tool_pa
   e.scene_writer = dds_check(dds_create_writer(pp, t_scene, q_mesh, nullptr), "writer stroma_Scene");
   const dds_entity_t t_tool_state = dds_check(dds_create_topic(pp, &stroma_ToolState_desc, "stroma_ToolState", nullptr, nullptr), "topic stroma_ToolState");
   e.tool_state_writer = dds_check(dds_create_writer(pp, t_tool_state, q_state, nullptr), "writer stroma_ToolState");
+  const dds_entity_t t_rigid = newer_topic(pp, &stroma_RigidBody_desc, "stroma_RigidBody");
+  const dds_entity_t t_rigid_state = newer_topic(pp, &stroma_RigidBodyState_desc, "stroma_RigidBodyState");
+  e.rigid_body_writer = dds_check(dds_create_writer(pp, t_rigid, q_mesh, nullptr), "writer stroma_RigidBody");
+  e.rigid_state_writer = dds_check(dds_create_writer(pp, t_rigid_state, q_state, nullptr), "writer stroma_RigidBodyState");
   e.state_writer = dds_check(dds_create_writer(pp, t_state, q_state, nullptr), "writer stroma_TissueState");
   e.status_writer = dds_check(dds_create_writer(pp, t_status, q_status, nullptr), "writer stroma_SimStatus");
   e.control_reader = dds_check(dds_create_reader(pp, t_control, q_control, nullptr), "reader stroma_Control");
@@ -130,13 +149,20 @@ Endpoints create_endpoints(dds_entity_t pp, const Model& model, bool per_tool_pa
   return e;
 }
 
-/// The scene and every body's mesh, once (transient-local: late joiners get them).
+/// The scene, every body's mesh and every rigid body's shape, once (transient-local: late
+/// joiners get them).
 void publish_scene(const Endpoints& ep, const CompiledScenario& m, std::vector<PublishedSurface>& surfaces, uint64_t session) {
   const stroma_Scene scene = scene_message(m, session);
   dds_check(dds_write(ep.scene_writer, &scene), "write stroma_Scene");
   for (size_t b = 0; b < surfaces.size(); ++b) {
     const stroma_TissueMesh msg = tissue_mesh_message(surfaces[b], static_cast<uint32_t>(b), session);
     dds_check(dds_write(ep.mesh_writer, &msg), "write stroma_TissueMesh");
+  }
+  std::vector<float> vertices;
+  std::vector<uint32_t> triangles;
+  for (size_t k = 0; k < m.model->rigid_bodies.size(); ++k) {
+    const stroma_RigidBody msg = rigid_body_message(*m.model, static_cast<int>(k), session, vertices, triangles);
+    dds_check(dds_write(ep.rigid_body_writer, &msg), "write stroma_RigidBody");
   }
 }
 
@@ -154,15 +180,19 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
                       const InputCounters& in, std::atomic<uint64_t>& status_sent, uint64_t session,
                       const std::string& solver) {
   const Model& m = loop.model();
-  std::vector<float> capsules;
+  std::vector<float> capsules, track;
   capsules.reserve(7 * kMaxCapsules);
   uint64_t seen = 0;
   while (!loop.finished.load()) {
     loop.outputs_published.wait(seen);  // woken by every physics hand-off (≥ 10 Hz)
     seen = loop.outputs_published.load();
-    dds_publication_matched_status_t ms{};
-    if (dds_get_publication_matched_status(ep.state_writer, &ms) >= 0)
-      loop.state_wanted.store(ms.current_count > 0);
+    // State frames while a renderer reads any of the per-frame topics.
+    bool wanted = false;
+    for (const dds_entity_t w : {ep.state_writer, ep.tool_state_writer, ep.rigid_state_writer}) {
+      dds_publication_matched_status_t ms{};
+      if (dds_get_publication_matched_status(w, &ms) >= 0 && ms.current_count > 0) wanted = true;
+    }
+    loop.state_wanted.store(wanted);
     if (loop.state_out.update() && surfaces.update(loop.state_out.read_slot())) {
       const StateFrame& f = loop.state_out.read_slot();
       if (surfaces.topology_changed())  // a new topology: its meshes before its states
@@ -179,6 +209,10 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
         const stroma_ToolState msg = tool_state_message(m, t, f, capsules);
         dds_write(ep.tool_state_writer, &msg);
       }
+      for (size_t k = 0; k < f.rigid.size(); ++k) {
+        const stroma_RigidBodyState msg = rigid_body_state_message(m, static_cast<int>(k), f, session, track);
+        dds_write(ep.rigid_state_writer, &msg);
+      }
     }
     DamageEventRecord ev;
     while (loop.damage_out.pop(ev)) {
@@ -192,6 +226,21 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
       msg.sim_time = ev.time;
       std::snprintf(msg.tool, sizeof(msg.tool), "%s", ev.tool >= 0 ? m.tools[ev.tool].name.c_str() : "");
       dds_write(ep.damage_writer, &msg);
+    }
+    NeedleEventRecord nev;
+    while (loop.needle_out.pop(nev)) {
+      stroma_NeedleEvent msg{};
+      std::snprintf(msg.needle, sizeof(msg.needle), "%s", m.rigid_bodies[size_t(nev.body)].name.c_str());
+      msg.kind = nev.kind == NeedleEventRecord::Puncture ? stroma_NEEDLE_PUNCTURE
+                 : nev.kind == NeedleEventRecord::Exit   ? stroma_NEEDLE_EXIT
+                                                         : stroma_NEEDLE_LEFT;
+      if (nev.tissue_body >= 0 && size_t(nev.tissue_body) < m.fem.bodies.size())
+        std::snprintf(msg.tissue, sizeof(msg.tissue), "%s", m.fem.bodies[size_t(nev.tissue_body)].name.c_str());
+      msg.sim_time = nev.time;
+      for (int c = 0; c < 3; ++c) msg.position[c] = nev.apex[size_t(c)];
+      msg.tip_force = nev.tip_force;
+      msg.punctures = static_cast<uint32_t>(nev.punctures);
+      dds_write(ep.needle_writer, &msg);
     }
     TopologyEventRecord tev;
     while (loop.topology_out.pop(tev)) {

@@ -283,6 +283,81 @@ stroma_ToolState tool_state_message(const Model& m, int t, const StateFrame& f, 
   return msg;
 }
 
+stroma_RigidBody rigid_body_message(const Model& m, int k, uint64_t session, std::vector<float>& vertices,
+                                    std::vector<uint32_t>& triangles) {
+  const RigidBodyModel& b = m.rigid_bodies[size_t(k)];
+  stroma_RigidBody msg{};
+  std::snprintf(msg.body, sizeof(msg.body), "%s", b.name.c_str());
+  msg.body_index = static_cast<uint32_t>(k);
+  msg.session = session;
+  static_assert(int(RigidShape::Needle) == int(stroma_SHAPE_NEEDLE) && int(RigidShape::Mesh) == int(stroma_SHAPE_MESH) &&
+                int(RigidShape::Box) == int(stroma_SHAPE_BOX) && int(RigidShape::Capsule) == int(stroma_SHAPE_CAPSULE));
+  msg.shape = static_cast<stroma_RigidShapeKind>(static_cast<int>(b.shape));
+  msg.radius = b.radius;
+  msg.length = b.shape == RigidShape::Needle ? b.needle.length : b.length;
+  for (int c = 0; c < 3; ++c) msg.size[c] = b.size[size_t(c)];
+  msg.wire_radius = b.needle.wire_radius;
+  msg.curved = b.needle.curved;
+  msg.arc_radius = b.needle.curved ? b.needle.arc_radius : 0.0;
+  msg.angle = b.needle.curved ? b.needle.angle : 0.0;
+  msg.is_fixed = b.fixed;
+  msg.mass = b.fixed ? 0.0 : b.mass.mass;
+  vertices.clear();
+  triangles.clear();
+  for (const Vec3& v : b.surface_vertices)  // body frame → shape frame
+    for (int c = 0; c < 3; ++c) vertices.push_back(static_cast<float>(v[size_t(c)] - b.shape_origin[size_t(c)]));
+  for (const Tri& t : b.surface_triangles)
+    for (const int32_t i : t) triangles.push_back(static_cast<uint32_t>(i));
+  set_sequence(msg.vertices, vertices.data(), vertices.size());
+  set_sequence(msg.triangles, triangles.data(), triangles.size());
+  return msg;
+}
+
+stroma_RigidBodyState rigid_body_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
+                                               std::vector<float>& track) {
+  const RigidBodyModel& b = m.rigid_bodies[size_t(k)];
+  const RigidSnapshot& r = f.rigid[size_t(k)];
+  stroma_RigidBodyState msg{};
+  std::snprintf(msg.body, sizeof(msg.body), "%s", b.name.c_str());
+  msg.frame = f.frame;
+  msg.sim_time = f.sim_time;
+  msg.session = session;
+  const std::array<double, 9> R = rotation_of(r.state.q);
+  for (int i = 0; i < 3; ++i) {  // the shape frame's origin: the centre of mass + R·shape_origin
+    msg.position[i] = r.state.x[size_t(i)];
+    for (int j = 0; j < 3; ++j) msg.position[i] += R[size_t(3 * i + j)] * b.shape_origin[size_t(j)];
+    msg.linear_velocity[i] = r.state.v[size_t(i)];
+    msg.angular_velocity[i] = r.state.w[size_t(i)];
+    msg.contact_force[i] = r.contact_force[size_t(i)];
+  }
+  for (int i = 0; i < 4; ++i) msg.orientation[i] = r.state.q[size_t(i)];
+  for (int t = 0; t < f.tool_count; ++t)
+    if (f.tools[size_t(t)].holding_body == k) std::snprintf(msg.held_by, sizeof(msg.held_by), "%s", m.tools[size_t(t)].name.c_str());
+  msg.contacts = static_cast<uint32_t>(std::max(r.contacts, 0));
+  static_assert(int(NeedlePhase::Inserted) == int(stroma_NEEDLE_INSERTED) && int(NeedlePhase::Exited) == int(stroma_NEEDLE_EXITED));
+  msg.needle_phase = static_cast<stroma_NeedlePhase>(static_cast<int>(r.phase));
+  if (r.tissue_body >= 0 && size_t(r.tissue_body) < m.fem.bodies.size())
+    std::snprintf(msg.tissue, sizeof(msg.tissue), "%s", m.fem.bodies[size_t(r.tissue_body)].name.c_str());
+  msg.punctures = static_cast<uint32_t>(std::max(r.punctures, 0));
+  msg.inserted_length = r.inserted_length;
+  msg.tip_force = r.tip_force;
+  msg.friction_force = r.friction_force;
+  track.clear();
+  const size_t dofs = f.dofs;
+  for (int32_t i = 0; i < r.track_count; ++i) {  // material points on the frame's positions
+    const TrackPoint& p = f.track[size_t(r.track_begin + i)];
+    float q[3] = {0, 0, 0};
+    for (int a = 0; a < 4; ++a) {
+      const size_t n = static_cast<size_t>(p.node[size_t(a)]);
+      if (n >= dofs) continue;  // (a track of another model: never, cutting refuses needles)
+      for (int c = 0; c < 3; ++c) q[c] += static_cast<float>(p.w[a] * f.x[3 * n + size_t(c)]);
+    }
+    track.insert(track.end(), q, q + 3);
+  }
+  set_sequence(msg.track, track.data(), track.size());
+  return msg;
+}
+
 stroma_Scene scene_message(const CompiledScenario& sc, uint64_t session) {
   const RenderSpec& r = sc.spec.render;
   stroma_Scene msg{};

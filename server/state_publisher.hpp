@@ -72,6 +72,15 @@ stroma_TissueState tissue_state_message(const PublishedSurface& s, const StateFr
                                         uint64_t session);
 /// The ToolState sample of tool t at frame f (capsules written into `capsules`, 7 per capsule).
 stroma_ToolState tool_state_message(const Model& m, int t, const StateFrame& f, std::vector<float>& capsules);
+/// The RigidBody sample of rigid body k: its shape in its shape frame (a mesh's vertices and
+/// triangles written into `vertices` and `triangles`).
+stroma_RigidBody rigid_body_message(const Model& m, int k, uint64_t session, std::vector<float>& vertices,
+                                    std::vector<uint32_t>& triangles);
+/// The RigidBodyState sample of rigid body k at frame f: the shape frame's pose, velocities, the
+/// tool holding it, contacts and a needle's insertion (its track's material points evaluated on
+/// f's positions, written into `track`).
+stroma_RigidBodyState rigid_body_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
+                                               std::vector<float>& track);
 /// The Scene sample: the scenario's render: section (camera up defaults to against gravity).
 stroma_Scene scene_message(const CompiledScenario& scenario, uint64_t session);
 

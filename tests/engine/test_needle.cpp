@@ -644,3 +644,114 @@ TEST(Needle, ItsEnergyNeverGrowsBeyondTheWorkTheGrasperDoes) {
   EXPECT_LT(worst_above, 1e-9 * total_work);
   EXPECT_LT(worst_rise, 1e-6 * total_work) << "tick to tick";
 }
+
+namespace {
+
+/// Two 20 mm cubes of 30 kPa tissue (the 354-node mesh scaled), x in [0, 0.02] and
+/// [0.025, 0.045] — two lips with a 5 mm gap — bottoms bonded; a straight 70 mm needle held
+/// along +x at y = 12 mm, its tip 0.5 mm short of the first.
+std::string two_bites_yaml() {
+  std::string body;
+  for (const char* name : {"near", "far"})
+    body += std::string("  - name: ") + name + R"(
+    mesh: )" + kSrc + R"(/scenarios/meshes/cube_tet4_h8p333mm.msh
+    scale: 0.4
+    translate: [)" + (std::string(name) == "far" ? "0.025" : "0") + R"(, 0, 0]
+    material: {young_modulus: 3.0e4, poisson_ratio: 0.45, density: 1000, rayleigh_mass: 20,
+               needle: {puncture_force: 0.3, cutting_force: 0.15, friction: {static: 5, kinetic: 3}}}
+    fixed:
+      - box: {min: [-1, -1.0e-9, -1], max: [1, 1.0e-9, 1]}
+)";
+  return R"(name: two_bites
+time_step: 0.001
+gravity: [0, 0, 0]
+solver: {integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-9}
+bodies:
+)" + body + R"(tools:
+  - name: grasper
+    shape: {type: grasper, radius: 0.002, length: 0.01}
+    grasp: {close: 0.05, open: 0.1, stiffness: 1.0e5}
+    pose: {position: [-0.0725, 0.012, 0.01], orientation: [0.7071067811865476, 0, 0.7071067811865476, 0]}
+rigid_bodies:
+  - name: needle
+    shape: {type: needle, wire_radius: 0.0004, length: 0.07}
+    density: 7800
+    pose: {position: [-0.0705, 0.012, 0.01], orientation: [0.7071067811865476, 0, 0.7071067811865476, 0]}
+)";
+}
+
+}  // namespace
+
+// A second bite: the needle cut through the near lip punctures the far one as it punctured the
+// first (an exited needle's tip presses and enters again), keeping the first bite's track. The
+// force felt follows Okamura's model over both: cutting + kinetic friction × the length in
+// tissue (the gap between the lips is not), and withdrawn it goes back through the phases.
+TEST(Needle, AnExitedNeedleBitesAgainThroughASecondLip) {
+  STROMA_LONG_TEST();  // 6.3 s of two 354-node blocks (10 s)
+  const auto m = compile_model(parse_scenario(two_bites_yaml(), "two_bites.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const double speed = 0.02, x0 = -0.0725, t0 = 0.05, travel = 0.058, t_in = t0 + travel / speed, t_hold = t_in + 0.1;
+  const double t_end = t_hold + (travel + 0.004) / speed;
+  std::vector<NeedlePhase> phases;
+  std::vector<int> events;  // +1 puncture, +2 exit, +3 left
+  double worst = 0, worst_gap = 0;
+  int cutting_far = 0, in_gap = 0, ticks_since_exit = 0;
+  double inserted_near = 0;
+  while (s.time < t_end - 1e-9) {
+    ToolInput in;
+    in.tool = 0;
+    in.seq = static_cast<uint64_t>(s.step + 1);
+    in.pose.orientation = {std::sqrt(0.5), 0, std::sqrt(0.5), 0};
+    const double t = s.time;
+    double x = x0;
+    if (t > t0) x += speed * (std::min(t, t_in) - t0);
+    if (t > t_hold) x -= speed * (t - t_hold);
+    in.pose.position = {x, 0.012, 0.01};
+    const TickReport& r = tick(*m, s, w, &in, 1);
+    ASSERT_TRUE(r.status == TickStatus::Ok) << s.time;
+    const NeedleOutput& n = r.needles[0];
+    if (phases.empty() || phases.back() != n.phase) phases.push_back(n.phase);
+    if (n.punctured) events.push_back(1);
+    if (n.exited) events.push_back(2);
+    if (n.left) events.push_back(3);
+    const double fx = r.tools[0].force[0];  // the force felt, along the needle (−x: resisting)
+    const bool driving = t > t0 + 0.05 && t < t_in;
+    const NeedleState& ns = s.needles[0];
+    ticks_since_exit = n.exited ? 0 : ticks_since_exit + 1;
+    // (Steady sliding: after the exit's release, which lets the track stick and break away again
+    // at the static friction, 60 ms; after the puncture's relaxation, 3 mm.)
+    if (driving && n.phase == NeedlePhase::Exited && ns.punctures == 2 && n.tip_force <= 0 && ticks_since_exit > 60) {
+      // Between the lips: the near lip's kinetic friction over its length alone.
+      inserted_near = n.inserted_length;
+      const double expect = 3.0 * n.inserted_length;
+      worst_gap = std::max(worst_gap, std::abs(-fx - expect) / expect);
+      ++in_gap;
+    }
+    if (driving && n.phase == NeedlePhase::Inserted && ns.punctures == 3 && n.inserted_length > inserted_near + 0.003) {
+      // Cutting the far lip: cutting force + kinetic friction over both lips' tissue.
+      const double expect = 0.15 + 3.0 * n.inserted_length;
+      worst = std::max(worst, std::abs(-fx - expect) / expect);
+      ++cutting_far;
+    }
+  }
+  const std::vector<NeedlePhase> expected = {
+      NeedlePhase::Outside, NeedlePhase::Inserted, NeedlePhase::Exited,  NeedlePhase::Inserted, NeedlePhase::Exited,
+      // withdrawn: back into the far lip, out of its entry, back into the near lip, out
+      NeedlePhase::Inserted, NeedlePhase::Exited, NeedlePhase::Inserted, NeedlePhase::Outside};
+  ASSERT_EQ(phases.size(), expected.size()) << "phases: " << [&] {
+    std::string p;
+    for (NeedlePhase q : phases) p += std::string(needle_phase_name(q)) + " ";
+    return p;
+  }();
+  for (size_t i = 0; i < phases.size(); ++i) EXPECT_EQ(phases[i], expected[i]) << i;
+  EXPECT_EQ(events, (std::vector<int>{1, 2, 1, 2, 3}));
+  EXPECT_EQ(s.needles[0].punctures, 4);
+  std::printf("between the lips (%d ticks): -F within %.2f %% of f_k x %.2f mm; cutting the far lip (%d ticks): within %.2f %% of "
+              "F_c + f_k x length\n", in_gap, 100 * worst_gap, 1e3 * inserted_near, cutting_far, 100 * worst);
+  EXPECT_NEAR(inserted_near, 0.02, 0.002) << "the near lip's width";
+  ASSERT_GT(in_gap, 100);
+  ASSERT_GT(cutting_far, 300);
+  EXPECT_LT(worst_gap, 0.05);
+  EXPECT_LT(worst, 0.05);
+}

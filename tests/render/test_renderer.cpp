@@ -10,6 +10,8 @@
 //  - PngIo: exact round trips, precise errors on unwritable and missing files.
 //  - FrameWriter: numbered frames in order, the bounded buffer pool, write errors.
 //  - CapsuleMesh: vertices on the capsule surface, outward unit normals, CCW triangles, spheres.
+//  - RigidView: shapes posed in the world (a needle's tube along its straight or curved axis, a
+//    box's faces outward), and rigid bodies and track marks drawn where they are.
 // One GlContext per process (a gtest Environment); every Renderer draws into its own FBOs.
 #include <gtest/gtest.h>
 
@@ -32,6 +34,7 @@
 #include "render/gl_context.hpp"
 #include "render/png_io.hpp"
 #include "render/renderer.hpp"
+#include "render/rigid_view.hpp"
 #include "runtime/state_io.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
@@ -868,6 +871,127 @@ TEST(CapsuleMesh, AppendsAfterExistingVertices) {
     ASSERT_LT(idx[i], v.size() / kStride);
     ASSERT_GT(v[idx[i] * kStride], 4.0f);  // the second capsule's vertices (x ≈ 5)
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rigid bodies (render/rigid_view.hpp): posed shapes, then drawn.
+
+/// A quarter turn about y: shape z → world +x, shape x → world −z.
+constexpr double kQuarterY[4] = {0.7071067811865476, 0, 0.7071067811865476, 0};
+
+TEST(RigidView, AStraightNeedleIsOneSteelTubeAlongItsPosedAxis) {
+  RigidShapeDesc s;
+  s.kind = RigidShapeDesc::Needle;
+  s.wire_radius = 0.0004;
+  s.length = 0.08;
+  const double pos[3] = {-0.08, 0.03, 0.025};
+  const float track[6] = {0.01f, 0.03f, 0.025f, 0.02f, 0.03f, 0.025f};
+  const RigidView v = make_rigid_view(s, pos, kQuarterY, track, 2);
+  ASSERT_EQ(v.capsules.size(), 1u);
+  EXPECT_TRUE(v.steel);
+  EXPECT_FLOAT_EQ(v.capsules[0].r, 0.0004f);
+  const Vec3f tail{-0.08f, 0.03f, 0.025f}, tip{0.0f, 0.03f, 0.025f};  // z → +x
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(v.capsules[0].a[k], tail[k], 1e-7);
+    EXPECT_NEAR(v.capsules[0].b[k], tip[k], 1e-7);
+  }
+  ASSERT_EQ(v.track.size(), 2u);
+  EXPECT_FLOAT_EQ(v.track[1][0], 0.02f);
+  EXPECT_TRUE(v.triangles.empty());
+}
+
+TEST(RigidView, ACurvedNeedleIsAChainOnItsArc) {
+  RigidShapeDesc s;
+  s.kind = RigidShapeDesc::Needle;
+  s.curved = true;
+  s.wire_radius = 0.0004;
+  s.arc_radius = 0.01;
+  s.angle = M_PI;  // a half circle
+  s.length = s.arc_radius * s.angle;
+  const double pos[3] = {1, 2, 3};
+  const RigidView v = make_rigid_view(s, pos, kQuarterY, nullptr, 0);
+  ASSERT_EQ(v.capsules.size(), size_t(kNeedleSegments));
+  for (size_t i = 0; i < v.capsules.size(); ++i) {
+    for (const Vec3f& p : {v.capsules[i].a, v.capsules[i].b})
+      EXPECT_NEAR(std::hypot(p[0] - 1, p[1] - 2, p[2] - 3), 0.01, 1e-6) << "on the arc about the origin";
+    if (i > 0)
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(v.capsules[i].a[k], v.capsules[i - 1].b[k]) << "a continuous chain";
+  }
+  // Tail on the shape's +x (world −z), tip half a turn on (shape −x: world +z); shape y stays y.
+  EXPECT_NEAR(v.capsules.front().a[2], 3 - 0.01, 1e-6);
+  EXPECT_NEAR(v.capsules.back().b[2], 3 + 0.01, 1e-6);
+  EXPECT_NEAR(v.capsules[kNeedleSegments / 2].a[1], 2 + 0.01, 1e-6) << "the arc's middle on the shape's +y";
+}
+
+TEST(RigidView, ABoxHasTwelveOutwardFacesOfItsArea) {
+  RigidShapeDesc s;
+  s.kind = RigidShapeDesc::Box;
+  s.size = {0.03, 0.01, 0.02};
+  const double pos[3] = {0.1, 0.2, 0.3};
+  const double q[4] = {std::cos(0.3), std::sin(0.3) * 0.6, 0, std::sin(0.3) * 0.8};  // 0.6 rad about (0.6, 0, 0.8)
+  const RigidView v = make_rigid_view(s, pos, q, nullptr, 0);
+  ASSERT_EQ(v.triangles.size(), size_t(12 * 9));
+  EXPECT_FALSE(v.steel);
+  double area = 0;
+  for (size_t t = 0; t < v.triangles.size(); t += 9) {
+    D3 p[3];
+    for (int i = 0; i < 3; ++i) p[i] = {v.triangles[t + 3 * i], v.triangles[t + 3 * i + 1], v.triangles[t + 3 * i + 2]};
+    const D3 e1 = sub(p[1], p[0]), e2 = sub(p[2], p[0]);
+    const D3 n = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    area += 0.5 * norm(n);
+    const D3 out = sub(D3{(p[0][0] + p[1][0] + p[2][0]) / 3, (p[0][1] + p[1][1] + p[2][1]) / 3, (p[0][2] + p[1][2] + p[2][2]) / 3},
+                       D3{0.1, 0.2, 0.3});
+    EXPECT_GT(n[0] * out[0] + n[1] * out[1] + n[2] * out[2], 0) << "triangle " << t / 9 << " faces inwards";
+  }
+  EXPECT_NEAR(area, 2 * (0.03 * 0.01 + 0.01 * 0.02 + 0.02 * 0.03), 1e-8);
+}
+
+TEST(RigidView, AMeshSkipsTrianglesOutOfRange) {
+  RigidShapeDesc s;
+  s.kind = RigidShapeDesc::Mesh;
+  s.vertices = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  s.triangles = {0, 1, 2, 0, 1, 7};
+  const double pos[3] = {0, 0, 1}, q[4] = {1, 0, 0, 0};
+  const RigidView v = make_rigid_view(s, pos, q, nullptr, 0);
+  ASSERT_EQ(v.triangles.size(), 9u);
+  EXPECT_FLOAT_EQ(v.triangles[5], 1.0f) << "moved to z = 1";
+}
+
+TEST(RigidView, RigidBodiesAndTrackMarksAreDrawnWhereTheyAre) {
+  const Look look = plain_look();
+  Renderer r(160, 120, look);
+  Camera cam;
+  cam.position = {0, 0, 5};
+  cam.target = {0, 0, 0};
+  r.set_camera(cam);
+  const Image bg = render_once(r);
+  // A needle across the middle, along x.
+  RigidShapeDesc needle;
+  needle.kind = RigidShapeDesc::Needle;
+  needle.wire_radius = 0.05;
+  needle.length = 2;
+  const double tail[3] = {-1, 0, 0};
+  const float track[9] = {-0.3f, 0.0f, 0.06f, 0.0f, 0.0f, 0.06f, 0.3f, 0.0f, 0.06f};
+  r.set_rigid_bodies({make_rigid_view(needle, tail, kQuarterY, track, 0)});
+  const Image tube = render_once(r);
+  EXPECT_GT(max_channel_difference(pixel(tube, 80, 60), pixel(bg, 80, 60)), 24) << "the tube crosses the centre";
+  EXPECT_LE(max_channel_difference(pixel(tube, 80, 20), pixel(bg, 80, 20)), 1) << "and nothing above it";
+  EXPECT_EQ(r.last_track_marks(), 0u);
+  r.set_rigid_bodies({make_rigid_view(needle, tail, kQuarterY, track, 3)});
+  const Image marked = render_once(r);
+  EXPECT_EQ(r.last_track_marks(), 3u);
+  EXPECT_GT(count(foreground_mask(marked, tube, 24)), 0u) << "the marks drew nothing";
+  EXPECT_LT(luminance(pixel(marked, 80, 60)), luminance(pixel(tube, 80, 60))) << "a mark is dark";
+  // A box at the centre in the rigid colour: bluish, unlike the steel.
+  RigidShapeDesc box;
+  box.kind = RigidShapeDesc::Box;
+  box.size = {1, 1, 1};
+  const double centre[3] = {0, 0, 0}, id[4] = {1, 0, 0, 0};
+  r.set_rigid_bodies({make_rigid_view(box, centre, id, nullptr, 0)});
+  const Image boxed = render_once(r);
+  const Rgb c = pixel(boxed, 80, 60);
+  EXPECT_GT(c[2], c[0] + 20) << "the rigid colour is blue";
+  EXPECT_EQ(r.last_triangles(), 12u);
 }
 
 }  // namespace

@@ -764,6 +764,141 @@ TEST(Serve, DamageEventsAndDamageFieldArePublished) {
   EXPECT_EQ(server.wait_exit(15), 0);
 }
 
+// Rigid bodies and needles over DDS (docs/DDS.md): the shape once (stroma_RigidBody,
+// transient-local), per frame the pose, the tool holding it and a needle's insertion with its
+// track (stroma_RigidBodyState), and reliable stroma_NeedleEvent samples — as a client written
+// from the IDL reads them, with and without the CRTK bridge. The scripted grasper drives an 80 mm
+// needle sideways through the 50 mm block (x = 0 → x = 0.05) and back out.
+static void needle_over_dds(int domain, bool crtk) {
+  std::vector<std::string> args = {STROMA_BINARY, "serve", std::string(STROMA_SOURCE_DIR) + "/tests/data/server/needle_through.yaml",
+                                   "--domain", std::to_string(domain), "--realtime", "off", "--duration", "60", "--paused"};
+  if (crtk) args.push_back("--crtk");
+  Process server(args);
+  Client client(domain);
+  const dds_entity_t pp = client.participant();
+  const dds_entity_t t_body = dds_create_topic(pp, &stroma_RigidBody_desc, "stroma_RigidBody", nullptr, nullptr);
+  const dds_entity_t t_state = dds_create_topic(pp, &stroma_RigidBodyState_desc, "stroma_RigidBodyState", nullptr, nullptr);
+  const dds_entity_t t_event = dds_create_topic(pp, &stroma_NeedleEvent_desc, "stroma_NeedleEvent", nullptr, nullptr);
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
+  const dds_entity_t ev_reader = dds_create_reader(pp, t_event, q, nullptr);
+  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  const dds_entity_t body_reader = dds_create_reader(pp, t_body, q, nullptr);
+  dds_qos_t* qs = dds_create_qos();
+  dds_qset_reliability(qs, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(qs, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t st_reader = dds_create_reader(pp, t_state, qs, nullptr);
+  dds_delete_qos(q);
+  dds_delete_qos(qs);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }));
+
+  // The shape, published before we joined (transient-local).
+  stroma_RigidBody body{};
+  bool have_body = false;
+  for (const auto end = Clock::now() + std::chrono::seconds(10); Clock::now() < end && !have_body;) {
+    void* sm[1] = {nullptr};
+    dds_sample_info_t si;
+    if (dds_take(body_reader, sm, &si, 1, 1) > 0) {
+      if (si.valid_data) {
+        body = *static_cast<stroma_RigidBody*>(sm[0]);
+        have_body = true;
+        EXPECT_EQ(static_cast<stroma_RigidBody*>(sm[0])->vertices._length, 0u) << "a needle is analytic";
+      }
+      dds_return_loan(body_reader, sm, 1);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(have_body) << "no stroma_RigidBody sample";
+  EXPECT_STREQ(body.body, "needle");
+  EXPECT_EQ(body.shape, stroma_SHAPE_NEEDLE);
+  EXPECT_FALSE(body.curved);
+  EXPECT_DOUBLE_EQ(body.wire_radius, 0.0004);
+  EXPECT_DOUBLE_EQ(body.length, 0.08);
+  const double cylinder = 7800 * M_PI * 0.0004 * 0.0004 * 0.08;  // a steel wire; the rounded tip adds < 1 %
+  EXPECT_NEAR(body.mass, cylinder, 0.01 * cylinder);
+
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the event reader matched
+  client.control(stroma_RESUME);
+  // The grasper, driven as a user drives it: `stroma tool` playing the script (a CRTK client
+  // sending servo_cp with --crtk).
+  std::vector<std::string> tool = {STROMA_BINARY, "tool", "--name", "grasper", "--script",
+                                   std::string(STROMA_SOURCE_DIR) + "/tests/data/server/needle_through_script.yaml",
+                                   "--domain", std::to_string(domain), "--no-realtime"};
+  if (crtk) tool.push_back("--crtk");
+  Process driver(tool);
+  std::vector<stroma_NeedleEvent> events;
+  std::set<int> phases;
+  double max_inserted = 0, worst_off_axis = 0;
+  size_t max_track = 0, states = 0, held = 0;
+  const auto end = Clock::now() + std::chrono::seconds(40);
+  while (Clock::now() < end && (events.empty() || events.back().kind != stroma_NEEDLE_LEFT)) {
+    void* sm[16] = {nullptr};
+    dds_sample_info_t si[16];
+    const dds_return_t n = dds_take(ev_reader, sm, si, 16, 16);
+    for (dds_return_t i = 0; i < n; ++i)
+      if (si[i].valid_data) events.push_back(*static_cast<stroma_NeedleEvent*>(sm[i]));
+    if (n > 0) dds_return_loan(ev_reader, sm, n);
+    if (dds_take(st_reader, sm, si, 1, 1) > 0) {
+      const auto* s = static_cast<const stroma_RigidBodyState*>(sm[0]);
+      if (si[0].valid_data) {
+        ++states;
+        EXPECT_STREQ(s->body, "needle");
+        held += std::string(s->held_by) == "grasper";
+        if (s->needle_phase != stroma_NEEDLE_OUTSIDE) EXPECT_STREQ(s->held_by, "grasper") << "held while in the tissue";
+        phases.insert(static_cast<int>(s->needle_phase));
+        max_inserted = std::max(max_inserted, s->inserted_length);
+        max_track = std::max<size_t>(max_track, s->track._length / 3);
+        ASSERT_EQ(s->track._length % 3, 0u);
+        if (s->needle_phase != stroma_NEEDLE_OUTSIDE) EXPECT_STREQ(s->tissue, "block");
+        // Every track point is tissue on the needle's path: on its axis, the shape frame's z from
+        // the published position along the published orientation, to the wire's size.
+        const double* qv = s->orientation;
+        const double axis[3] = {2 * (qv[1] * qv[3] + qv[0] * qv[2]), 2 * (qv[2] * qv[3] - qv[0] * qv[1]),
+                                1 - 2 * (qv[1] * qv[1] + qv[2] * qv[2])};
+        for (uint32_t i = 0; i + 2 < s->track._length; i += 3) {
+          double d[3], along = 0, off = 0;
+          for (int c = 0; c < 3; ++c) along += (d[c] = s->track._buffer[i + c] - s->position[c]) * axis[c];
+          for (int c = 0; c < 3; ++c) off += (d[c] - along * axis[c]) * (d[c] - along * axis[c]);
+          worst_off_axis = std::max(worst_off_axis, std::sqrt(off));
+          EXPECT_GE(along, -1e-3);
+          EXPECT_LE(along, 0.08 + 1e-3);
+        }
+      }
+      dds_return_loan(st_reader, sm, 1);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ASSERT_EQ(events.size(), 3u) << "a puncture, an exit and the needle leaving";
+  EXPECT_EQ(events[0].kind, stroma_NEEDLE_PUNCTURE);
+  EXPECT_EQ(events[1].kind, stroma_NEEDLE_EXIT);
+  EXPECT_EQ(events[2].kind, stroma_NEEDLE_LEFT);
+  for (const stroma_NeedleEvent& e : events) {
+    EXPECT_STREQ(e.needle, "needle");
+    EXPECT_STREQ(e.tissue, "block");
+    EXPECT_NEAR(e.position[1], 0.03, 1e-3) << "the needle moves along x at y = 0.03";
+  }
+  EXPECT_EQ(events[0].punctures, 1u);
+  EXPECT_EQ(events[1].punctures, 2u);
+  EXPECT_GE(events[0].tip_force, 0.3) << "it punctures above the puncture force";
+  EXPECT_NEAR(events[0].position[0], 0.0, 2e-3) << "the tip enters at the x = 0 face (dimpling it)";
+  EXPECT_NEAR(events[1].position[0], 0.05, 3e-3) << "and leaves through x = 0.05";
+  EXPECT_LT(events[0].sim_time, events[1].sim_time);
+  EXPECT_LT(events[1].sim_time, events[2].sim_time);
+  EXPECT_GT(states, 20u);
+  EXPECT_GT(held, 10u) << "the grasper holds it";
+  EXPECT_EQ(phases, (std::set<int>{stroma_NEEDLE_OUTSIDE, stroma_NEEDLE_INSERTED, stroma_NEEDLE_EXITED}));
+  EXPECT_NEAR(max_inserted, 0.05, 3e-3) << "through the whole block";
+  EXPECT_GE(max_track, 5u);
+  EXPECT_LT(worst_off_axis, 1e-3) << "the track stays on the needle's path";
+  EXPECT_EQ(driver.wait_exit(15), 0);
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+
+TEST(Serve, RigidBodiesAndNeedleEventsArePublished) { needle_over_dds(183, false); }
+TEST(Serve, RigidBodiesAndNeedleEventsArePublishedWithCrtk) { needle_over_dds(184, true); }
+
 // With a receive priority, the built-in configuration runs Cyclone's single receive thread
 // ("recv"; no "recvUC", whose priority 0.10 cannot configure) under SCHED_FIFO when the process
 // may, and says which it got; the participant works either way.
