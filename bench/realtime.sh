@@ -7,6 +7,8 @@
 #         the physical scenes: scenarios/physical/liver_16cm.yaml
 #         scenarios/trajectories/physical_liver_press.yaml, and so on)
 # TOOL_NAME=NAME drives that tool of the scenario (default probe).
+# PAUSED=1 starts the server paused and the client resumes it once its first pose is in
+# (`stroma tool --resume`): a grasper holding a needle from the first tick.
 # TOOL_ARGS="--loop" replays a trajectory that ends where it starts for the whole duration (the
 # physical trajectories do); without it the tool holds the script's last pose.
 # SERVE_ARGS="..." passes more options to the server (e.g. "--phase-lead-us 0": the fixed
@@ -32,15 +34,18 @@ hog=""
 dds=()
 if [ -n "${DDS_CONFIG:-}" ]; then dds=(--dds-config "$DDS_CONFIG"); fi
 crtk=()
+paused=()
+resume=()
+if [ -n "${PAUSED:-}" ]; then paused=(--paused); resume=(--resume); fi
 serve_for=$((dur + 2))
 if [ -n "${CRTK:-}" ]; then crtk=(--crtk); serve_for=$((2 * dur + 4)); fi
 if [ "$idle" != "--idle" ]; then
   timeout $((serve_for + 8)) sh -c 'while :; do :; done' & hog=$!
 fi
-./build/stroma serve "$scenario" "${dds[@]}" "${crtk[@]}" --domain "$domain" --duration "$serve_for" \
+./build/stroma serve "$scenario" "${dds[@]}" "${crtk[@]}" "${paused[@]}" --domain "$domain" --duration "$serve_for" \
   --stats "$out/stats.json" ${SERVE_ARGS:-} > "$out/serve.log" 2>&1 & srv=$!
 sleep 1
-./build/stroma tool --name "${TOOL_NAME:-probe}" --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
+./build/stroma tool --name "${TOOL_NAME:-probe}" --script "$script" "${dds[@]}" "${resume[@]}" ${TOOL_ARGS:-} --rate 1000 \
   --duration "$dur" --domain "$domain" --out "$out/tool.csv" 2> "$out/tool.log" | tee "$out/tool_summary.txt"
 if [ -n "${CRTK:-}" ]; then
   ./build/stroma tool --crtk --name "${TOOL_NAME:-probe}" --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \

@@ -71,6 +71,10 @@ void add_tool(CLI::App& app, std::vector<Command>& out) {
   tool->add_option("--wait", tco->wait_server, "Seconds to wait for a server")->capture_default_str();
   tool->add_flag("!--no-realtime", tco->realtime, "Do not ask for SCHED_FIFO for the send/receive threads");
   tool->add_flag("--loop", tco->loop, "Replay the script from its start each time it ends (with a longer --duration)");
+  tool->add_flag("--resume", tco->resume,
+                 "Send the first pose, then RESUME a paused server (serve --paused): its first tick has this tool where the "
+                 "script starts (e.g. jaws closed on a needle before gravity takes it); needs an operator identity on a "
+                 "protected domain");
   tool->add_flag("--crtk", tco->crtk,
                  "Be a CRTK client of `serve --crtk` (docs/CRTK.md): enable the device, send rt/NAME/servo_cp and time "
                  "each pose's round trip to the first rt/NAME/measured_cp carrying it");

@@ -89,6 +89,39 @@ ToolEndpoints open_endpoints(dds_entity_t participant, const std::string& partit
   return ep;
 }
 
+/// Writes stroma_Control RESUME (reliable) once a server reads it; false (logged) if none does
+/// within `seconds` or this identity may not write Control.
+bool resume_server(dds_entity_t participant, double seconds) {
+  const dds_entity_t topic = dds_create_topic(participant, &stroma_Control_desc, "stroma_Control", nullptr, nullptr);
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
+  const dds_entity_t w = topic < 0 ? topic : dds_create_writer(participant, topic, q, nullptr);
+  dds_delete_qos(q);
+  if (w < 0) {
+    spdlog::error("--resume: cannot write stroma_Control ({}): on a protected domain only an operator identity may",
+                  dds_strretcode(w));
+    return false;
+  }
+  const int64_t end = mono_ns() + static_cast<int64_t>(seconds * 1e9);
+  dds_publication_matched_status_t ms{};
+  while ((dds_get_publication_matched_status(w, &ms), ms.current_count == 0) && mono_ns() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (ms.current_count == 0) {
+    spdlog::error("--resume: no server reads stroma_Control after {:.0f} s", seconds);
+    return false;
+  }
+  stroma_Control c{};
+  c.command = stroma_RESUME;
+  c.seq = 1;
+  if (dds_write(w, &c) < 0) {
+    spdlog::error("--resume: writing RESUME failed");
+    return false;
+  }
+  spdlog::info("resumed the server");
+  return true;
+}
+
 /// Waits until a server reads the command topic (commands sent before matching are lost).
 bool wait_for_server(dds_entity_t writer, double seconds) {
   const int64_t wait_end = mono_ns() + static_cast<int64_t>(seconds * 1e9);
@@ -320,7 +353,7 @@ int run_tool_client(const ToolClientOptions& o) {
   stroma_ToolCommand msg{};
   std::snprintf(msg.tool, sizeof(msg.tool), "%s", o.name.c_str());
   uint64_t seq = 0;
-  const int64_t t0 = mono_ns();
+  int64_t t0 = mono_ns();
   geometry_msgs_msg_dds__PoseStamped_ pose_msg{};
   pose_msg.header.frame_id = const_cast<char*>("world");
   auto send = [&](const ToolPose& p) {
@@ -348,6 +381,17 @@ int run_tool_client(const ToolClientOptions& o) {
     sent[seq].sent_ns = msg.client_time_ns;
     dds_write(ep.writer, &msg);
   };
+  if (o.resume) {  // the first pose in, then RESUME a paused server; the script's clock starts then
+    if (!traj.keys.empty()) send(traj.sample(0.0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (!resume_server(pp.participant, o.wait_server)) {
+      done = true;
+      receiver.join();
+      close_dds(pp);
+      return 1;
+    }
+    t0 = mono_ns();
+  }
   if (!traj.keys.empty()) {  // the script at --rate, on absolute deadlines
     const int64_t period = static_cast<int64_t>(1e9 / o.rate);
     int64_t next = t0;

@@ -28,6 +28,10 @@ struct ToolClientOptions {
   /// than the script; a script meant to loop ends where it starts).
   bool loop = false;
   bool crtk = false;         ///< --crtk: CRTK topics (ROS 2 wire format) instead of Stroma's own
+  /// --resume: send the first pose, then RESUME a paused server (`serve --paused`), so its
+  /// first tick already has this tool where the script starts (e.g. jaws closed on a needle
+  /// before gravity takes it). A protected domain needs an operator identity.
+  bool resume = false;
 };
 
 /// Runs the client; returns the exit code (0 ok, 1 no server / no feedback, 2 bad input).

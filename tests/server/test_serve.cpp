@@ -896,6 +896,24 @@ static void needle_over_dds(int domain, bool crtk) {
   EXPECT_EQ(server.wait_exit(15), 0);
 }
 
+// `stroma tool --resume` starts a paused server once its first pose is in (the first tick has
+// the tool where its script starts).
+TEST(Serve, AToolClientResumesAPausedServer) {
+  Server server(185, {"--duration", "60", "--paused"});
+  Client client(185);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }));
+  stroma_SimStatus s{};
+  EXPECT_FALSE(client.wait_status(1, [](const stroma_SimStatus& st) { return st.ticks > 0; }, &s)) << "paused: no ticks";
+  Process tool({STROMA_BINARY, "tool", "--name", "probe", "--script", kPress, "--duration", "1", "--domain", "185",
+                "--no-realtime", "--resume"});
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.state == stroma_RUNNING && st.ticks > 100; }, &s))
+      << "the client's RESUME did not start it";
+  EXPECT_GT(s.commands_accepted, 0u);
+  EXPECT_EQ(tool.wait_exit(15), 0);
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+
 TEST(Serve, RigidBodiesAndNeedleEventsArePublished) { needle_over_dds(183, false); }
 TEST(Serve, RigidBodiesAndNeedleEventsArePublishedWithCrtk) { needle_over_dds(184, true); }
 
