@@ -4,7 +4,8 @@
 # server, off-screen renderer and a scripted tool over DDS on loopback (scripts/demo.sh).
 # Frames, video and timing statistics go to out/demo/. Then, without arguments, the second demo:
 # a scalpel incises the liver and the video shows the wound (scripts/demo_incision.sh,
-# out/incision/).
+# out/incision/), and the third: a grasper turns a suture needle through the liver and out
+# (scripts/demo_needle.sh, out/needle/).
 # Usage: scripts/run.sh [SCENARIO [TRAJECTORY]]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,4 +14,6 @@ scripts/build.sh
 if [ $# -gt 0 ]; then exec scripts/demo.sh "$@"; fi
 scripts/demo.sh
 echo
-exec scripts/demo_incision.sh
+scripts/demo_incision.sh
+echo
+exec scripts/demo_needle.sh

@@ -18,6 +18,7 @@
 #include "rigid/needle_shape.hpp"
 #include "rigid/rigid_motion.hpp"
 #include "engine/tick.hpp"
+#include "engine/trajectory.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
 #include "haptics/tool_shape.hpp"
@@ -754,4 +755,67 @@ TEST(Needle, AnExitedNeedleBitesAgainThroughASecondLip) {
   ASSERT_GT(cutting_far, 300);
   EXPECT_LT(worst_gap, 0.05);
   EXPECT_LT(worst, 0.05);
+}
+
+// A needle let go over the 16 cm liver (the served scene, gravity on) after the scene's own
+// insertion and withdrawal falls over onto it without its energy ever rising above what it had
+// when let go, and without the contacts running away: the thin
+// wire lying down on the coarse organ's large triangles starts hundreds of speculative contacts a
+// tick, and a step that still had some pulling after its release rounds fed energy in and blew up
+// (contacts 177 → 8,192 in three ticks, with 2 rounds; now up to kMaxContactReleases, within the
+// tick's budget).
+TEST(Needle, ANeedleLetGoFallsOntoTheLiverWithoutGainingEnergy) {
+  STROMA_LONG_TEST();  // 9 s of the liver and needle (2 s)
+  ScenarioSpec spec = load_scenario(kSrc + "/scenarios/physical/liver_16cm_needle.yaml");
+  spec.solver.time_budget = 0;  // deterministic: no wall-clock cut of the solves
+  const CompiledScenario sc = compile_scenario(spec);
+  const Model& m = *sc.model;
+  State s = State::initial(m);
+  TickWorkspace w(m);
+  const RigidBodyModel& b = m.rigid_bodies[0];
+  const double mb = b.mass.mass;
+  auto energy_without_contact = [&]() {
+    const TimeStepper& st = w.stepper();
+    return st.kinetic_energy(s.tissue) + st.elastic_energy(s.tissue) + st.external_potential(s.tissue) +
+           rigid_kinetic_energy(mb, b.mass.inertia, s.rigid[0]) + mb * 9.81 * s.rigid[0].x[1];
+  };
+  const Trajectory& script = sc.tool_scripts[0];
+  const double release = script.end_time() + 0.05;  // through the liver and back, then the jaws open
+  double e_last = 0, max_step_gain = -1e300, e_state = 0, e_release = 0, max_gain = -1e300;
+  int max_contacts = 0, punctures = 0;
+  while (s.time < release + 1.0 - 1e-9) {
+    ToolInput in;
+    in.tool = 0;
+    in.seq = static_cast<uint64_t>(s.step + 1);
+    in.pose = script.sample(std::min(s.time + m.time_step, script.end_time()));
+    in.pose.jaw = s.time < release ? 0.0 : 0.3;
+    const TickReport& r = tick(m, s, w, &in, 1);
+    ASSERT_TRUE(r.status == TickStatus::Ok || r.status == TickStatus::SolverNotConverged) << s.time;
+    punctures = s.needles[0].punctures;
+    const double e_before = e_state + r.rigid_contact[0].energy;  // the state before this tick, with its contacts
+    if (s.time <= release + 0.01) e_release = e_before;
+    if (s.time > release + 0.01) {
+      max_gain = std::max(max_gain, e_before - e_release);
+      ASSERT_EQ(s.needles[0].phase, NeedlePhase::Outside) << s.time << ": fallen in (this energy has no track)";
+      max_step_gain = std::max(max_step_gain, e_before - e_last);
+      max_contacts = std::max(max_contacts, r.rigid_contact[0].contacts);
+    }
+    e_last = e_before;
+    e_state = energy_without_contact();
+  }
+  const double fall = mb * 9.81 * 0.01;  // the scale of its fall's energy (1 cm)
+  const double speed = std::hypot(s.rigid[0].v[0], s.rigid[0].v[1], s.rigid[0].v[2]);
+  std::printf("needle %.3g g, %d punctures before; let go: at most %d contacts, largest rise in one tick %.3g J, above "
+              "its energy when let go %.3g J (a 1 cm fall: %.3g J); at rest |v| %.3g m/s, y %.4f\n", 1e3 * mb, punctures,
+              max_contacts, max_step_gain, max_gain, fall, speed, s.rigid[0].x[1]);
+  EXPECT_EQ(punctures, 2) << "the scene's own pass: in and out";
+  EXPECT_LT(max_gain, 1e-2 * fall) << "above its energy when let go";
+  EXPECT_GT(max_contacts, 0) << "it never touched the liver";
+  EXPECT_LT(max_contacts, 1000) << "the contacts ran away";
+  EXPECT_LT(speed, 0.5);
+  EXPECT_GT(s.rigid[0].x[1], 0.06) << "it fell through the liver";
+  // Not asserted, and known (docs/NEEDLE.md, limits): tick to tick the accounting still jumps by
+  // up to the fall's own energy — the 0.4 mm wire slips between the samples of the coarse
+  // liver's 20 mm triangles (24 per edge at most: 0.8 mm apart) and a sample that finds it deep
+  // brings penalty energy — and after 1 s it still slides on the liver's flank.
 }
