@@ -194,6 +194,8 @@ struct SceneState {
   int64_t newest_publish_ns = 0;  // of the newest state not yet shown in a frame
   uint64_t states = 0, stale_states = 0, bad_states = 0, restarts = 0;
   uint64_t damage_events[3] = {0, 0, 0};
+  uint64_t rigid_shapes_received = 0, rigid_states = 0;  // RigidBody samples taken; RigidBodyStates applied
+  size_t track_marks_max = 0;                   // most needle track marks drawn in one frame
 };
 
 Look make_look(const RenderOptions& o, const SceneState& s) {
@@ -415,6 +417,7 @@ void apply_rigid_state(Follower& f, const stroma_RigidBodyState& s) {
   }
   f.st.rigid[s.body] = render::make_rigid_view(it->second.second, s.position, s.orientation, s.track._buffer,
                                                s.track._length / 3);
+  ++f.st.rigid_states;
 }
 
 /// Takes every sample that arrived since the last call into the scene state and the renderer.
@@ -425,6 +428,7 @@ void poll(Follower& f) {
   take_all<stroma_ToolState>(f.rd.tool, [&](const stroma_ToolState& t) { f.st.tools[t.tool] = tool_view(t); });
   take_all<stroma_RigidBody>(f.rd.rigid_body, [&](const stroma_RigidBody& b) {
     f.st.rigid_shapes[b.body] = {b.session, rigid_shape(b)};
+    ++f.st.rigid_shapes_received;
   });
   take_all<stroma_RigidBodyState>(f.rd.rigid_state, [&](const stroma_RigidBodyState& s) { apply_rigid_state(f, s); });
   take_all<stroma_DamageEvent>(f.rd.damage, [&](const stroma_DamageEvent& d) {
@@ -534,6 +538,7 @@ bool render_frame(Follower& f, FrameWriter& writer, LogHistogram& render_ms) {
   if (!img) return false;
   const int64_t t0 = monotonic_ns();
   f.renderer.render(*img);
+  f.st.track_marks_max = std::max(f.st.track_marks_max, f.renderer.last_track_marks());
   const double ms = static_cast<double>(monotonic_ns() - t0) * 1e-6;
   render_ms.record(ms);
   writer.submit(img, f.st.newest_publish_ns, f.st.sim_time, f.st.state_frame, ms);
@@ -634,6 +639,8 @@ nlohmann::ordered_json make_stats(const RenderOptions& o, const render::GlContex
   stats["topology_version_shown"] = st.topology_shown;
   stats["server_restarts"] = st.restarts;
   stats["damage_events"] = {{"warning", st.damage_events[0]}, {"onset", st.damage_events[1]}, {"rupture", st.damage_events[2]}};
+  stats["rigid_bodies"] = {{"shapes_received", st.rigid_shapes_received}, {"states_applied", st.rigid_states},
+                           {"track_marks_max", st.track_marks_max}};
   stats["last_sim_time"] = st.sim_time;
   return stats;
 }

@@ -303,3 +303,34 @@ TEST(RenderEndToEnd, TheRendererFollowsTheCutTopology) {
   EXPECT_LT(rs["states_ignored"].get<int>(), rs["states_received"].get<int>() / 4);
   fs::remove_all(out);
 }
+
+// The renderer draws rigid bodies from DDS: a needle driven through the block by `stroma tool`
+// (tests/data/server/needle_through.yaml; the server starts paused and the client resumes it),
+// its shape taken once (stroma_RigidBody), its pose and track with every frame
+// (stroma_RigidBodyState), the track's points drawn as marks.
+TEST(RenderEndToEnd, TheRendererDrawsANeedleAndItsTrack) {
+  const std::string domain = "186";
+  const fs::path out = fs::temp_directory_path() / ("stroma_e2e_needle_" + std::to_string(getpid()));
+  fs::remove_all(out);
+  Process server({STROMA_BINARY, "serve", kSrc + "/tests/data/server/needle_through.yaml", "--domain", domain,
+                  "--realtime", "off", "--duration", "60", "--paused"});
+  Process renderer({STROMA_BINARY, "render", "--domain", domain, "--out", out.string(), "--duration", "5", "--fps",
+                    "15", "--width", "240", "--height", "180", "--msaa", "0", "--no-video", "--wait", "30"});
+  const auto deadline = Clock::now() + std::chrono::seconds(30);
+  while (!fs::exists(out / "frame_000001.png") && Clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(fs::exists(out / "frame_000001.png")) << "the renderer wrote no frame";
+  Process tool({STROMA_BINARY, "tool", "--name", "grasper", "--script", kSrc + "/tests/data/server/needle_through_script.yaml",
+                "--domain", domain, "--no-realtime", "--resume"});
+  EXPECT_EQ(tool.wait_exit(30), 0);
+  EXPECT_EQ(renderer.wait_exit(60), 0);
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(20), 0);
+  const auto rs = nlohmann::json::parse(std::ifstream(out / "render_stats.json"));
+  ASSERT_TRUE(rs.contains("rigid_bodies")) << rs.dump();
+  EXPECT_EQ(rs["rigid_bodies"]["shapes_received"].get<int>(), 1) << "the needle's shape, once";
+  EXPECT_GT(rs["rigid_bodies"]["states_applied"].get<int>(), 10) << "its poses, with the frames";
+  EXPECT_GE(rs["rigid_bodies"]["track_marks_max"].get<int>(), 5) << "its track through the block, drawn";
+  fs::remove_all(out);
+}
+
