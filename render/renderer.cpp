@@ -457,26 +457,20 @@ struct Renderer::Impl {
       glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
       glUniform1i(loc("u_wire"), 0);
     }
-    if (tool_mesh.indices > 0) {
-      const Vector3f tool = linear(look.tool);
-      glUniform3f(loc("u_base"), tool.x(), tool.y(), tool.z());
-      glUniform1i(loc("u_field"), 0);
-      glUniform1f(loc("u_shininess"), 80.0f);
-      glUniform1f(loc("u_specular"), 0.9f);
-      glBindVertexArray(tool_mesh.vao);
-      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(tool_mesh.indices), GL_UNSIGNED_INT, nullptr);
-      last_triangles += tool_mesh.indices / 3;
-    }
-    if (rigid_mesh.indices > 0) {
-      const Vector3f c = linear(look.rigid);
+    // Steel (tools, needles), then the other rigid bodies: flat colours, no field.
+    auto draw_solid = [&](const GpuMesh& mesh, const Vec3f& colour, float shininess, float specular) {
+      if (mesh.indices == 0) return;
+      const Vector3f c = linear(colour);
       glUniform3f(loc("u_base"), c.x(), c.y(), c.z());
       glUniform1i(loc("u_field"), 0);
-      glUniform1f(loc("u_shininess"), 32.0f);
-      glUniform1f(loc("u_specular"), 0.4f);
-      glBindVertexArray(rigid_mesh.vao);
-      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(rigid_mesh.indices), GL_UNSIGNED_INT, nullptr);
-      last_triangles += rigid_mesh.indices / 3;
-    }
+      glUniform1f(loc("u_shininess"), shininess);
+      glUniform1f(loc("u_specular"), specular);
+      glBindVertexArray(mesh.vao);
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(mesh.indices), GL_UNSIGNED_INT, nullptr);
+      last_triangles += mesh.indices / 3;
+    };
+    draw_solid(tool_mesh, look.tool, 80.0f, 0.9f);
+    draw_solid(rigid_mesh, look.rigid, 32.0f, 0.4f);
   }
 
   /// Contact markers and track marks: round points drawn over the surface they sit on.

@@ -307,11 +307,14 @@ void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t 
     // farthest a sample can be and still make a spring (the step's reach below, bounded with the
     // fastest of the triangle's DOFs) is skipped whole: the distance is 1-Lipschitz, so none of
     // its samples would pass. The same samples, in the same order, as without the test.
-    const SurfaceTriangleDofs& td = surf.dofs[size_t(t)];
-    double v_tri = 0;
-    for (int a = 0; a < td.n; ++a) v_tri = std::max(v_tri, norm3(v + 3 * td.dof[a]));
+    // (Only triangles sampled in blocks need the bound: ns > kSampleBlock.)
     const double w_body = norm3(s.w.data());
-    const bool can_cull = h * w_body < 0.5;
+    const bool can_cull = ns > kSampleBlock && h * w_body < 0.5;
+    double v_tri = 0;
+    if (can_cull) {
+      const SurfaceTriangleDofs& td = surf.dofs[size_t(t)];
+      for (int a = 0; a < td.n; ++a) v_tri = std::max(v_tri, norm3(v + 3 * td.dof[a]));
+    }
     const double far = (h * (2.0 * speed + v_tri) + h * h * norm3(g.data())) / (1.0 - std::min(h * w_body, 0.5));
     const double diag = std::max(std::sqrt((e1[0] + e2[0]) * (e1[0] + e2[0]) + (e1[1] + e2[1]) * (e1[1] + e2[1]) +
                                            (e1[2] + e2[2]) * (e1[2] + e2[2])),

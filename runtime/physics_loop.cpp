@@ -6,7 +6,6 @@
 #include <cmath>
 #include <thread>
 
-#include "engine/multirate.hpp"
 #include "engine/stage_timer.hpp"
 #include "haptics/tool_shape.hpp"
 #include "runtime/realtime.hpp"
