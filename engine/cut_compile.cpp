@@ -1,5 +1,6 @@
 #include "engine/cut_compile.hpp"
 #include "engine/model_check.hpp"
+#include "engine/needle_mesh.hpp"
 #include "tissue/demand.hpp"
 
 #include <algorithm>
@@ -75,10 +76,11 @@ void compile_cut_surface(const CutTopology& topo, Model& m, std::vector<double>&
     return false;
   };
   std::vector<std::vector<int32_t>> faces_of(f.elements.size());
-  auto add_face = [&](const std::array<int32_t, 3>& v, int32_t ea, int32_t eb, bool cut) {
+  auto add_face = [&](const std::array<int32_t, 3>& v, int32_t ea, int32_t eb, bool cut, int32_t copy) {
     const std::array<int32_t, 3> tri{point[v[0]], point[v[1]], point[v[2]]};
     const int32_t id = static_cast<int32_t>(m.collision_triangles.size());
     m.collision_triangles.push_back(tri);
+    if (m.has_needles) m.collision_tri_elem.push_back(copy);  // a puncture's walk starts in its copy
     m.collision_dofs.push_back(triangle_dofs(f.pattern, tri, f.num_nodes, m.collision_embedded_dof));
     double e = 0;
     for (int a = 0; a < 3; ++a) e = std::max(e, distance(&rest_points[3 * tri[a]], &rest_points[3 * tri[(a + 1) % 3]]));
@@ -88,9 +90,9 @@ void compile_cut_surface(const CutTopology& topo, Model& m, std::vector<double>&
     if (ea >= 0) faces_of[ea].push_back(id);
     if (eb >= 0) faces_of[eb].push_back(id);
   };
-  for (const CutTriangle& t : topo.triangles) add_face(t.v, tears(t.copy) ? t.copy : -1, -1, t.cut);
+  for (const CutTriangle& t : topo.triangles) add_face(t.v, tears(t.copy) ? t.copy : -1, -1, t.cut, t.copy);
   for (const CutInternalFace& t : topo.internal)
-    if (tears(t.a) && tears(t.b)) add_face(t.v, t.a, t.b, false);
+    if (tears(t.a) && tears(t.b)) add_face(t.v, t.a, t.b, false, t.a);
   m.element_face_ptr.assign(1, 0);
   for (const auto& fs : faces_of) {
     m.element_face.insert(m.element_face.end(), fs.begin(), fs.end());
@@ -228,6 +230,7 @@ std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<c
   std::vector<double> rest_points;
   if (m->has_contact) compile_cut_surface(*topo, *m, rest_points);
   if (current.body_contact) compile_cut_body_contact(*current.body_contact, *topo, rest_points, *m);
+  if (m->has_needles) compile_cut_needle_mesh(*m, *topo, cs.base, cs.uncut.rest, edge_cut);
   m->cut_edge_dofs = edge_dofs(cs.base, *topo);
   // What the cuts made.
   CutStats& st = m->cut_stats;

@@ -6,6 +6,7 @@
 #include "collision/contact_surface.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/damage.hpp"
+#include "engine/needle_mesh.hpp"
 #include "tissue/triangle_closest_point.hpp"
 
 namespace stroma {
@@ -117,6 +118,7 @@ bool apply_cut(CutBuild& b, std::shared_ptr<const Model>& m, std::unique_ptr<Tic
   transfer_tools(*m, s, nm, *b.workspace, ns);                          // tools, grasps re-attached
   std::copy(s.edge_cut.begin(), s.edge_cut.end(), ns.edge_cut.begin());
   std::copy(s.rigid.begin(), s.rigid.end(), ns.rigid.begin());          // rigid bodies: no topology
+  if (nm.has_needles) transfer_needles(*m, s.needles, nm, ns.needles);  // track points to their copies
   ns.time = s.time;
   ns.step = s.step;
   std::swap(s, ns);

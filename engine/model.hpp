@@ -139,6 +139,11 @@ struct ModelTopology {
   /// (tissue/tet_walk.hpp: 4 per element, −1 on the boundary) and an element of each node —
   /// where a needle's walks start.
   std::vector<int32_t> tet_neighbours, node_tet;
+  /// Needles in a cut model: where each element copy's material lies (tissue/tet_walk.hpp's
+  /// WalkMesh: planes element_planes[element_plane_begin[e] .. [e + 1]), none for a whole
+  /// tetrahedron), so a walk ends at the cut. Empty for an uncut model or without needles.
+  std::vector<int32_t> element_plane_begin;
+  std::vector<std::array<double, 4>> element_planes;
   /// Needles: per collision triangle, the element it is a face of (where a puncture's walk starts).
   std::vector<int32_t> collision_tri_elem;
 

@@ -73,6 +73,15 @@ bool model_invariants_hold(const Model& m, std::string* why) {
   c(m.collision_dofs.size() == tris && m.collision_edge.size() == tris && m.collision_face_elem.size() == tris,
     "the collision arrays are parallel");
   c(m.has_contact || tris == 0, "collision arrays only for contact scenes");
+  if (m.has_needles) {  // the mesh the needles' walks cross (engine/needle_mesh.hpp)
+    c(m.tet_neighbours.size() == 4 * ne && m.node_tet.size() == n, "needles: 4 face neighbours per element, an element per node");
+    c(m.collision_tri_elem.size() == tris, "needles: an element per collision triangle");
+    for (const int32_t e : m.collision_tri_elem) c(e >= -1 && e < static_cast<int32_t>(ne), "needles: a collision triangle's element is one of the model's");
+    c(m.element_plane_begin.empty() ||
+          (m.element_plane_begin.size() == ne + 1 && m.element_plane_begin.front() == 0 &&
+           static_cast<size_t>(m.element_plane_begin.back()) == m.element_planes.size()),
+      "needles: element_plane_begin empty or per element, ending at element_planes' size");
+  }
   c(m.body_damage.size() == f.bodies.size(), "one damage model per body");
   c(m.element_region_damage.empty() || m.element_region_damage.size() == ne,
     "element_region_damage empty or per element");

@@ -8,6 +8,7 @@
 #include "engine/cut_compile.hpp"
 #include "engine/damage.hpp"
 #include "engine/multirate.hpp"
+#include "engine/needle_mesh.hpp"
 #include "engine/rigid_grasp.hpp"
 #include "engine/stage_timer.hpp"
 #include "engine/step_with_recovery.hpp"
@@ -391,7 +392,7 @@ bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, 
       if (m.rigid_bodies[k].shape == RigidShape::Needle)
         needle_after_step(m.rigid_bodies[k], static_cast<int32_t>(k), w.backup_rigid.data(), s.rigid.data(),
                           w.row_body.data(), w.springs.data(), w.tip_spring[k], w.tip_element[k], m.needle_tissue,
-                          m.fem, m.node_tet.data(), m.tet_neighbours.data(), w.backup_x.data(), s.tissue.x.data(),
+                          m.fem, needle_walk_mesh(m), m.node_tet.data(), w.backup_x.data(), s.tissue.x.data(),
                           s.tissue.v.data(), s.needles[k], r.needles[k]);
   }
   s.step += ticks;

@@ -115,13 +115,28 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
   double va[3];
   body_point_velocity(s, arm, va);
   const double reach = 2.0 * h * std::sqrt(dot3(va, va)) + 0.25 * r;
+  // An exited needle may already be in the next surface: the lips of an incision press on each
+  // other only through the tissue (no contact between them), so the near lip the needle pushes
+  // out can pass into the far one, and the apex comes out of the near lip inside the far. Such a
+  // surface is behind the apex, this side of the last bite's entry (whose own surface, crossed
+  // going in, faces the same way): look back most of the way there.
+  double behind = reach + 2.0 * r;
+  if (ns.phase == NeedlePhase::Exited)
+    for (int32_t i = ns.count - 1; i >= 0; --i)
+      if (ns.track[size_t(i)].surface == 1) {
+        double e[3];
+        material_point(ns.track[size_t(i)], x, e);
+        const double d[3] = {apex[0] - e[0], apex[1] - e[1], apex[2] - e[2]};
+        behind = std::max(behind, 0.75 * std::sqrt(dot3(d, d)));
+        break;
+      }
   // Where the needle's axis through the apex crosses the surface (a front-facing triangle,
   // n·t < 0): the crossing nearest the apex. Its depth is how far the apex is past it along t.
   // Along the axis the crossing moves continuously from triangle to triangle (a nearest-
   // triangle normal would flip at the dimple's edges and rattle the needle).
   int32_t best = -1;
   double best_w[3] = {0, 0, 0}, best_depth = 0, best_abs = 1e300;
-  bvh.query_sphere(apex, reach + 2.0 * r, x, [&](int32_t tri_index) {
+  bvh.query_sphere(apex, behind, x, [&](int32_t tri_index) {
     if (surf.active && !surf.active[tri_index]) return;
     const auto& tri = surf.triangles[size_t(tri_index)];
     const double* A = x + 3 * tri[0];
@@ -134,6 +149,7 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
     // apex + λ t on the plane: n·(apex + λ t − A) = 0; its barycentrics (Möller–Trumbore form).
     const double ao[3] = {apex[0] - A[0], apex[1] - A[1], apex[2] - A[2]};
     const double lambda = -dot3(n, ao) / nt;
+    if (-lambda > behind) return;  // behind the exit (or the query's reach)
     const double pt[3] = {ao[0] + lambda * t[0], ao[1] + lambda * t[1], ao[2] + lambda * t[2]};
     const double nn = dot3(n, n);
     const double c1[3] = {pt[1] * e2[2] - pt[2] * e2[1], pt[2] * e2[0] - pt[0] * e2[2], pt[0] * e2[1] - pt[1] * e2[0]};
@@ -311,8 +327,8 @@ int stick_reversed_slips(const double* x0, const double* x, const RigidState* st
 
 void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidState* start, const RigidState* end,
                        const int32_t* row_body, const ContactSpring* springs, int32_t tip_spring,
-                       int32_t tip_element, const std::vector<NeedleTissue>& tissue, const FemModel& fem, const int32_t* node_tet,
-                       const int32_t* neighbours, const double* x0, const double* x, const double* v,
+                       int32_t tip_element, const std::vector<NeedleTissue>& tissue, const FemModel& fem,
+                       const WalkMesh& mesh, const int32_t* node_tet, const double* x0, const double* x, const double* v,
                        NeedleState& ns, NeedleOutput& out) {
   const RigidState& se = end[size_t(body_index)];
   auto nt_of = [&](int32_t body) -> const NeedleTissue& { return tissue[size_t(body)]; };
@@ -340,7 +356,7 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
     if (body >= 0 && tissue[size_t(body)].enabled && push > tissue[size_t(body)].puncture_force) {
       // The material point at the apex (or the nearest point of the boundary there).
       const int32_t from = tip_element >= 0 ? tip_element : node_tet[node];  // the touched face's element
-      const TetWalkResult wr = walk_to_point(fem.elements, neighbours, x, from, apex);
+      const TetWalkResult wr = walk_to_point(mesh, x, from, apex);
       TrackPoint tp = point_from_walk(wr, fem);
       double q[3];
       material_point(tp, x, q);
@@ -403,18 +419,27 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
     if (k * e >= nt.cutting_force * (1 - 1e-9)) {
       const double lag = nt.cutting_force / k;
       const double target[3] = {apex[0] - lag * t_tip[0], apex[1] - lag * t_tip[1], apex[2] - lag * t_tip[2]};
-      TetWalkResult wr = walk_to_point(fem.elements, neighbours, x, ns.front.tet, target);
+      TetWalkResult wr = walk_to_point(mesh, x, ns.front.tet, target);
       if (!wr.inside && !wr.lost) {
         // Cut through: the exit is where the segment from the front to the target leaves the
-        // last element (its weights along the segment, clipped at the first that reaches 0).
+        // last element (its weights along the segment, clipped at the first that reaches 0), or
+        // its material (a cut model's copy: the first of its material planes crossed).
         double wa[4], wb[4], lam = 1.0;
         tet_weights(fem.elements[size_t(wr.tet)], x, q, wa);
         tet_weights(fem.elements[size_t(wr.tet)], x, target, wb);
         for (int c = 0; c < 4; ++c)
           if (wb[c] < 0 && wa[c] > wb[c]) lam = std::min(lam, std::max(0.0, wa[c]) / (std::max(0.0, wa[c]) - wb[c]));
+        if (mesh.plane_begin != nullptr)
+          for (int32_t j = mesh.plane_begin[wr.tet]; j < mesh.plane_begin[wr.tet + 1]; ++j) {
+            const std::array<double, 4>& c = mesh.planes[j];
+            const double ca = c[0] * wa[0] + c[1] * wa[1] + c[2] * wa[2] + c[3] * wa[3];
+            const double cb = c[0] * wb[0] + c[1] * wb[1] + c[2] * wb[2] + c[3] * wb[3];
+            if (cb < 0 && ca > cb) lam = std::min(lam, std::max(0.0, ca) / (std::max(0.0, ca) - cb));
+          }
         double sum = 0;
         for (int c = 0; c < 4; ++c) sum += (wr.w[c] = std::max(0.0, wa[c] + lam * (wb[c] - wa[c])));
         for (double& v : wr.w) v = sum > 0 ? v / sum : 0.25;
+        if (mesh.material_depth(wr.tet, wr.w) < 0) mesh.into_material(wr.tet, wr.w);  // (a front from another copy)
       }
       TrackPoint tp = point_from_walk(wr, fem);
       double pq[3];

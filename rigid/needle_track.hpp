@@ -33,7 +33,8 @@
 ///    walking the tetrahedra to the point F_c/k behind the apex (tissue/tet_walk.hpp) — so the
 ///    axial resistance there is the cutting force; every ℓ₀ of new track a track point is made.
 ///  - **Exit.** A front whose walk leaves the mesh has cut through: the boundary point it
-///    crossed becomes the exit track point; the tip's contact from inside is the same as
+///    crossed becomes the exit track point (in a cut model, a cut face is such a boundary: the
+///    walk ends where it leaves its copy's material, tissue/tet_walk.hpp); the tip's contact from inside is the same as
 ///    outside (its push on the far surface puncture it as above). Track points that slide off
 ///    either end of the curve (s < 0 or s > L) leave the needle; when none is left the needle is
 ///    outside again. Withdrawal slides the points towards the tip: friction reverses.
@@ -47,6 +48,7 @@
 #include "rigid/rigid_contact.hpp"
 #include "tissue/contact_spring.hpp"
 #include "tissue/fem_model.hpp"
+#include "tissue/tet_walk.hpp"
 
 namespace stroma {
 
@@ -151,7 +153,9 @@ int stick_reversed_slips(const double* x0, const double* x, const RigidState* st
 /// coarse triangle sideways. Stiffness: the body's contact stiffness over the wire's
 /// cross-section (a frictionless point: no force across the axis).
 /// Speculative in front of the surface (released if it ends pulling). Sets ns.tip_offset when a
-/// contact begins. Returns the spring's index (and its surface triangle in `triangle`), or −1.
+/// contact begins. An exited needle also looks back along its axis, most of the way to its last
+/// bite's entry: a surface it is already in (the far lip of an incision, pushed into by the near
+/// one — the lips have no contact of their own) is touched from where the apex is. Returns the spring's index (and its surface triangle in `triangle`), or −1.
 int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, NeedleState& ns,
                            const ContactSurface& surf, const TriangleBvh& bvh, const double* x, double h,
                            std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
@@ -172,12 +176,13 @@ int32_t body_of_node(const FemModel& fem, int32_t node);
 /// this step (needle_tip_contact; −1: none), whose force after the step decides puncture, and
 /// `tip_element` an element with its triangle's face (the entry's walk starts there); x0/x/v the
 /// tissue at the step's start and end; start/end the needle's rigid state; row_body maps rows
-/// to bodies (for the springs' other sides). `node_tet` gives an element of each node (walks
-/// start there), `neighbours` the elements' face neighbours.
+/// to bodies (for the springs' other sides). `mesh` is the tetrahedra the walks cross (a cut
+/// model's copies with their material planes: a cut face is the tissue's boundary, where the
+/// front exits and the other lip is bitten), `node_tet` an element of each node (walks start there).
 void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidState* start, const RigidState* end,
                        const int32_t* row_body, const ContactSpring* springs, int32_t tip_spring,
-                       int32_t tip_element, const std::vector<NeedleTissue>& tissue, const FemModel& fem, const int32_t* node_tet,
-                       const int32_t* neighbours, const double* x0, const double* x, const double* v,
+                       int32_t tip_element, const std::vector<NeedleTissue>& tissue, const FemModel& fem,
+                       const WalkMesh& mesh, const int32_t* node_tet, const double* x0, const double* x, const double* v,
                        NeedleState& ns, NeedleOutput& out);
 
 }  // namespace stroma

@@ -11,7 +11,7 @@
 #include "io/surface_io.hpp"
 #include "rigid/mass_properties.hpp"
 #include "rigid/rigid_contact.hpp"
-#include "tissue/tet_walk.hpp"
+#include "engine/needle_mesh.hpp"
 #include "engine/cut_compile.hpp"
 #include "engine/model.hpp"
 #include "engine/model_check.hpp"
@@ -493,17 +493,12 @@ void compile_probes(const ScenarioSpec& spec, const std::vector<PreparedMesh>& m
 
 /// Tools with their automatic values resolved (contact and grasp stiffness), and their scripts.
 /// Needles (rigid/needle_track.hpp): each tissue body's `material.needle` resolved (automatic
-/// track stiffness 100·E per m, spacing half the body's mean surface edge), the elements' face
-/// neighbours for the track's walks, and each needle's track capacity.
+/// track stiffness 100·E per m, spacing half the body's mean surface edge) and each needle's
+/// track capacity (the mesh its walks cross: compile_needle_mesh, once the surface is made).
 void compile_needles(const ScenarioSpec& spec, Model& model) {
   model.has_needles = std::any_of(model.rigid_bodies.begin(), model.rigid_bodies.end(),
                                   [](const RigidBodyModel& b) { return b.shape == RigidShape::Needle; });
   if (!model.has_needles) return;
-  for (size_t ti = 0; ti < spec.tools.size(); ++ti)
-    if (spec.tools[ti].spec.cuts)
-      throw InputError(spec.tools[ti].where.file, spec.tools[ti].where.line, fmt::format("tools[{}].cuts", ti),
-                       "a scenario with a needle cannot have a cutting tool yet (a cut re-makes the tetrahedra the "
-                       "needle's track is embedded in)");
   const FemModel& fem = model.fem;
   model.needle_tissue.assign(fem.bodies.size(), NeedleTissue{});
   double spacing_min = 1e300;
@@ -535,31 +530,6 @@ void compile_needles(const ScenarioSpec& spec, Model& model) {
   for (RigidBodyModel& b : model.rigid_bodies)
     if (b.shape == RigidShape::Needle)  // points ≤ the needle's length / spacing, and an exit's and the ends'
       b.track_capacity = static_cast<int32_t>(std::ceil((b.needle.length + b.needle.wire_radius) / spacing_min)) + 8;
-  model.tet_neighbours = tet_face_neighbours(fem.elements);
-  model.node_tet.assign(size_t(fem.num_nodes), 0);
-  for (size_t e = 0; e < fem.elements.size(); ++e)
-    for (const int32_t n : fem.elements[e].node) model.node_tet[size_t(n)] = static_cast<int32_t>(e);
-}
-
-/// Needles: each collision triangle's element (the one it is a face of), where a puncture's walk
-/// starts (the collision faces of bodies that cannot tear name no element).
-void compile_needle_faces(Model& model) {
-  std::map<std::array<int32_t, 3>, int32_t> face_elem;
-  for (size_t e = 0; e < model.fem.elements.size(); ++e)
-    for (int i = 0; i < 4; ++i) {
-      std::array<int32_t, 3> f;
-      for (int k = 0, j = 0; k < 4; ++k)
-        if (k != i) f[size_t(j++)] = model.fem.elements[e].node[size_t(k)];
-      std::sort(f.begin(), f.end());
-      face_elem.emplace(f, static_cast<int32_t>(e));
-    }
-  model.collision_tri_elem.assign(model.collision_triangles.size(), -1);
-  for (size_t t = 0; t < model.collision_triangles.size(); ++t) {
-    std::array<int32_t, 3> f = model.collision_triangles[t];
-    std::sort(f.begin(), f.end());
-    const auto it = face_elem.find(f);
-    if (it != face_elem.end()) model.collision_tri_elem[t] = it->second;
-  }
 }
 
 /// `rigid_bodies:` → RigidBodyModel: mass properties from the shape (a mesh read, checked
@@ -876,7 +846,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
   compile_rigid_bodies(spec, *model);
   if (spec.body_contact) model->has_contact = true;
   if (model->has_contact) compile_collision_faces(*model);
-  if (model->has_needles) compile_needle_faces(*model);
+  if (model->has_needles) compile_needle_mesh(*model);  // the needles' walks (engine/needle_mesh.hpp)
   if (spec.body_contact) compile_body_contact(*spec.body_contact, spec, *model);
   if (std::any_of(model->tools.begin(), model->tools.end(), [](const ToolSpec& t) { return t.cuts; }))
     enable_cutting(*model);

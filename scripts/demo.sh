@@ -10,7 +10,8 @@
 # Environment: OUT (default out/demo), STROMA_DOMAIN (default 7), FPS (30), SIZE (640x480),
 # TOOL_NAME (the scenario's tool the script drives; default probe),
 # SERVE_ARGS (more options for `stroma serve`, e.g. "--phase-lead-us 0"), TOOL_ARGS (for
-# `stroma tool`, e.g. "--no-realtime").
+# `stroma tool`, e.g. "--no-realtime"), SECOND_TOOL ("NAME:TRAJECTORY": a second client, started
+# just before the first, drives that tool at the same time — two instruments, two clients).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Loopback only: every DDS participant started here uses Stroma's built-in loopback config,
@@ -41,7 +42,15 @@ cleanup() {
 trap cleanup EXIT
 
 # The tool script's length decides how long to record (plus a second to see the tissue settle).
-script_s=$(awk '/t:/ { sub(/.*t: */, ""); sub(/[,}].*/, ""); t = $0 } END { print t + 0 }' "$trajectory")
+script_length() { awk '/t:/ { sub(/.*t: */, ""); sub(/[,}].*/, ""); t = $0 } END { print t + 0 }' "$1"; }
+script_s=$(script_length "$trajectory")
+second_name="" second_trajectory="" second_pid=""
+if [ -n "${SECOND_TOOL:-}" ]; then
+  second_name="${SECOND_TOOL%%:*}"
+  second_trajectory="${SECOND_TOOL#*:}"
+  [ -f "$second_trajectory" ] || { echo "demo: SECOND_TOOL's trajectory '$second_trajectory' not found" >&2; exit 2; }
+  script_s=$(awk -v a="$script_s" -v b="$(script_length "$second_trajectory")" 'BEGIN { print (a > b ? a : b) }')
+fi
 record_s=$(awk -v t="$script_s" 'BEGIN { print t + 1.5 }')
 
 echo "demo: serving $scenario on DDS domain $domain (loopback only)"
@@ -66,10 +75,18 @@ if ! grep -q "recording" "$out/render.log"; then
   cat "$out/render.log" "$out/serve.log" >&2
   exit 1
 fi
+if [ -n "$second_name" ]; then
+  echo "demo: driving the $second_name with $second_trajectory"
+  "$stroma" tool --name "$second_name" --script "$second_trajectory" --domain "$domain" --out "$out/tool_$second_name.csv" \
+    --no-realtime > "$out/tool_$second_name.log" 2>&1 &
+  second_pid=$!
+  pids+=($second_pid)
+fi
 echo "demo: driving the tool with $trajectory (${script_s} s)"
 "$stroma" tool --name "$tool_name" --script "$trajectory" --domain "$domain" --out "$out/tool.csv" ${TOOL_ARGS:-} \
   > "$out/tool.log" 2>&1 || { echo "demo: the tool client failed:" >&2; cat "$out/tool.log" >&2; exit 1; }
 
+[ -z "$second_pid" ] || wait "$second_pid" || { echo "demo: the $second_name's client failed:" >&2; cat "$out/tool_$second_name.log" >&2; exit 1; }
 status=0
 wait "$render_pid" || status=$?
 kill -INT "${pids[0]}" 2>/dev/null || true

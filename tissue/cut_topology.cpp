@@ -657,31 +657,41 @@ CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<d
   return topo;
 }
 
+void copy_material_planes(const CutTopology& topo, const std::vector<Tet>& tets, const std::vector<double>& rest,
+                          const std::vector<double>& edge_cut, const TetAdjacency& adj, int32_t copy,
+                          std::vector<std::array<double, 4>>& planes) {
+  const ElementCopy& c = topo.copies[static_cast<size_t>(copy)];
+  if (topo.tet_copy_begin[c.tet + 1] - topo.tet_copy_begin[c.tet] == 1) return;  // whole: all material
+  const TetView v = make_view(tets, rest, adj, edge_cut, c.tet);
+  std::vector<LocalTri> tris;
+  polygon(v, c.material, tris);
+  orient(v, c.material, tris);  // outward of the material: −(p − a)·n/|n| is the depth inside
+  for (const LocalTri& t : tris) {
+    const P3 a = v.at(t.r[0]);
+    const P3 n = cross(sub(v.at(t.r[1]), a), sub(v.at(t.r[2]), a));
+    const double len = std::sqrt(dot(n, n));
+    if (len <= 0) continue;
+    // p = Σ w_k X_k with Σ w_k = 1, so −(p − a)·n/|n| = Σ w_k (−(X_k − a)·n/|n|).
+    std::array<double, 4> w{};
+    for (int k = 0; k < 4; ++k) w[static_cast<size_t>(k)] = -dot(sub(v.x[k], a), n) / len;
+    planes.push_back(w);
+  }
+}
+
 int32_t copy_containing(const CutTopology& topo, const std::vector<Tet>& tets, const std::vector<double>& rest,
                         const std::vector<double>& edge_cut, const TetAdjacency& adj, int32_t tet,
                         const std::array<double, 4>& bary) {
   const int32_t begin = topo.tet_copy_begin[tet], end = topo.tet_copy_begin[tet + 1];
   if (end - begin == 1) return begin;
-  const TetView v = make_view(tets, rest, adj, edge_cut, tet);
-  P3 p{0, 0, 0};
-  for (int k = 0; k < 4; ++k)
-    for (int d = 0; d < 3; ++d) p[d] += bary[k] * v.x[k][d];
   int32_t best = begin;
   double best_score = -1e300;
-  std::vector<LocalTri> tris;
+  std::vector<std::array<double, 4>> planes;
   for (int32_t c = begin; c < end; ++c) {
-    tris.clear();
-    polygon(v, topo.copies[c].material, tris);
-    orient(v, topo.copies[c].material, tris);
+    planes.clear();
+    copy_material_planes(topo, tets, rest, edge_cut, adj, c, planes);
     // How far inside the material's side of its cut polygon the point lies (the worst plane).
     double score = 1e300;
-    for (const LocalTri& t : tris) {
-      const P3 a = v.at(t.r[0]);
-      P3 n = cross(sub(v.at(t.r[1]), a), sub(v.at(t.r[2]), a));
-      const double len = std::sqrt(dot(n, n));
-      if (len <= 0) continue;
-      score = std::min(score, -dot(sub(p, a), n) / len);
-    }
+    for (const auto& q : planes) score = std::min(score, q[0] * bary[0] + q[1] * bary[1] + q[2] * bary[2] + q[3] * bary[3]);
     if (score > best_score) {
       best_score = score;
       best = c;

@@ -136,6 +136,18 @@ CutTopology build_cut_topology(const std::vector<Tet>& tets, const std::vector<d
                                const TetAdjacency& adj, const std::vector<double>& edge_cut,
                                const std::vector<int32_t>& node_ranges, bool internal_faces = false);
 
+/// Where copy `copy`'s material lies in its tetrahedron: one plane per triangle of its cut
+/// polygon (rest shape), appended to `planes` as weights c of the tetrahedron's four local nodes
+/// such that, for a point with barycentric weights w, c·w is its distance (m, rest) inside the
+/// material's side of that plane (negative: beyond the cut). The point is in the material where
+/// every plane gives ≥ 0 (a non-planar quad's fold makes this a little stricter than the true
+/// side near the fold). A whole tetrahedron's only copy has none. Barycentric weights move with
+/// the copy's linear deformation, so the planes hold in every deformed shape: what a needle's
+/// walk across a cut mesh tests (tissue/tet_walk.hpp). Load or cut-build time (allocates).
+void copy_material_planes(const CutTopology& topo, const std::vector<Tet>& tets, const std::vector<double>& rest,
+                          const std::vector<double>& edge_cut, const TetAdjacency& adj, int32_t copy,
+                          std::vector<std::array<double, 4>>& planes);
+
 /// The copy of tetrahedron `tet` whose material holds the point with barycentric coordinates
 /// `bary` (weights of the tet's four nodes) in the rest shape.
 int32_t copy_containing(const CutTopology& topo, const std::vector<Tet>& tets, const std::vector<double>& rest,

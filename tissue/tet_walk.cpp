@@ -1,6 +1,7 @@
 #include "tissue/tet_walk.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <map>
 
 namespace stroma {
@@ -46,8 +47,42 @@ void tet_weights(const ElementParams& e, const double* x, const double* p, doubl
   w[0] = 1.0 - w[1] - w[2] - w[3];
 }
 
-TetWalkResult walk_to_point(const std::vector<ElementParams>& elements, const int32_t* neighbours, const double* x,
-                            int32_t start, const double* p, int32_t max_steps) {
+double WalkMesh::material_depth(int32_t e, const double* w) const {
+  if (plane_begin == nullptr) return std::numeric_limits<double>::infinity();
+  double depth = std::numeric_limits<double>::infinity();
+  for (int32_t j = plane_begin[e]; j < plane_begin[e + 1]; ++j) {
+    const std::array<double, 4>& c = planes[j];
+    depth = std::min(depth, c[0] * w[0] + c[1] * w[1] + c[2] * w[2] + c[3] * w[3]);
+  }
+  return depth;
+}
+
+void WalkMesh::into_material(int32_t e, double* w) const {
+  if (plane_begin == nullptr) return;
+  // The material nodes: the corners every plane accepts (c_k ≥ 0); their centroid is inside.
+  double m[4] = {0, 0, 0, 0};
+  int n = 0;
+  for (int k = 0; k < 4; ++k) {
+    bool in = true;
+    for (int32_t j = plane_begin[e]; j < plane_begin[e + 1]; ++j) in = in && planes[j][size_t(k)] >= 0;
+    if (in) m[k] = 1, ++n;
+  }
+  for (double& v : m) v = n > 0 ? v / n : 0.25;
+  double lam = 0;
+  for (int32_t j = plane_begin[e]; j < plane_begin[e + 1]; ++j) {
+    const std::array<double, 4>& c = planes[j];
+    const double cw = c[0] * w[0] + c[1] * w[1] + c[2] * w[2] + c[3] * w[3];
+    const double cm = c[0] * m[0] + c[1] * m[1] + c[2] * m[2] + c[3] * m[3];
+    if (cw < 0 && cm > cw) lam = std::max(lam, -cw / (cm - cw));
+  }
+  lam = std::min(lam, 1.0);
+  for (int k = 0; k < 4; ++k) w[k] += lam * (m[k] - w[k]);
+}
+
+TetWalkResult walk_to_point(const WalkMesh& mesh, const double* x, int32_t start, const double* p,
+                            int32_t max_steps) {
+  const std::vector<ElementParams>& elements = *mesh.elements;
+  const int32_t* neighbours = mesh.neighbours;
   TetWalkResult r;
   int32_t e = start, prev = -1;
   for (r.steps = 0; r.steps < max_steps; ++r.steps) {
@@ -59,6 +94,11 @@ TetWalkResult walk_to_point(const std::vector<ElementParams>& elements, const in
     r.tet = e;
     if (w[i] >= -1e-9) {
       std::copy(w, w + 4, r.w);
+      if (mesh.material_depth(e, w) < -1e-12) {  // in e's shape, beyond its cut: outside the tissue
+        mesh.into_material(e, r.w);
+        r.past_cut = true;
+        return r;
+      }
       r.inside = true;
       return r;
     }
@@ -73,6 +113,7 @@ TetWalkResult walk_to_point(const std::vector<ElementParams>& elements, const in
       double s = 0;
       for (int k = 0; k < 4; ++k) s += (r.w[k] = std::max(w[k], 0.0));
       for (double& v : r.w) v = s > 0 ? v / s : 0.25;
+      if (mesh.material_depth(e, r.w) < -1e-12) mesh.into_material(e, r.w);  // a copy's face beyond its cut
       return r;
     }
     prev = e;

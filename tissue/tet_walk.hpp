@@ -8,7 +8,14 @@
 /// barycentric weight; the walk ends inside one (every weight ≥ −1e-9), or where that face is on
 /// the mesh's boundary (the point is outside the tissue there: a needle's tip leaving it), or
 /// after `max_steps` (a degenerate or cycling path: reported as lost).
+///
+/// Across a cut mesh (tissue/cut_topology.hpp) the elements are copies of tetrahedra: each has
+/// its whole tetrahedron's shape but material only on its side of the cut, and copies across the
+/// cut share no face (their DOFs differ), so the cut faces are boundary faces. A point inside a
+/// copy's shape but beyond its material planes (WalkMesh) is past the cut — outside the tissue
+/// there, as beyond a boundary face: the walk ends outside, its weights moved into the material.
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -23,16 +30,42 @@ std::vector<int32_t> tet_face_neighbours(const std::vector<ElementParams>& eleme
 /// Barycentric weights of p in element e at positions x (3 per node; may be negative outside).
 void tet_weights(const ElementParams& e, const double* x, const double* p, double* w);
 
+/// The tetrahedra a walk crosses: elements, their face neighbours (tet_face_neighbours) and, for
+/// a cut mesh's copies, where each one's material lies — element e's planes are
+/// planes[plane_begin[e] .. plane_begin[e + 1]), each as weights c with c·w ≥ 0 on the material's
+/// side (tissue/cut_topology.hpp, copy_material_planes; a whole tetrahedron has none).
+/// Invariant: plane_begin is null (an uncut mesh) or has elements->size() + 1 entries.
+struct WalkMesh {
+  const std::vector<ElementParams>* elements = nullptr;
+  const int32_t* neighbours = nullptr;
+  const int32_t* plane_begin = nullptr;
+  const std::array<double, 4>* planes = nullptr;
+
+  /// How far inside e's material the weights w lie (m, rest): the least c·w over its planes
+  /// (+∞ for an element all material).
+  double material_depth(int32_t e, const double* w) const;
+  /// Moves weights w (inside e's shape, beyond its material) into its material along the line
+  /// to its material nodes' centroid, to the first point every plane accepts.
+  void into_material(int32_t e, double* w) const;
+};
+
 struct TetWalkResult {
   int32_t tet = -1;        ///< the tetrahedron reached (holding p when inside)
   double w[4] = {0, 0, 0, 0};  ///< p's weights in it (inside: ≥ 0, sum 1; outside: clamped to it)
   bool inside = false;
   bool lost = false;       ///< max_steps reached (a degenerate or cycling path): neither inside nor a boundary
+  bool past_cut = false;   ///< outside because p is beyond the cut in `tet` (its weights moved into its material)
   int32_t steps = 0;
 };
 
 /// Walks from element `start` to the point p at positions x. No allocation.
-TetWalkResult walk_to_point(const std::vector<ElementParams>& elements, const int32_t* neighbours, const double* x,
-                            int32_t start, const double* p, int32_t max_steps = 4096);
+TetWalkResult walk_to_point(const WalkMesh& mesh, const double* x, int32_t start, const double* p,
+                            int32_t max_steps = 4096);
+
+/// An uncut mesh's walk.
+inline TetWalkResult walk_to_point(const std::vector<ElementParams>& elements, const int32_t* neighbours,
+                                   const double* x, int32_t start, const double* p, int32_t max_steps = 4096) {
+  return walk_to_point(WalkMesh{&elements, neighbours, nullptr, nullptr}, x, start, p, max_steps);
+}
 
 }  // namespace stroma
