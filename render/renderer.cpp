@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <unordered_set>
+#include <vector>
 #include <stdexcept>
 #include <string>
 
@@ -561,6 +564,34 @@ Renderer::~Renderer() {
   s.destroy_framebuffers();
 }
 
+namespace {
+
+/// The wound's edge on the outer surface: the vertices of uncut faces at the place of a cut
+/// face's vertex (the cut faces have their own vertices, at the same positions) get −1, which the
+/// shader draws as a dark line along the lips — so a closed incision reads as one along the
+/// blade's whole path, not as the hairline its touching lips leave.
+void mark_wound_edge(const float* rest, std::vector<float>& cut) {
+  struct Key {
+    float x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct Hash {
+    size_t operator()(const Key& k) const {
+      uint32_t a, b, c;
+      std::memcpy(&a, &k.x, 4), std::memcpy(&b, &k.y, 4), std::memcpy(&c, &k.z, 4);
+      return (size_t(a) * 73856093u) ^ (size_t(b) * 19349663u) ^ (size_t(c) * 83492791u);
+    }
+  };
+  std::unordered_set<Key, Hash> wound;
+  for (size_t i = 0; i < cut.size(); ++i)
+    if (cut[i] > 0) wound.insert({rest[3 * i], rest[3 * i + 1], rest[3 * i + 2]});
+  if (wound.empty()) return;
+  for (size_t i = 0; i < cut.size(); ++i)
+    if (cut[i] == 0 && wound.count({rest[3 * i], rest[3 * i + 1], rest[3 * i + 2]})) cut[i] = -1.0f;
+}
+
+}  // namespace
+
 int Renderer::add_body(const float* rest, size_t vertices, const uint32_t* triangles, size_t triangle_count,
                        const uint8_t* cut_faces) {
   check_triangles(triangles, triangle_count, vertices);
@@ -581,6 +612,7 @@ void Renderer::replace_body(int id, const float* rest, size_t vertices, const ui
     for (size_t t = 0; t < triangle_count; ++t)
       if (cut_faces[t])
         for (int k = 0; k < 3; ++k) b.cut[triangles[3 * t + k]] = 1.0f;
+    mark_wound_edge(rest, b.cut);
   }
   b.positions.assign(rest, rest + 3 * vertices);
   b.rest_lo = Vector3f::Constant(1e30f);

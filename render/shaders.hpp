@@ -6,7 +6,7 @@
 namespace stroma::render {
 
 /// Tissue and tool surfaces: world-space position, normal, and three fields (stress, damage,
-/// cut: 1 on the faces a cut made).
+/// cut: 1 on the faces a cut made, −1 at the lips' vertices of the outer surface).
 inline constexpr const char* kMeshVertexShader = R"(#version 330 core
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec3 a_normal;
@@ -72,6 +72,9 @@ void main() {
     base = mix(base, wound, smoothstep(0.9, 1.0, d));
   }
   base = mix(base, u_cut, clamp(v_field.z, 0.0, 1.0));  // a cut's inner faces
+  // The wound's edge on the outer surface (−1 at the lips' vertices): a dark line along the cut,
+  // the last fifth of the way to the lip of each face that touches it.
+  base = mix(base, 0.45 * u_cut, smoothstep(0.7, 0.95, -v_field.z));
   vec3 L = -u_key_dir;
   vec3 H = normalize(L + V);
   float key = max(dot(n, L), 0.0);

@@ -994,5 +994,38 @@ TEST(RigidView, RigidBodiesAndTrackMarksAreDrawnWhereTheyAre) {
   EXPECT_EQ(r.last_triangles(), 12u);
 }
 
+
+// A cut's wound on the outer surface (docs/CUTTING.md): the outer faces' vertices at the place of
+// a cut face's vertex are the lips, drawn as a dark line along the cut — a closed incision reads
+// along its whole length though its cut faces are hidden. A flat sheet (z = 0, facing the camera)
+// with a cut face hanging below it along x = 0 (edge-on: not itself visible).
+TEST(RendererBasics, AWoundsEdgeIsDrawnAlongItsLips) {
+  const Look look = plain_look();
+  const std::vector<float> pos = {-1, -1, 0, 0, -1, 0, 1, -1, 0, -1, 1, 0, 0, 1, 0, 1, 1, 0,  // the sheet
+                                  0, -1, 0, 0, 1, 0, 0, 0, -0.5f};                             // the cut face's own
+  const std::vector<uint32_t> tris = {0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4, 6, 8, 7};
+  auto frame = [&](bool cut) {
+    Renderer r(160, 120, look);
+    const std::vector<uint8_t> faces = {0, 0, 0, 0, uint8_t(cut ? 1 : 0)};
+    r.add_body(pos.data(), pos.size() / 3, tris.data(), tris.size() / 3, faces.data());
+    r.set_camera(r.fit_camera({0, 0, -1}, {0, 1, 0}));
+    return render_once(r);
+  };
+  const Image cut = frame(true), uncut = frame(false);
+  // The lip projects to the image's middle column; a quarter of the sheet's width away, none.
+  auto row_mean = [](const Image& im, int x) {
+    double s = 0;
+    for (int y = 50; y < 70; ++y) s += luminance(pixel(im, x, y));
+    return s / 20;
+  };
+  const double lip_cut = row_mean(cut, 80), side_cut = std::min(row_mean(cut, 60), row_mean(cut, 100));
+  const double lip_uncut = row_mean(uncut, 80), side_uncut = std::min(row_mean(uncut, 60), row_mean(uncut, 100));
+  std::printf("luminance at the lip / beside it: with the cut face %.1f / %.1f, without %.1f / %.1f\n", lip_cut,
+              side_cut, lip_uncut, side_uncut);
+  EXPECT_LT(lip_cut, side_cut - 30) << "the lip is a dark line";
+  EXPECT_NEAR(lip_uncut, side_uncut, 8) << "no cut, no line";
+  EXPECT_NEAR(side_cut, side_uncut, 3) << "away from the lip the sheet is as it was";
+}
+
 }  // namespace
 }  // namespace stroma::render
