@@ -527,3 +527,28 @@ def test_a_needle_is_read_with_its_phase_and_track():
     assert sim.rigid_bodies[0]["needle"]["track"].shape[0] >= track.shape[0]
     sim.restore(pickle.loads(pickle.dumps(before)))
     np.testing.assert_array_equal(sim.rigid_bodies[0]["needle"]["track"], track)
+
+
+def test_a_needle_through_an_incisions_lips_and_its_snapshot():
+    """Cutting and a needle in one scenario (docs/NEEDLE.md, the suture demo's): the scalpel's
+    incision, then the needle turned across it — in through the near lip, out of its cut face,
+    into the far lip and out: four punctures. A pickled snapshot of the cut model with the needle
+    in both lips restores after a reset (the cut model rebuilt from its edge cuts) with the same
+    track, and steps on bit for bit (without the scenario's time budget, whose wall-clock deadline
+    would cut the solves differently each run)."""
+    text = (SCENARIOS / "liver_suture.yaml").read_text().replace(", time_budget: 0.00085", "")
+    assert "time_budget" not in text
+    sim = stroma.Simulation(text, "liver_suture.yaml", str(SCENARIOS))
+    sim.step(6000)  # the incision (to 2.0 s), the needle across it (3.4 .. 6.6 s)
+    n = sim.rigid_bodies[0]["needle"]
+    assert n["punctures"] == 4 and n["phase"] == "exited"
+    track = n["track"].copy()
+    before = pickle.dumps(sim.snapshot())
+    sim.step(200)
+    after = sim.rigid_bodies[0]["needle"]["track"].copy()
+    sim.reset()
+    assert sim.rigid_bodies[0]["needle"]["phase"] == "outside"
+    sim.restore(pickle.loads(before))
+    np.testing.assert_array_equal(sim.rigid_bodies[0]["needle"]["track"], track)
+    sim.step(200)
+    np.testing.assert_array_equal(sim.rigid_bodies[0]["needle"]["track"], after)
