@@ -30,8 +30,8 @@ namespace {
 
 /// A CRTK device's topics under rt/<tool>/ (server/crtk_bridge.cpp): what a client writes, what
 /// the server writes.
-const char* const kCrtkDeviceIn[] = {"servo_cp", "state_command"};
-const char* const kCrtkDeviceOut[] = {"measured_cp", "measured_cf", "operating_state"};
+const char* const kCrtkDeviceIn[] = {"servo_cp", "state_command", "jaw/servo_jp"};
+const char* const kCrtkDeviceOut[] = {"measured_cp", "measured_cf", "operating_state", "jaw/measured_js"};
 /// What every ROS 2 node (rclcpp/rclpy on rmw_cyclonedds_cpp) writes and reads besides its own
 /// topics: the graph's discovery info, its log, parameter events and its parameter services. A
 /// client identity gets them so that an SROS2-enforced node built on it can start (docs/CRTK.md);

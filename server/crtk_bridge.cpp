@@ -19,6 +19,7 @@ using PoseStamped = geometry_msgs_msg_dds__PoseStamped_;
 using WrenchStamped = geometry_msgs_msg_dds__WrenchStamped_;
 using OperatingState = crtk_msgs_msg_dds__OperatingState_;
 using StringStamped = crtk_msgs_msg_dds__StringStamped_;
+using JointState = sensor_msgs_msg_dds__JointState_;
 
 char kWorldFrame[] = "world";
 
@@ -60,8 +61,14 @@ struct CrtkBridge::Tool {
   std::string name;
   dds_entity_t servo_reader = 0, command_reader = 0;
   dds_entity_t cp_writer = 0, cf_writer = 0, state_writer = 0;
+  dds_entity_t jaw_reader = 0, js_writer = 0;  ///< a grasper's jaw (0: not a grasper)
   std::atomic<CrtkState> state{CrtkState::Disabled};
-  uint64_t seq = 0;  ///< servo_cp samples taken (the gate's seq for this source)
+  uint64_t seq = 0;  ///< commands submitted (the gate's seq for this source)
+  // Input thread only: the jaw the device last set (its poses carry it), and the last pose sent
+  // (a jaw set alone goes in with it).
+  double jaw = 0;
+  bool have_pose = false;
+  ToolPose last_pose;
 };
 
 CrtkBridge::CrtkBridge(dds_entity_t pp, const Model& model, dds_entity_t waitset) : model_(model) {
@@ -96,7 +103,14 @@ CrtkBridge::CrtkBridge(dds_entity_t pp, const Model& model, dds_entity_t waitset
     t->cp_writer = dds_check(dds_create_writer(pp, cp, q_measured, nullptr), "CRTK writer measured_cp");
     t->cf_writer = dds_check(dds_create_writer(pp, cf, q_measured, nullptr), "CRTK writer measured_cf");
     t->state_writer = dds_check(dds_create_writer(pp, st, q_state, nullptr), "CRTK writer operating_state");
-    for (const dds_entity_t r : {t->servo_reader, t->command_reader}) {
+    if (spec.can_grasp) {  // the dVRK's jaw: rt/T/jaw/servo_jp in, rt/T/jaw/measured_js out
+      const dds_entity_t jaw = topic(&sensor_msgs_msg_dds__JointState__desc, "jaw/servo_jp");
+      const dds_entity_t js = topic(&sensor_msgs_msg_dds__JointState__desc, "jaw/measured_js");
+      t->jaw_reader = dds_check(dds_create_reader(pp, jaw, q_servo, nullptr), "CRTK reader jaw/servo_jp");
+      t->js_writer = dds_check(dds_create_writer(pp, js, q_measured, nullptr), "CRTK writer jaw/measured_js");
+    }
+    for (const dds_entity_t r : {t->servo_reader, t->command_reader, t->jaw_reader}) {
+      if (r == 0) continue;
       const dds_entity_t rc = dds_check(dds_create_readcondition(r, DDS_ANY_STATE), "CRTK read condition");
       dds_check(dds_waitset_attach(waitset, rc, r), "CRTK waitset attach");
     }
@@ -108,7 +122,8 @@ CrtkBridge::CrtkBridge(dds_entity_t pp, const Model& model, dds_entity_t waitset
   dds_delete_qos(q_measured);
   dds_delete_qos(q_state);
   spdlog::info("CRTK: {} tool(s) as ROS 2 devices: rt/<tool>/{{servo_cp, state_command}} in, "
-               "rt/<tool>/{{measured_cp, measured_cf, operating_state}} out (docs/CRTK.md)",
+               "rt/<tool>/{{measured_cp, measured_cf, operating_state}} out; a grasper's jaw/servo_jp in, "
+               "jaw/measured_js out (docs/CRTK.md)",
                tools_.size());
 }
 
@@ -228,26 +243,80 @@ void CrtkBridge::take_servo(Tool& t, int index, ToolCommandPort& port) {
     cnt_.servo_superseded.fetch_add(valid - 1);
     port.count_superseded(valid - 1);
   }
-  const ToolCheck chk = port.submit(index, newest, ++t.seq, newest_stamp, steady_now_ns());
-  if (chk.result == ToolCheck::Rejected) {
-    cnt_.servo_limits.fetch_add(1);
-    spdlog::warn("CRTK: tool '{}' servo_cp rejected ({}): FAULT until enabled again", t.name, chk.reason);
-    set_state(t, CrtkState::Fault);
-  } else {
-    cnt_.servo_accepted.fetch_add(1);
+  newest.jaw = t.jaw;
+  if (submit(t, index, port, newest, newest_stamp, "servo_cp")) cnt_.servo_accepted.fetch_add(1);
+  else cnt_.servo_limits.fetch_add(1);
+}
+
+bool CrtkBridge::submit(Tool& t, int index, ToolCommandPort& port, const ToolPose& pose, int64_t stamp,
+                        const char* what) {
+  t.last_pose = pose;
+  t.have_pose = true;
+  const ToolCheck chk = port.submit(index, pose, ++t.seq, stamp, steady_now_ns());
+  if (chk.result != ToolCheck::Rejected) return true;
+  spdlog::warn("CRTK: tool '{}' {} rejected ({}): FAULT until enabled again", t.name, what, chk.reason);
+  set_state(t, CrtkState::Fault);
+  return false;
+}
+
+bool CrtkBridge::take_jaw(Tool& t, int64_t* stamp_out) {
+  if (t.jaw_reader == 0) return false;
+  void* samples[16] = {nullptr};
+  dds_sample_info_t infos[16];
+  bool set = false;
+  uint64_t valid = 0;
+  for (;;) {
+    const dds_return_t n = dds_take(t.jaw_reader, samples, infos, 16, 16);
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      cnt_.jaw_received.fetch_add(1);
+      const auto* js = static_cast<const JointState*>(samples[i]);
+      const int64_t stamp = stamp_ns(js->header.stamp);
+      const char* why = nullptr;
+      if (stamp == 0) why = "header stamp 0 (invalid data)";
+      else if (js->position._length < 1) why = "no position (the jaw's angle is position[0])";
+      else if (!std::isfinite(js->position._buffer[0])) why = "a non-finite jaw angle";
+      else if (t.state.load() != CrtkState::Enabled) why = "the tool is not ENABLED";
+      if (why) {
+        cnt_.jaw_refused.fetch_add(1);
+        refusals_.refused("CRTK: tool '{}' jaw/servo_jp refused: {}", t.name, why);
+        continue;
+      }
+      ++valid;
+      t.jaw = js->position._buffer[0];
+      *stamp_out = stamp;
+      set = true;
+    }
+    if (n > 0) dds_return_loan(t.jaw_reader, samples, n);
+    if (n < 16) break;
   }
+  if (valid > 1) cnt_.jaw_superseded.fetch_add(valid - 1);
+  if (valid > 0) cnt_.jaw_accepted.fetch_add(1);
+  return set;
 }
 
 void CrtkBridge::take_inputs(ToolCommandPort& port) {
   for (size_t k = 0; k < tools_.size(); ++k) {
-    take_commands(*tools_[k]);
-    take_servo(*tools_[k], static_cast<int>(k), port);
+    Tool& t = *tools_[k];
+    take_commands(t);
+    int64_t jaw_stamp = 0;
+    const bool jaw_set = take_jaw(t, &jaw_stamp);
+    const uint64_t before = t.seq;
+    take_servo(t, static_cast<int>(k), port);
+    if (jaw_set && t.seq == before && t.have_pose) {  // a jaw set alone: with the last pose
+      ToolPose p = t.last_pose;
+      p.jaw = t.jaw;
+      submit(t, static_cast<int>(k), port, p, jaw_stamp, "jaw/servo_jp");
+    }
   }
 }
 
 void CrtkBridge::publish_feedback(const FeedbackBatch& b) {
   PoseStamped cp{};
   WrenchStamped cf{};
+  JointState js{};
+  char jaw_joint[] = "jaw";
+  char* jaw_name[] = {jaw_joint};
   const auto now = ros_now();
   for (int i = 0; i < b.count; ++i) {
     const ToolFeedbackFrame& f = b.frames[i];
@@ -262,6 +331,15 @@ void CrtkBridge::publish_feedback(const FeedbackBatch& b) {
     cf.wrench.force = {f.force[0], f.force[1], f.force[2]};
     cf.wrench.torque = {f.torque[0], f.torque[1], f.torque[2]};
     dds_write(t.cf_writer, &cf);
+    if (t.js_writer != 0) {  // the jaw's angle as the tick applied it
+      double angle = f.pose.jaw;
+      js.header = cp.header;
+      js.name._length = js.name._maximum = 1;
+      js.name._buffer = jaw_name;
+      js.position._length = js.position._maximum = 1;
+      js.position._buffer = &angle;
+      dds_write(t.js_writer, &js);
+    }
   }
 }
 
@@ -281,6 +359,10 @@ nlohmann::ordered_json CrtkBridge::stats_json() const {
                    {"refused_not_enabled", cnt_.servo_not_enabled.load()},
                    {"refused_limits", cnt_.servo_limits.load()},
                    {"lost_in_transit", lost}};
+  j["jaw_servo_jp"] = {{"received", cnt_.jaw_received.load()},
+                       {"applied", cnt_.jaw_accepted.load()},
+                       {"superseded", cnt_.jaw_superseded.load()},
+                       {"refused", cnt_.jaw_refused.load()}};
   j["state_command"] = {{"accepted", cnt_.commands_accepted.load()}, {"refused", cnt_.commands_refused.load()}};
   nlohmann::ordered_json states;
   for (const auto& t : tools_) states[t->name] = crtk_state_name(t->state.load());

@@ -9,7 +9,15 @@
 ///   rt/T/measured_cp      geometry_msgs/PoseStamped    out  the tool's pose, every tick
 ///   rt/T/measured_cf      geometry_msgs/WrenchStamped  out  the tissue's force and torque on it, every tick
 ///   rt/T/operating_state  crtk_msgs/OperatingState     out  on every change and state command (transient-local)
+///   rt/T/jaw/servo_jp     sensor_msgs/JointState       in   a grasper's jaw angle (rad, position[0]; dVRK's convention)
+///   rt/T/jaw/measured_js  sensor_msgs/JointState       out  the jaw angle the tick applied ("jaw"), every tick
 ///
+/// The jaw (graspers only): the newest valid angle is kept and goes in with every servo_cp pose
+/// after it; set alone (no pose in the same take) it goes in with the last pose sent. Before any,
+/// the jaw is 0 (closed), as for a client that never sets it. Refused (counted, logged): stamp 0,
+/// no position, a non-finite angle, a tool not ENABLED. jaw received = applied takes + superseded +
+/// refused, where an applied take is the newest valid angle of one take and superseded the older
+/// ones; the commands port checks the pose it rides with as any other.
 /// Operating states: DISABLED (the start), ENABLED, PAUSED, FAULT; is_homed is always true (a
 /// simulated tool needs no homing), is_busy always false (no trajectories run on the server).
 /// State commands: enable (any state) and disable (any state); pause from ENABLED; resume from
@@ -66,6 +74,10 @@ struct CrtkCounters {
   std::atomic<uint64_t> servo_not_unit{0};     ///< orientation not a unit quaternion (|q| off by > 1e-3)
   std::atomic<uint64_t> servo_not_enabled{0};  ///< the tool was DISABLED, PAUSED or in FAULT
   std::atomic<uint64_t> servo_limits{0};       ///< rejected by the tool's limits: FAULT
+  std::atomic<uint64_t> jaw_received{0};       ///< jaw/servo_jp samples taken from DDS
+  std::atomic<uint64_t> jaw_accepted{0};       ///< takes whose newest valid angle was applied
+  std::atomic<uint64_t> jaw_superseded{0};     ///< valid angles a newer one in the same take replaced
+  std::atomic<uint64_t> jaw_refused{0};        ///< stamp 0, no position, non-finite, not ENABLED
   std::atomic<uint64_t> commands_accepted{0};  ///< state commands that changed or kept a state
   std::atomic<uint64_t> commands_refused{0};   ///< unknown command, stamp 0, or not allowed in the state
   uint64_t servo_refused() const {
@@ -99,6 +111,11 @@ class CrtkBridge {
   void publish_state(Tool& t);
   void take_commands(Tool& t);
   void take_servo(Tool& t, int index, ToolCommandPort& port);
+  /// The newest valid jaw angle waiting into t.jaw (its stamp into *stamp); false if none.
+  bool take_jaw(Tool& t, int64_t* stamp);
+  /// A pose (with its jaw) through the commands port; false (and FAULT) if the tool's limits
+  /// reject it. `what` names the input in the log.
+  bool submit(Tool& t, int index, ToolCommandPort& port, const ToolPose& pose, int64_t stamp, const char* what);
   void refuse_servo(Tool& t, std::atomic<uint64_t>& counter, ToolCommandPort& port, const char* why);
 
   const Model& model_;

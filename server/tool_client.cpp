@@ -173,6 +173,7 @@ void receive_feedback(dds_entity_t participant, dds_entity_t reader, const std::
 /// operating_state in — ROS 2's topic names and types (dds/ros_crtk.idl).
 struct CrtkEndpoints {
   dds_entity_t servo = 0, command = 0, measured = 0, state = 0;
+  dds_entity_t jaw = 0;  ///< rt/<tool>/jaw/servo_jp (0: not permitted to this identity)
 };
 
 CrtkEndpoints open_crtk_endpoints(dds_entity_t pp, const std::string& tool) {
@@ -201,6 +202,14 @@ CrtkEndpoints open_crtk_endpoints(dds_entity_t pp, const std::string& tool) {
   ep.servo = w;
   ep.command = dds_check(dds_create_writer(pp, topic(&crtk_msgs_msg_dds__StringStamped__desc, "state_command"), reliable, nullptr),
                          "writer state_command");
+  // The jaw (a grasper's; dVRK's convention): reliable, as it changes seldom and must arrive.
+  const dds_entity_t jt = dds_create_topic(pp, &sensor_msgs_msg_dds__JointState__desc, (ns + "jaw/servo_jp").c_str(), nullptr, nullptr);
+  const dds_entity_t jw = jt < 0 ? jt : dds_create_writer(pp, jt, reliable, nullptr);
+  if (jw < 0)
+    spdlog::warn("CRTK: writing rt/{}/jaw/servo_jp is not permitted to this identity ({}): the jaw stays as the server has it",
+                 tool, dds_strretcode(jw));
+  else
+    ep.jaw = jw;
   ep.measured = dds_check(dds_create_reader(pp, topic(&geometry_msgs_msg_dds__PoseStamped__desc, "measured_cp"), feedback, nullptr),
                           "reader measured_cp");
   ep.state = dds_check(dds_create_reader(pp, topic(&crtk_msgs_msg_dds__OperatingState__desc, "operating_state"), latched, nullptr),
@@ -356,6 +365,7 @@ int run_tool_client(const ToolClientOptions& o) {
   int64_t t0 = mono_ns();
   geometry_msgs_msg_dds__PoseStamped_ pose_msg{};
   pose_msg.header.frame_id = const_cast<char*>("world");
+  double last_jaw = 0;
   auto send = [&](const ToolPose& p) {
     if (seq >= capacity) return;
     if (o.crtk) {
@@ -367,6 +377,20 @@ int run_tool_client(const ToolClientOptions& o) {
       pose_msg.header.stamp = ros_time_now();
       pose_msg.pose.position = {p.position[0], p.position[1], p.position[2]};
       pose_msg.pose.orientation = {p.orientation[1], p.orientation[2], p.orientation[3], p.orientation[0]};
+      if (cep.jaw != 0 && (seq == 1 || p.jaw != last_jaw)) {  // the jaw when it changes, before the pose
+        sensor_msgs_msg_dds__JointState_ js{};
+        char joint[] = "jaw";
+        char* names[] = {joint};
+        double angle = p.jaw;
+        js.header = pose_msg.header;
+        js.header.stamp = ros_time_now();
+        js.name._length = js.name._maximum = 1;
+        js.name._buffer = names;
+        js.position._length = js.position._maximum = 1;
+        js.position._buffer = &angle;
+        dds_write(cep.jaw, &js);
+        last_jaw = p.jaw;
+      }
       e.sent_ns = mono_ns();
       sent_count.store(seq, std::memory_order_release);
       dds_write(cep.servo, &pose_msg);

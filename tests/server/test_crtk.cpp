@@ -261,3 +261,98 @@ TEST(Crtk, EveryServoPoseIsCountedOnceAndMalformedPosesDoNotFault) {
       << "the commands port and the CRTK bridge disagree: " << port.dump() << " " << s.dump();
   EXPECT_EQ(port["rejected"].get<uint64_t>(), static_cast<uint64_t>(not_unit + zero_stamp)) << port.dump();
 }
+
+// A grasper's jaw over CRTK (docs/CRTK.md, the dVRK's convention): rt/T/jaw/servo_jp sets the
+// angle (position[0], rad), which the tool applies with its poses and a set alone with its last
+// one; rt/T/jaw/measured_js reports the angle the tick applied. Malformed jaw samples are refused
+// and counted, and every sample is counted once.
+TEST(Crtk, AGraspersJawIsSetAloneAndMeasured) {
+  const std::string scenario = std::string(STROMA_SOURCE_DIR) + "/scenarios/needle_insertion.yaml";
+  const fs::path stats = fs::temp_directory_path() / ("stroma_crtk_jaw_" + std::to_string(getpid()) + ".json");
+  Process server({STROMA_BINARY, "serve", scenario, "--domain", "187", "--realtime", "off", "--duration", "60", "--crtk",
+                  "--stats", stats.string()});
+  CrtkClient client(187, "grasper");
+  const dds_entity_t pp = client.p.participant;
+  dds_qos_t* reliable = dds_create_qos();
+  dds_qset_reliability(reliable, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(reliable, DDS_HISTORY_KEEP_LAST, 10);
+  const dds_entity_t w_jaw = dds_create_writer(
+      pp, dds_create_topic(pp, &sensor_msgs_msg_dds__JointState__desc, "rt/grasper/jaw/servo_jp", nullptr, nullptr), reliable,
+      nullptr);
+  const dds_entity_t r_js = dds_create_reader(
+      pp, dds_create_topic(pp, &sensor_msgs_msg_dds__JointState__desc, "rt/grasper/jaw/measured_js", nullptr, nullptr),
+      reliable, nullptr);
+  dds_delete_qos(reliable);
+  ASSERT_GT(w_jaw, 0);
+  ASSERT_GT(r_js, 0);
+  ASSERT_TRUE(client.connect()) << "no CRTK server on domain 187";
+  ASSERT_EQ(client.command_and_wait("enable"), "ENABLED");
+  auto jaw = [&](double angle, bool zero_stamp = false, bool empty = false) {
+    sensor_msgs_msg_dds__JointState_ m{};
+    if (!zero_stamp) stamp_now(m.header.stamp);
+    m.header.frame_id = const_cast<char*>("");
+    char joint[] = "jaw";
+    char* names[] = {joint};
+    m.name._length = m.name._maximum = 1;
+    m.name._buffer = names;
+    m.position._length = m.position._maximum = empty ? 0 : 1;
+    m.position._buffer = &angle;
+    dds_write(w_jaw, &m);
+  };
+  // The measured angle, once it is `want` (within 1e-12), or NaN after `seconds`.
+  auto measured = [&](double want, double seconds = 5) {
+    const auto until = Clock::now() + std::chrono::duration<double>(seconds);
+    double last = std::nan("");
+    while (Clock::now() < until) {
+      void* sm[16] = {nullptr};
+      dds_sample_info_t si[16];
+      const dds_return_t n = dds_take(r_js, sm, si, 16, 16);
+      for (dds_return_t i = 0; i < n; ++i) {
+        const auto* js = static_cast<const sensor_msgs_msg_dds__JointState_*>(sm[i]);
+        if (si[i].valid_data && js->position._length == 1 && js->name._length == 1 &&
+            std::string(js->name._buffer[0]) == "jaw")
+          last = js->position._buffer[0];
+      }
+      if (n > 0) dds_return_loan(r_js, sm, n);
+      if (std::abs(last - want) < 1e-12) return last;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return last;
+  };
+  EXPECT_EQ(measured(0.0), 0.0) << "closed before any jaw is set";
+  // A pose (the scenario's grasper stays where it is), then the jaw set alone: it goes in with it.
+  const stroma::CompiledScenario sc = stroma::compile_scenario(stroma::load_scenario(scenario));
+  const stroma::ToolPose rest = sc.model->tools.at(0).rest_pose;
+  auto rest_pose = [&] {
+    geometry_msgs_msg_dds__PoseStamped_ m{};
+    stamp_now(m.header.stamp);
+    m.header.frame_id = const_cast<char*>("world");
+    m.pose.position = {rest.position[0], rest.position[1], rest.position[2]};
+    m.pose.orientation = {rest.orientation[1], rest.orientation[2], rest.orientation[3], rest.orientation[0]};
+    dds_write(client.w_servo, &m);
+  };
+  rest_pose();
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  jaw(0.4);
+  EXPECT_EQ(measured(0.4), 0.4) << "set alone, with the last pose";
+  jaw(std::nan(""));      // refused: non-finite
+  jaw(0.2, true);         // refused: stamp 0
+  jaw(0.2, false, true);  // refused: no position
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(measured(0.4, 0.3), 0.4) << "a refused angle changes nothing";
+  jaw(0.1);
+  rest_pose();
+  EXPECT_EQ(measured(0.1), 0.1) << "and rides with the poses after it";
+  client.poll();
+  EXPECT_EQ(client.states.back(), "ENABLED") << "malformed jaw samples do not fault the tool";
+  server.signal(SIGTERM);
+  ASSERT_EQ(server.wait_exit(20), 0);
+  const auto j = nlohmann::json::parse(read_file(stats));
+  fs::remove(stats);
+  const auto& s = j["crtk"]["jaw_servo_jp"];
+  EXPECT_EQ(s["received"].get<uint64_t>(), 5u) << s.dump();
+  EXPECT_EQ(s["refused"].get<uint64_t>(), 3u) << s.dump();
+  EXPECT_EQ(s["applied"].get<uint64_t>() + s["superseded"].get<uint64_t>() + s["refused"].get<uint64_t>(),
+            s["received"].get<uint64_t>())
+      << s.dump();
+}

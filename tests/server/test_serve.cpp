@@ -831,8 +831,9 @@ static void needle_over_dds(int domain, bool crtk) {
   std::set<int> phases;
   double max_inserted = 0, worst_off_axis = 0;
   size_t max_track = 0, states = 0, held = 0;
+  bool released = false;  // held, then held by nothing: the script's jaws opened
   const auto end = Clock::now() + std::chrono::seconds(40);
-  while (Clock::now() < end && (events.empty() || events.back().kind != stroma_NEEDLE_LEFT)) {
+  while (Clock::now() < end && (events.empty() || events.back().kind != stroma_NEEDLE_LEFT || !released)) {
     void* sm[16] = {nullptr};
     dds_sample_info_t si[16];
     const dds_return_t n = dds_take(ev_reader, sm, si, 16, 16);
@@ -845,6 +846,7 @@ static void needle_over_dds(int domain, bool crtk) {
         ++states;
         EXPECT_STREQ(s->body, "needle");
         held += std::string(s->held_by) == "grasper";
+        released = released || (held > 0 && std::string(s->held_by).empty());
         if (s->needle_phase != stroma_NEEDLE_OUTSIDE) EXPECT_STREQ(s->held_by, "grasper") << "held while in the tissue";
         phases.insert(static_cast<int>(s->needle_phase));
         max_inserted = std::max(max_inserted, s->inserted_length);
@@ -887,6 +889,7 @@ static void needle_over_dds(int domain, bool crtk) {
   EXPECT_LT(events[1].sim_time, events[2].sim_time);
   EXPECT_GT(states, 20u);
   EXPECT_GT(held, 10u) << "the grasper holds it";
+  EXPECT_TRUE(released) << "opening the jaws lets it go (with --crtk: rt/grasper/jaw/servo_jp)";
   EXPECT_EQ(phases, (std::set<int>{stroma_NEEDLE_OUTSIDE, stroma_NEEDLE_INSERTED, stroma_NEEDLE_EXITED}));
   EXPECT_NEAR(max_inserted, 0.05, 3e-3) << "through the whole block";
   EXPECT_GE(max_track, 5u);
