@@ -10,6 +10,7 @@
 #include <Eigen/Sparse>
 
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -1026,4 +1027,86 @@ TEST(Needle, ACutAcrossAnInsertedNeedlesTrackKeepsItsPoints) {
   while (s.time < 0.05 + travel / speed && !exited) exited = step().exited;
   EXPECT_TRUE(exited);
   EXPECT_NEAR(track_rest_x(s.needles[0].track[size_t(s.needles[0].count - 1)], *m), 0.02, 1e-6) << "out of the far face";
+}
+
+namespace {
+
+/// needle_yaml's block (the 354-node mesh) with two straight 40 mm needles 20 mm apart (x 13.7
+/// and 33.7 mm), each held by a grasper of its own; the second needle's tissue parameters are the
+/// block's too (one material), its speed its own.
+std::string two_needles_yaml() {
+  Params p;
+  p.mesh = "cube_tet4_h8p333mm.msh";
+  std::string y = needle_yaml(p);
+  const std::string tools_at = "tools:\n", bodies_at = "rigid_bodies:\n";
+  const size_t t = y.find(tools_at), b = y.find(bodies_at);
+  std::string tools = y.substr(t + tools_at.size(), b - t - tools_at.size());
+  std::string bodies = y.substr(b + bodies_at.size());
+  auto moved = [](std::string s, const char* from, const char* to, const char* name_from, const char* name_to) {
+    for (size_t at; (at = s.find(from)) != std::string::npos;) s.replace(at, std::strlen(from), to);
+    const size_t at = s.find(name_from);
+    if (at != std::string::npos) s.replace(at, std::strlen(name_from), name_to);
+    return s;
+  };
+  const std::string tools_a = moved(tools, "[0.0237,", "[0.0137,", "name: grasper", "name: grasper_a");
+  const std::string tools_b = moved(tools, "[0.0237,", "[0.0337,", "name: grasper", "name: grasper_b");
+  const std::string bodies_a = moved(bodies, "[0.0237,", "[0.0137,", "name: needle", "name: needle_a");
+  const std::string bodies_b = moved(bodies, "[0.0237,", "[0.0337,", "name: needle", "name: needle_b");
+  return y.substr(0, t) + tools_at + tools_a + tools_b + bodies_at + bodies_a + bodies_b;
+}
+
+}  // namespace
+
+// More than one needle (docs/NEEDLE.md): two needles in one block, driven by two graspers at
+// different speeds (20 and 30 mm/s) to 20 mm and drawn out, each keep a track of their own and
+// each grasper feels Okamura's model over its own needle's inserted length alone — the track
+// points, holes, tip contacts and fronts are per needle.
+TEST(Needle, TwoNeedlesInOneBlockEachFeelOnlyTheirOwnTrack) {
+  const auto m = compile_model(parse_scenario(two_needles_yaml(), "two_needles.yaml", kSrc));
+  ASSERT_EQ(m->rigid_bodies.size(), 2u);
+  ASSERT_EQ(m->tools.size(), 2u);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const double y0 = 0.0925, t0 = 0.05, depth = 0.02, speed[2] = {0.02, 0.03};
+  double t_in[2], t_hold[2], t_end = 0;
+  for (int k = 0; k < 2; ++k) {
+    t_in[k] = t0 + (depth + 0.0005) / speed[k];
+    t_hold[k] = t_in[k] + 0.1;
+    t_end = std::max(t_end, t_hold[k] + (depth + 0.004) / speed[k]);
+  }
+  double worst[2] = {0, 0};
+  int samples[2] = {0, 0}, punctures[2] = {0, 0};
+  while (s.time < t_end - 1e-9) {
+    ToolInput in[2];
+    for (int k = 0; k < 2; ++k) {
+      in[k].tool = k;
+      in[k].seq = static_cast<uint64_t>(s.step + 1);
+      in[k].pose.orientation = {std::sqrt(0.5), std::sqrt(0.5), 0, 0};
+      double y = y0;
+      if (s.time > t0) y -= speed[k] * (std::min(s.time, t_in[k]) - t0);
+      if (s.time > t_hold[k]) y += speed[k] * (s.time - t_hold[k]);
+      in[k].pose.position = {k == 0 ? 0.0137 : 0.0337, y, 0.0262};
+    }
+    const TickReport& r = tick(*m, s, w, in, 2);
+    ASSERT_TRUE(r.status == TickStatus::Ok) << s.time;
+    for (int k = 0; k < 2; ++k) {
+      const NeedleOutput& n = r.needles[size_t(k)];
+      punctures[k] += n.punctured;
+      // Cutting at constant speed, 3 mm past the puncture's relaxation: F_c + f_k × its own length.
+      const bool cutting = s.time > t0 + 0.0035 / speed[k] && s.time < t_in[k] - 0.001;
+      if (cutting && n.phase == NeedlePhase::Inserted && n.inserted_length > 0.003) {
+        const double expect = 0.15 + 3.0 * n.inserted_length;
+        worst[k] = std::max(worst[k], std::abs(r.tools[size_t(k)].force[1] - expect) / expect);
+        ++samples[k];
+      }
+    }
+  }
+  for (int k = 0; k < 2; ++k) {
+    std::printf("needle %d (%.0f mm/s): %d ticks cutting, the force felt within %.2f %% of F_c + f_k x its length\n", k,
+                1e3 * speed[k], samples[k], 100 * worst[k]);
+    EXPECT_EQ(punctures[k], 1) << k;
+    EXPECT_GT(samples[k], 300) << k;
+    EXPECT_LT(worst[k], 0.05) << k;
+    EXPECT_EQ(s.needles[size_t(k)].phase, NeedlePhase::Outside) << k << ": withdrawn";
+  }
 }
