@@ -769,7 +769,16 @@ TEST(Serve, DamageEventsAndDamageFieldArePublished) {
 // track (stroma_RigidBodyState), and reliable stroma_NeedleEvent samples — as a client written
 // from the IDL reads them, with and without the CRTK bridge. The scripted grasper drives an 80 mm
 // needle sideways through the 50 mm block (x = 0 → x = 0.05) and back out.
-static void needle_over_dds(int domain, bool crtk) {
+static /// The process is alive (not exited: a zombie is not).
+bool still_running(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat;
+  std::getline(f, stat);
+  const size_t close = stat.rfind(')');
+  return !stat.empty() && close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
+}
+
+void needle_over_dds(int domain, bool crtk) {
   std::vector<std::string> args = {STROMA_BINARY, "serve", std::string(STROMA_SOURCE_DIR) + "/tests/data/server/needle_through.yaml",
                                    "--domain", std::to_string(domain), "--realtime", "off", "--duration", "60", "--paused"};
   if (crtk) args.push_back("--crtk");
@@ -846,7 +855,9 @@ static void needle_over_dds(int domain, bool crtk) {
         ++states;
         EXPECT_STREQ(s->body, "needle");
         held += std::string(s->held_by) == "grasper";
-        released = released || (held > 0 && std::string(s->held_by).empty());
+        // Let go while the client still commands (its jaw opened), not after it stopped (the
+        // tool's timeout would let go too).
+        released = released || (held > 0 && std::string(s->held_by).empty() && still_running(driver.pid()));
         if (s->needle_phase != stroma_NEEDLE_OUTSIDE) EXPECT_STREQ(s->held_by, "grasper") << "held while in the tissue";
         phases.insert(static_cast<int>(s->needle_phase));
         max_inserted = std::max(max_inserted, s->inserted_length);
