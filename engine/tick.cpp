@@ -202,20 +202,16 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
     // A needle (rigid/needle_track.hpp): its tip has a contact of its own, and the tissue none
     // around its holes once it is in.
     const bool needle = b.shape == RigidShape::Needle;
-    double holes[3 * (kMaxNeedleHoles + 1)];
-    int n_holes = 0;
-    double hole_radius = 0;
-    if (needle) {
-      n_holes = ns.phase != NeedlePhase::Outside ? needle_hole_points(ns, px, holes) : 0;
-      if (n_holes > 0) hole_radius = std::max(4.0 * b.needle.wire_radius, m.needle_tissue[size_t(ns.tissue_body)].track_spacing);
-      double c[3], t[3], arm[3];  // the rounded end: its samples give way to the tip's contact
-      needle_world_point(b, s.rigid[size_t(k)], b.needle.length, c, t, arm);
-      std::copy(c, c + 3, holes + 3 * n_holes++);
-      hole_radius = std::max(hole_radius, 2.0 * b.needle.wire_radius);
+    double holes[3 * kMaxNeedleHoles];
+    ContactExclusion ex;
+    if (needle && ns.phase != NeedlePhase::Outside) {
+      ex.holes = holes;
+      ex.n_holes = needle_hole_points(ns, px, holes);
+      ex.hole_radius = std::max(4.0 * b.needle.wire_radius, m.needle_tissue[size_t(ns.tissue_body)].track_spacing);
+      needle_track_arc(ns, &ex.track_s0, &ex.track_s1);
     }
     rigid_tissue_contact(b, s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, v, m.fem.constrained.data(),
-                         m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)],
-                         holes, n_holes, hole_radius);
+                         m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)], ex);
     w.tip_spring[size_t(k)] = w.tip_element[size_t(k)] = -1;
     if (needle && ns.phase != NeedlePhase::Inserted) {  // outside, or exited: its tip may bite again
       int32_t tri = -1;

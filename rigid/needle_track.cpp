@@ -192,6 +192,15 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
   return pr.spring;
 }
 
+void needle_track_arc(const NeedleState& ns, double* s0, double* s1) {
+  *s0 = 1e300, *s1 = -1e300;
+  for (int32_t i = 0; i < ns.count; ++i) {
+    *s0 = std::min(*s0, ns.track[size_t(i)].s);
+    *s1 = std::max(*s1, ns.track[size_t(i)].s);
+  }
+  if (ns.has_front) *s0 = std::min(*s0, ns.front.s), *s1 = std::max(*s1, ns.front.s);
+}
+
 int needle_hole_points(const NeedleState& ns, const double* x, double* pts) {
   int n = 0;
   for (int32_t i = 0; i < ns.count && n < kMaxNeedleHoles; ++i)

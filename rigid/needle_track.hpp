@@ -161,6 +161,10 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
                            std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
                            RigidContactOutput& out, int32_t* triangle);
 
+/// The arc lengths of the needle's wire along its track, [s0, s1]: its first track point's to
+/// its last's or the front's (an empty range, s0 > s1, with neither).
+void needle_track_arc(const NeedleState& ns, double* s0, double* s1);
+
 /// Most holes (entries and exits) around which contact is skipped for one needle: two bites.
 inline constexpr int kMaxNeedleHoles = 4;
 

@@ -43,6 +43,12 @@ struct RigidBodyModel {
   /// another rigid body's shape (rigid/rigid_contact.hpp). Invariant: the areas sum to the surface's.
   std::vector<Vec3> sample_points, sample_normals;
   std::vector<double> sample_areas;
+  /// A needle's wire, as it presses on the tissue's surface (rigid/wire_contact.hpp): points of
+  /// its curve (body frame) from the tail to one wire radius short of its end, each with its arc
+  /// length and its share of the arc length (m). Invariant: empty unless a needle; at most
+  /// kMaxWireSamples, the same count in each; arcs increasing; the shares sum to the last arc.
+  std::vector<Vec3> wire_axis;
+  std::vector<double> wire_arc, wire_share;
   /// A needle's track points at most (rigid/needle_track.hpp; NeedleState::track's size).
   int32_t track_capacity = 0;
 };

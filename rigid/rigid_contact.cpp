@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "rigid/wire_contact.hpp"
 #include "tissue/triangle_closest_point.hpp"
 
 namespace stroma {
@@ -70,10 +71,10 @@ void fibonacci(int n, double z0, F&& f) {
   }
 }
 
-/// The spring of one contact between the positive side's point and a body's (normal n, world,
-/// pointing from the anchor's body towards the positive side), of area stiffness kc, damping cc.
-void fill_spring(ContactSpring& sp, const double* n, double depth, bool speculative, double kc, double cc, double mu,
-                 const double* rel, double v_stick, RigidContactOutput& out) {
+}  // namespace
+
+void fill_contact_spring(ContactSpring& sp, const double* n, double depth, bool speculative, double kc, double cc,
+                         double mu, const double* rel, double v_stick, RigidContactOutput& out) {
   const double fmag = kc * depth;  // < 0 (pulling) for a speculative one: released if it ends so
   for (int a = 0; a < 3; ++a) {
     sp.force[a] = fmag * n[a];
@@ -95,8 +96,6 @@ void fill_spring(ContactSpring& sp, const double* n, double depth, bool speculat
   }
   ++out.contacts;
 }
-
-}  // namespace
 
 double shape_distance(const RigidBodyModel& b, const double* p, double* normal) {
   const double q[3] = {p[0] - b.shape_origin[0], p[1] - b.shape_origin[1], p[2] - b.shape_origin[2]};
@@ -257,13 +256,15 @@ void make_contact_samples(RigidBodyModel& b) {
       break;
     }
   }
+  make_wire_samples(b);
 }
 
 void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, const ContactSurface& surf,
                           const TriangleBvh& bvh, const double* x, const double* v, const uint8_t* constrained,
                           double h, const Vec3& g, std::vector<ContactSpring>& springs,
-                          std::vector<RigidContactPair>& pairs, RigidContactOutput& out, const double* skip,
-                          int n_skip, double skip_radius) {
+                          std::vector<RigidContactPair>& pairs, RigidContactOutput& out, const ContactExclusion& ex) {
+  if (!b.wire_axis.empty())  // a needle: its wire samples the surface (rigid/wire_contact.hpp)
+    return wire_tissue_contact(b, s, row, surf, bvh, x, v, h, g, springs, pairs, out, ex);
   const std::array<double, 9> R = rotation_of(s.q);
   const double speed = norm3(s.v.data()) + norm3(s.w.data()) * b.bounding_radius;
   const double reach = b.bounding_radius + 2.0 * h * speed + h * h * norm3(g.data()) + 0.25 * b.feature;
@@ -334,9 +335,10 @@ void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t 
         q[k] = w0 * p0[k] + u * p1[k] + w * p2[k];
         arm[k] = q[k] - s.x[size_t(k)];
       }
-      for (int j = 0; j < n_skip; ++j) {
-        const double dq[3] = {q[0] - skip[3 * j], q[1] - skip[3 * j + 1], q[2] - skip[3 * j + 2]};
-        if (dot3(dq, dq) < skip_radius * skip_radius) return;
+      for (int j = 0; j < ex.n_holes; ++j) {
+        const double* hole = ex.holes + 3 * j;
+        const double dq[3] = {q[0] - hole[0], q[1] - hole[1], q[2] - hole[2]};
+        if (dot3(dq, dq) < ex.hole_radius * ex.hole_radius) return;
       }
       rot_t(R, arm, pb);
       const double d = shape_distance(b, pb, nb);
@@ -364,7 +366,7 @@ void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t 
         pr.depth0 = -d;
         pairs.push_back(pr);
       }
-      fill_spring(sp, n, -d, speculative, kc, cc, b.friction, rel, v_stick, out);
+      fill_contact_spring(sp, n, -d, speculative, kc, cc, b.friction, rel, v_stick, out);
       sp.row_n = row;
       for (int k = 0; k < 3; ++k) sp.arm_n[k] = arm[k];
       springs.push_back(sp);
@@ -419,13 +421,13 @@ void rigid_rigid_contact(const RigidBodyModel& a, const RigidState& sa, int32_t 
     sp.n = 0;
     const double area = a.sample_areas[i];
     if (row_a >= 0) {  // a's point is the positive side, b's the anchor (fixed when row_b < 0)
-      fill_spring(sp, n, -d, speculative, k * area, c * area, mu, rel, v_stick, out_a);
+      fill_contact_spring(sp, n, -d, speculative, k * area, c * area, mu, rel, v_stick, out_a);
       sp.row_p = row_a;
       sp.row_n = row_b;
       for (int q = 0; q < 3; ++q) sp.arm_p[q] = ra[q], sp.arm_n[q] = rb[q];
     } else {  // a fixed: b's point is the positive side, pushed along −n, against a fixed anchor
       const double nn[3] = {-n[0], -n[1], -n[2]}, rr[3] = {-rel[0], -rel[1], -rel[2]};
-      fill_spring(sp, nn, -d, speculative, k * area, c * area, mu, rr, v_stick, out_b);
+      fill_contact_spring(sp, nn, -d, speculative, k * area, c * area, mu, rr, v_stick, out_b);
       sp.row_p = row_b;
       for (int q = 0; q < 3; ++q) sp.arm_p[q] = rb[q];
     }

@@ -20,6 +20,8 @@
 ///    a steel ball dropped 10 mm on 10 kPa tissue gained 55 % of its drop's energy in one tick,
 ///    the light surface nodes it had pushed ahead rebounding into it); a speculative one's
 ///    potential is the penalty's own, so impacts add no energy.
+///  - A needle's wire samples the surface instead (rigid/wire_contact.hpp), with the same
+///    springs: a thin wire slips between a coarse surface's samples.
 ///  - Friction: regularised Coulomb on the sliding velocity relative to the body (the tools'
 ///    rule), as damping in the spring's C: it acts on both sides in the implicit step.
 ///  - Body against body: the smaller body's surface samples (RigidBodyModel::sample_points,
@@ -59,26 +61,45 @@ struct RigidContactOutput {
   Vec3 force{0, 0, 0};
 };
 
+/// One contact's spring between its positive side's point and a body's: normal n (world, from
+/// the anchor's body towards the positive side), depth (> 0 penetrating; < 0 a speculative
+/// spring, pulling until released), area stiffness kc and damping cc, regularised Coulomb
+/// friction mu on the sliding velocity rel (positive side's less the anchor's; v_stick its
+/// regularisation). Counts the contact, and a penetrating one's energy and depth, in `out`.
+void fill_contact_spring(ContactSpring& sp, const double* n, double depth, bool speculative, double kc, double cc,
+                         double mu, const double* rel, double v_stick, RigidContactOutput& out);
+
 /// Signed distance (m) of the body-frame point p to the body's shape (< 0 inside), and the
 /// shape's outward unit normal there (body frame) into `normal`.
 double shape_distance(const RigidBodyModel& b, const double* p, double* normal);
 
 /// Surface samples of a shape (body frame) spaced about `spacing`: fills b.sample_points,
-/// sample_normals and sample_areas, and b.bounding_radius and b.feature. Load time.
+/// sample_normals and sample_areas, b.bounding_radius and b.feature, and a needle's wire
+/// samples (rigid/wire_contact.hpp). Load time.
 void make_contact_samples(RigidBodyModel& b);
+
+/// Where a needle makes no contact with the tissue's surface (rigid/needle_track.hpp): around
+/// its holes — the tissue points within `hole_radius` of one of the `n_holes` points `holes`
+/// (3 each, world) — and along the part of its wire in the tissue, arc lengths
+/// [track_s0, track_s1] (an empty range when track_s0 > track_s1), coupled to the tissue by its
+/// track instead (a cut across the track makes faces the shaft crosses).
+struct ContactExclusion {
+  const double* holes = nullptr;
+  int n_holes = 0;
+  double hole_radius = 0;
+  double track_s0 = 1, track_s1 = 0;
+};
 
 /// The tissue's surface (points x, velocities v; BVH refitted) against body b at state s.
 /// `row`: the body's row in the step (−1: a fixed body, anchored). `constrained` (per DOF node,
 /// the axes held as bits; may be null): a fixed body skips triangles whose DOFs are all held
-/// (nothing there can move). Samples within `skip_radius` of one of the `n_skip` points `skip`
-/// (3 each, world: a needle's holes, rigid/needle_track.hpp) make no spring. Appends springs up
-/// to the vector's capacity.
+/// (nothing there can move). Nothing is made where `ex` excludes it. Appends springs up to the
+/// vector's capacity.
 void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t row, const ContactSurface& surf,
                           const TriangleBvh& bvh, const double* x, const double* v, const uint8_t* constrained,
                           double h, const Vec3& g,
                           std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
-                          RigidContactOutput& out, const double* skip = nullptr, int n_skip = 0,
-                          double skip_radius = 0);
+                          RigidContactOutput& out, const ContactExclusion& ex = {});
 
 /// Body a's surface samples against body b's shape (rows −1 for fixed bodies; not both fixed).
 void rigid_rigid_contact(const RigidBodyModel& a, const RigidState& sa, int32_t row_a, const RigidBodyModel& b,

@@ -761,16 +761,19 @@ TEST(Needle, AnExitedNeedleBitesAgainThroughASecondLip) {
 }
 
 // A needle let go over the 16 cm liver (the served scene, gravity on) after the scene's own
-// insertion and withdrawal falls over onto it without its energy ever rising above what it had
-// when let go, and without the contacts running away: the thin
-// wire lying down on the coarse organ's large triangles starts hundreds of speculative contacts a
-// tick, and a step that still had some pulling after its release rounds fed energy in and blew up
-// (contacts 177 → 8,192 in three ticks, with 2 rounds; now up to kMaxContactReleases, within the
-// tick's budget).
+// insertion and withdrawal falls over onto it and comes to rest on it, without its energy ever
+// rising above what it had when let go, and without the contacts running away (they once ran
+// 177 → 8,192 in three ticks and blew up, with 2 release rounds; now up to kMaxContactReleases,
+// within the tick's budget). Its wire samples the coarse organ's surface (rigid/wire_contact.hpp):
+// sampled by the surface instead (24 samples per 20 mm edge, 0.8 mm apart against a 0.8 mm
+// wire), tick to tick its energy accounting jumped by up to 59 % of a 1 cm fall's.
 TEST(Needle, ANeedleLetGoFallsOntoTheLiverWithoutGainingEnergy) {
   STROMA_LONG_TEST();  // 9 s of the liver and needle (2 s)
   ScenarioSpec spec = load_scenario(kSrc + "/scenarios/physical/liver_16cm_needle.yaml");
   spec.solver.time_budget = 0;  // deterministic: no wall-clock cut of the solves
+  // Where it lands the liver's flank slopes 26° (tan 0.49): with μ 0.6 it comes to rest there
+  // (with the default 0.2 it slides off the organ, as Coulomb says).
+  spec.rigid_bodies[0].friction = 0.6;
   const CompiledScenario sc = compile_scenario(spec);
   const Model& m = *sc.model;
   State s = State::initial(m);
@@ -815,12 +818,9 @@ TEST(Needle, ANeedleLetGoFallsOntoTheLiverWithoutGainingEnergy) {
   EXPECT_LT(max_gain, 1e-2 * fall) << "above its energy when let go";
   EXPECT_GT(max_contacts, 0) << "it never touched the liver";
   EXPECT_LT(max_contacts, 1000) << "the contacts ran away";
-  EXPECT_LT(speed, 0.5);
-  EXPECT_GT(s.rigid[0].x[1], 0.06) << "it fell through the liver";
-  // Not asserted, and known (docs/NEEDLE.md, limits): tick to tick the accounting still jumps by
-  // up to the fall's own energy — the 0.4 mm wire slips between the samples of the coarse
-  // liver's 20 mm triangles (24 per edge at most: 0.8 mm apart) and a sample that finds it deep
-  // brings penalty energy — and after 1 s it still slides on the liver's flank.
+  EXPECT_LT(max_step_gain, 0.05 * fall) << "a contact found deep (the wire between samples)";
+  EXPECT_LT(speed, 1e-3) << "at rest on the flank";
+  EXPECT_GT(s.rigid[0].x[1], 0.1) << "it fell off or through the liver";
 }
 
 namespace {
