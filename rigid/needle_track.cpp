@@ -114,7 +114,12 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
   needle_world_point(b, s, apex_s(b), apex, t, arm);
   double va[3];
   body_point_velocity(s, arm, va);
-  const double reach = 2.0 * h * std::sqrt(dot3(va, va)) + 0.25 * r;
+  // A tip in front makes a (speculative) contact only if its travel this step can reach the
+  // surface, as the bodies' do (rigid_contact.hpp), or it pressed at the end of the last (a
+  // steady press stays on). A fixed margin gave a tip at rest within it a spring that could only
+  // pull: released and the step redone, or kept pulling for a tick where a served tick's budget
+  // skips the redo.
+  const double reach = 2.0 * h * std::sqrt(dot3(va, va)) + (ns.tip_touching ? 0.25 * r : 0.0);
   // An exited needle may already be in the next surface: the lips of an incision press on each
   // other only through the tissue (no contact between them), so the near lip the needle pushes
   // out can pass into the far one, and the apex comes out of the near lip inside the far. Such a
