@@ -29,13 +29,7 @@ void compile_needle_mesh(Model& m) {
   // a body that can tear).
   std::map<std::array<int32_t, 3>, int32_t> face_elem;
   for (size_t e = 0; e < fem.elements.size(); ++e)
-    for (int i = 0; i < 4; ++i) {
-      std::array<int32_t, 3> f;
-      for (int k = 0, j = 0; k < 4; ++k)
-        if (k != i) f[size_t(j++)] = fem.elements[e].node[size_t(k)];
-      std::sort(f.begin(), f.end());
-      face_elem.emplace(f, static_cast<int32_t>(e));
-    }
+    for (int i = 0; i < 4; ++i) face_elem.emplace(sorted_tet_face(fem.elements[e], i), static_cast<int32_t>(e));
   m.collision_tri_elem.assign(m.collision_triangles.size(), -1);
   for (size_t t = 0; t < m.collision_triangles.size(); ++t) {
     std::array<int32_t, 3> f = m.collision_triangles[t];

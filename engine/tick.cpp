@@ -202,16 +202,6 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
     // A needle (rigid/needle_track.hpp): its tip has a contact of its own, and the tissue none
     // around its holes once it is in.
     const bool needle = b.shape == RigidShape::Needle;
-    double holes[3 * kMaxNeedleHoles];
-    ContactExclusion ex;
-    if (needle && ns.phase != NeedlePhase::Outside) {
-      ex.holes = holes;
-      ex.n_holes = needle_hole_points(ns, px, holes);
-      ex.hole_radius = std::max(4.0 * b.needle.wire_radius, m.needle_tissue[size_t(ns.tissue_body)].track_spacing);
-      needle_track_arc(ns, &ex.track_s0, &ex.track_s1);
-    }
-    rigid_tissue_contact(b, s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, v, m.fem.constrained.data(),
-                         m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)], ex);
     w.tip_spring[size_t(k)] = w.tip_element[size_t(k)] = -1;
     if (needle && ns.phase != NeedlePhase::Inserted) {  // outside, or exited: its tip may bite again
       int32_t tri = -1;
@@ -220,6 +210,19 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
                                                    w.report.rigid_contact[size_t(k)], &tri);
       if (tri >= 0 && size_t(tri) < m.collision_tri_elem.size()) w.tip_element[size_t(k)] = m.collision_tri_elem[size_t(tri)];
     }
+    double holes[3 * kMaxNeedleHoles];
+    ContactExclusion ex;
+    if (needle && ns.phase != NeedlePhase::Outside) {
+      ex.holes = holes;
+      ex.n_holes = needle_hole_points(ns, px, holes);
+      ex.hole_radius = std::max(4.0 * b.needle.wire_radius, m.needle_tissue[size_t(ns.tissue_body)].track_spacing);
+      needle_track_arc(ns, &ex.track_s0, &ex.track_s1);
+    }
+    // An exited needle's tip pressing the next lip: the wire just behind it leaves it that surface
+    // (coming out of one lip of an incision its wire already touches the other).
+    if (w.tip_spring[size_t(k)] >= 0 && ns.phase == NeedlePhase::Exited) ex.tip_zone = ex.hole_radius;
+    rigid_tissue_contact(b, s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, v, m.fem.constrained.data(),
+                         m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)], ex);
     if (needle && ns.phase != NeedlePhase::Outside)
       needle_track_springs(b, s.rigid[size_t(k)], tentative(k, 0), ns, m.needle_tissue, m.fem,
                            x, m.fem_step, w.springs, w.rigid_pairs, w.needle_slips);

@@ -78,8 +78,8 @@ double shape_distance(const RigidBodyModel& b, const double* p, double* normal);
 /// samples (rigid/wire_contact.hpp). Load time.
 void make_contact_samples(RigidBodyModel& b);
 
-/// Where a needle makes no contact with the tissue's surface (rigid/needle_track.hpp): around
-/// its holes — the tissue points within `hole_radius` of one of the `n_holes` points `holes`
+/// Where a needle makes no contact with the tissue's surface (rigid/needle_track.hpp): ahead of
+/// its tip, around its holes — the tissue points within `hole_radius` of one of the `n_holes` points `holes`
 /// (3 each, world) — and along the part of its wire in the tissue, arc lengths
 /// [track_s0, track_s1] (an empty range when track_s0 > track_s1), coupled to the tissue by its
 /// track instead (a cut across the track makes faces the shaft crosses).
@@ -88,6 +88,10 @@ struct ContactExclusion {
   int n_holes = 0;
   double hole_radius = 0;
   double track_s0 = 1, track_s1 = 0;
+  /// m of arc before the needle's tip where a surface ahead of the wire (its contact normal
+  /// within 60° of the tip's direction) is the tip's to press and puncture, not the wire's
+  /// (rigid/needle_track.hpp; 0: none — the tick sets it while an exited needle's tip presses).
+  double tip_zone = 0;
 };
 
 /// The tissue's surface (points x, velocities v; BVH refitted) against body b at state s.

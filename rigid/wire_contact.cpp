@@ -89,6 +89,12 @@ void wire_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t r
     }
   });
   const double v_stick = 0.01 * b.feature;
+  double tip_dir[3] = {0, 0, 0};  // the tip's direction, world
+  if (ex.tip_zone > 0) {
+    double c_end[3], t_end[3];
+    needle_curve(b.needle, b.needle.length, c_end, t_end);
+    for (int k = 0; k < 3; ++k) tip_dir[k] = R[size_t(3 * k)] * t_end[0] + R[size_t(3 * k + 1)] * t_end[1] + R[size_t(3 * k + 2)] * t_end[2];
+  }
   for (int j = 0; j < n; ++j) {
     const int32_t t = best_tri[j];
     if (t < 0) continue;
@@ -119,7 +125,10 @@ void wire_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t r
       for (int k = 0; k < 3; ++k) n[k] = (under ? -cq[k] : cq[k]) / dist;
     else
       for (int k = 0; k < 3; ++k) n[k] = -face[k];
-    bool skipped = false;
+    // Ahead of the tip: the tip's contact presses there (and punctures); the wire's points behind
+    // the apex would take its load (measured: on the 5 kPa liver an exited needle then never
+    // punctured an incision's far lip, which its wire touched as it came out of the near one).
+    bool skipped = b.wire_arc[size_t(j)] >= b.needle.length - ex.tip_zone && dot3(n, tip_dir) > 0.5;
     for (int i = 0; i < ex.n_holes && !skipped; ++i) {
       const double* hole = ex.holes + 3 * i;
       const double dq[3] = {q[0] - hole[0], q[1] - hole[1], q[2] - hole[2]};

@@ -20,8 +20,9 @@
 /// rigid_tissue_contact's (released if it ends the step pulling). A = 2r × the point's share of
 /// the arc length, the wire's projected area: at a depth of one radius the sampled chord's force
 /// k·(4√2/3)·r² per length is within 6 % of it. An axis point deeper than r under the surface
-/// makes none, nor the points `ex` excludes: the part of an inserted needle's wire along its
-/// track (a cut across the track makes faces the shaft crosses: pressing on them along the axis
+/// makes none, nor the points `ex` excludes: near the tip, a surface ahead of the wire (the tip
+/// presses it and punctures it: the wire would take its load); the part of an inserted needle's
+/// wire along its track (a cut across the track makes faces the shaft crosses: pressing on them along the axis
 /// would hold the needle back) and the tissue around its holes. The samples end one radius short
 /// of the curve's end: the apex beyond is the tip's own contact (rigid/needle_track.hpp).
 /// No allocation: the wire's world points live on the stack (kMaxWireSamples).

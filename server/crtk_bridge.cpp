@@ -141,6 +141,25 @@ void CrtkBridge::publish_state(Tool& t) {
   dds_write(t.state_writer, &msg);
 }
 
+namespace {
+
+/// Takes every sample waiting in `reader`, 16 at a time, and calls each(sample) for the valid
+/// ones (a loan returned before the next batch).
+template <class Sample, class F>
+void take_every(dds_entity_t reader, F&& each) {
+  void* samples[16] = {nullptr};
+  dds_sample_info_t infos[16];
+  for (;;) {
+    const dds_return_t n = dds_take(reader, samples, infos, 16, 16);
+    for (dds_return_t i = 0; i < n; ++i)
+      if (infos[i].valid_data) each(*static_cast<const Sample*>(samples[i]));
+    if (n > 0) dds_return_loan(reader, samples, n);
+    if (n < 16) break;
+  }
+}
+
+}  // namespace
+
 void CrtkBridge::set_state(Tool& t, CrtkState s) {
   if (t.state.load() == s) return;
   spdlog::info("CRTK: tool '{}' {} -> {}", t.name, crtk_state_name(t.state.load()), crtk_state_name(s));
@@ -149,12 +168,8 @@ void CrtkBridge::set_state(Tool& t, CrtkState s) {
 }
 
 void CrtkBridge::take_commands(Tool& t) {
-  void* samples[16] = {nullptr};
-  dds_sample_info_t infos[16];
-  const dds_return_t n = dds_take(t.command_reader, samples, infos, 16, 16);
-  for (dds_return_t i = 0; i < n; ++i) {
-    if (!infos[i].valid_data) continue;
-    const auto* c = static_cast<const StringStamped*>(samples[i]);
+  take_every<StringStamped>(t.command_reader, [&](const StringStamped& sample) {
+    const auto* c = &sample;
     const std::string cmd = c->string ? c->string : "";
     const CrtkState s = t.state.load();
     CrtkState next = s;
@@ -182,8 +197,7 @@ void CrtkBridge::take_commands(Tool& t) {
     // answer each command with their operating state).
     if (next != s) set_state(t, next);
     else publish_state(t);
-  }
-  if (n > 0) dds_return_loan(t.command_reader, samples, n);
+  });
 }
 
 void CrtkBridge::refuse_servo(Tool& t, std::atomic<uint64_t>& counter, ToolCommandPort& port, const char* why) {
@@ -193,51 +207,44 @@ void CrtkBridge::refuse_servo(Tool& t, std::atomic<uint64_t>& counter, ToolComma
 }
 
 void CrtkBridge::take_servo(Tool& t, int index, ToolCommandPort& port) {
-  void* samples[16] = {nullptr};
-  dds_sample_info_t infos[16];
   bool have = false;  // the newest valid pose of this take, to apply
   ToolPose newest;
   int64_t newest_stamp = 0;
   uint64_t valid = 0;
-  for (;;) {  // every pose waiting: the reader holds up to kServoDepth
-    const dds_return_t n = dds_take(t.servo_reader, samples, infos, 16, 16);
-    for (dds_return_t i = 0; i < n; ++i) {
-      if (!infos[i].valid_data) continue;
-      cnt_.servo_received.fetch_add(1);
-      const auto* c = static_cast<const PoseStamped*>(samples[i]);
-      const int64_t stamp = stamp_ns(c->header.stamp);
-      const auto& p = c->pose.position;
-      const auto& q = c->pose.orientation;
-      if (stamp == 0) {
-        refuse_servo(t, cnt_.servo_invalid, port, "header stamp 0 (invalid data)");
-        continue;
-      }
-      bool finite = true;
-      for (double v : {p.x, p.y, p.z, q.x, q.y, q.z, q.w}) finite = finite && std::isfinite(v);
-      if (!finite) {
-        refuse_servo(t, cnt_.servo_non_finite, port, "a non-finite position or orientation");
-        continue;
-      }
-      const double qn = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
-      if (!(std::fabs(qn - 1.0) <= 1e-3)) {
-        refuse_servo(t, cnt_.servo_not_unit, port, "the orientation is not a unit quaternion");
-        continue;
-      }
-      if (t.state.load() != CrtkState::Enabled) {
-        refuse_servo(t, cnt_.servo_not_enabled, port, t.state.load() == CrtkState::Fault
-                                                          ? "the tool is in FAULT (send enable)"
-                                                          : "the tool is not ENABLED");
-        continue;
-      }
-      ++valid;
-      have = true;
-      newest.position = {p.x, p.y, p.z};
-      newest.orientation = {q.w, q.x, q.y, q.z};  // ROS (x, y, z, w) -> Stroma (w, x, y, z)
-      newest_stamp = stamp;
+  // Every pose waiting: the reader holds up to kServoDepth.
+  take_every<PoseStamped>(t.servo_reader, [&](const PoseStamped& sample) {
+    cnt_.servo_received.fetch_add(1);
+    const auto* c = &sample;
+    const int64_t stamp = stamp_ns(c->header.stamp);
+    const auto& p = c->pose.position;
+    const auto& q = c->pose.orientation;
+    if (stamp == 0) {
+      refuse_servo(t, cnt_.servo_invalid, port, "header stamp 0 (invalid data)");
+      return;
     }
-    if (n > 0) dds_return_loan(t.servo_reader, samples, n);
-    if (n < 16) break;
-  }
+    bool finite = true;
+    for (double v : {p.x, p.y, p.z, q.x, q.y, q.z, q.w}) finite = finite && std::isfinite(v);
+    if (!finite) {
+      refuse_servo(t, cnt_.servo_non_finite, port, "a non-finite position or orientation");
+      return;
+    }
+    const double qn = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+    if (!(std::fabs(qn - 1.0) <= 1e-3)) {
+      refuse_servo(t, cnt_.servo_not_unit, port, "the orientation is not a unit quaternion");
+      return;
+    }
+    if (t.state.load() != CrtkState::Enabled) {
+      refuse_servo(t, cnt_.servo_not_enabled, port, t.state.load() == CrtkState::Fault
+                                                        ? "the tool is in FAULT (send enable)"
+                                                        : "the tool is not ENABLED");
+      return;
+    }
+    ++valid;
+    have = true;
+    newest.position = {p.x, p.y, p.z};
+    newest.orientation = {q.w, q.x, q.y, q.z};  // ROS (x, y, z, w) -> Stroma (w, x, y, z)
+    newest_stamp = stamp;
+  });
   if (!have) return;
   if (valid > 1) {  // pre-emptive: the newest wins, the older are superseded unchecked
     cnt_.servo_superseded.fetch_add(valid - 1);
@@ -261,35 +268,27 @@ bool CrtkBridge::submit(Tool& t, int index, ToolCommandPort& port, const ToolPos
 
 bool CrtkBridge::take_jaw(Tool& t, int64_t* stamp_out) {
   if (t.jaw_reader == 0) return false;
-  void* samples[16] = {nullptr};
-  dds_sample_info_t infos[16];
   bool set = false;
   uint64_t valid = 0;
-  for (;;) {
-    const dds_return_t n = dds_take(t.jaw_reader, samples, infos, 16, 16);
-    for (dds_return_t i = 0; i < n; ++i) {
-      if (!infos[i].valid_data) continue;
-      cnt_.jaw_received.fetch_add(1);
-      const auto* js = static_cast<const JointState*>(samples[i]);
-      const int64_t stamp = stamp_ns(js->header.stamp);
-      const char* why = nullptr;
-      if (stamp == 0) why = "header stamp 0 (invalid data)";
-      else if (js->position._length < 1) why = "no position (the jaw's angle is position[0])";
-      else if (!std::isfinite(js->position._buffer[0])) why = "a non-finite jaw angle";
-      else if (t.state.load() != CrtkState::Enabled) why = "the tool is not ENABLED";
-      if (why) {
-        cnt_.jaw_refused.fetch_add(1);
-        refusals_.refused("CRTK: tool '{}' jaw/servo_jp refused: {}", t.name, why);
-        continue;
-      }
-      ++valid;
-      t.jaw = js->position._buffer[0];
-      *stamp_out = stamp;
-      set = true;
+  take_every<JointState>(t.jaw_reader, [&](const JointState& sample) {
+    cnt_.jaw_received.fetch_add(1);
+    const auto* js = &sample;
+    const int64_t stamp = stamp_ns(js->header.stamp);
+    const char* why = nullptr;
+    if (stamp == 0) why = "header stamp 0 (invalid data)";
+    else if (js->position._length < 1) why = "no position (the jaw's angle is position[0])";
+    else if (!std::isfinite(js->position._buffer[0])) why = "a non-finite jaw angle";
+    else if (t.state.load() != CrtkState::Enabled) why = "the tool is not ENABLED";
+    if (why) {
+      cnt_.jaw_refused.fetch_add(1);
+      refusals_.refused("CRTK: tool '{}' jaw/servo_jp refused: {}", t.name, why);
+      return;
     }
-    if (n > 0) dds_return_loan(t.jaw_reader, samples, n);
-    if (n < 16) break;
-  }
+    ++valid;
+    t.jaw = js->position._buffer[0];
+    *stamp_out = stamp;
+    set = true;
+  });
   if (valid > 1) cnt_.jaw_superseded.fetch_add(valid - 1);
   if (valid > 0) cnt_.jaw_accepted.fetch_add(1);
   return set;

@@ -6,15 +6,20 @@
 
 namespace stroma {
 
+std::array<int32_t, 3> sorted_tet_face(const ElementParams& e, int i) {
+  std::array<int32_t, 3> f;
+  for (int k = 0, j = 0; k < 4; ++k)
+    if (k != i) f[size_t(j++)] = e.node[size_t(k)];
+  std::sort(f.begin(), f.end());
+  return f;
+}
+
 std::vector<int32_t> tet_face_neighbours(const std::vector<ElementParams>& elements) {
   std::vector<int32_t> out(4 * elements.size(), -1);
   std::map<std::array<int32_t, 3>, int32_t> open;  // sorted face → 4e + i of its first element
   for (size_t e = 0; e < elements.size(); ++e)
     for (int i = 0; i < 4; ++i) {
-      std::array<int32_t, 3> f;
-      for (int k = 0, j = 0; k < 4; ++k)
-        if (k != i) f[size_t(j++)] = elements[e].node[size_t(k)];
-      std::sort(f.begin(), f.end());
+      const std::array<int32_t, 3> f = sorted_tet_face(elements[e], i);
       const int32_t me = static_cast<int32_t>(4 * e + size_t(i));
       auto [it, fresh] = open.emplace(f, me);
       if (!fresh) {

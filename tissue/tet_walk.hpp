@@ -27,6 +27,10 @@ namespace stroma {
 /// node i (−1: a boundary face). Load time.
 std::vector<int32_t> tet_face_neighbours(const std::vector<ElementParams>& elements);
 
+/// The face of element e opposite its node i, its node indices sorted: a key shared by the
+/// elements on both sides of an inner face (and by a surface triangle over it).
+std::array<int32_t, 3> sorted_tet_face(const ElementParams& e, int i);
+
 /// Barycentric weights of p in element e at positions x (3 per node; may be negative outside).
 void tet_weights(const ElementParams& e, const double* x, const double* p, double* w);
 

@@ -1062,8 +1062,9 @@ std::string two_needles_yaml() {
 // each grasper feels Okamura's model over its own needle's inserted length alone — the track
 // points, holes, tip contacts and fronts are per needle.
 TEST(Needle, TwoNeedlesInOneBlockEachFeelOnlyTheirOwnTrack) {
-  // 1.5 s here, 42 s under ASan — where one tick of the 30 mm/s needle's force measured 62 % off
-  // the model (release: every tick within 0.07 %): to be explained (docs/NEEDLE.md).
+  // 1.5 s here, 24 s under ASan (where, before the wire sampled the surface and a tip at rest
+  // stopped making speculative contacts, one tick of the 30 mm/s needle measured 62 % off the
+  // model; now 0.07 / 0.05 %, as in the release build).
   STROMA_LONG_TEST();
   const auto m = compile_model(parse_scenario(two_needles_yaml(), "two_needles.yaml", kSrc));
   ASSERT_EQ(m->rigid_bodies.size(), 2u);
