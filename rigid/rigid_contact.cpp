@@ -97,6 +97,47 @@ void fill_contact_spring(ContactSpring& sp, const double* n, double depth, bool 
   ++out.contacts;
 }
 
+bool near_a_hole(const ContactExclusion& ex, const double* q) {
+  for (int j = 0; j < ex.n_holes; ++j) {
+    const double* hole = ex.holes + 3 * j;
+    const double dq[3] = {q[0] - hole[0], q[1] - hole[1], q[2] - hole[2]};
+    if (dot3(dq, dq) < ex.hole_radius * ex.hole_radius) return true;
+  }
+  return false;
+}
+
+bool add_tissue_body_spring(const SurfaceTriangleDofs& td, double b0, double b1, double b2, const RigidState& s,
+                            int32_t row, const double* arm, const double* n, double gap, double kc, double cc,
+                            double mu, double v_stick, const double* v, double h, const Vec3& g, double speed,
+                            std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                            RigidContactOutput& out) {
+  ContactSpring sp;
+  set_spring_point(td, b0, b1, b2, sp);
+  double vq[3], vb[3], rel[3];
+  spring_point(sp, v, vq);
+  body_point_velocity(s, arm, vb);
+  for (int k = 0; k < 3; ++k) rel[k] = vq[k] - vb[k];
+  const bool speculative = gap >= 0;
+  if (speculative && gap + h * std::min(dot3(rel, n), 0.0) - h * h * dot3(g.data(), n) * (row >= 0 ? 1.0 : 0.0) >= h * speed)
+    return false;
+  if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
+    ++out.dropped;
+    return false;
+  }
+  if (speculative) {
+    RigidContactPair pr;
+    pr.spring = static_cast<int32_t>(springs.size());
+    for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
+    pr.depth0 = -gap;
+    pairs.push_back(pr);
+  }
+  fill_contact_spring(sp, n, -gap, speculative, kc, cc, mu, rel, v_stick, out);
+  sp.row_n = row;
+  for (int k = 0; k < 3; ++k) sp.arm_n[k] = arm[k];
+  springs.push_back(sp);
+  return true;
+}
+
 double shape_distance(const RigidBodyModel& b, const double* p, double* normal) {
   const double q[3] = {p[0] - b.shape_origin[0], p[1] - b.shape_origin[1], p[2] - b.shape_origin[2]};
   switch (b.shape) {
@@ -335,41 +376,14 @@ void rigid_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t 
         q[k] = w0 * p0[k] + u * p1[k] + w * p2[k];
         arm[k] = q[k] - s.x[size_t(k)];
       }
-      for (int j = 0; j < ex.n_holes; ++j) {
-        const double* hole = ex.holes + 3 * j;
-        const double dq[3] = {q[0] - hole[0], q[1] - hole[1], q[2] - hole[2]};
-        if (dot3(dq, dq) < ex.hole_radius * ex.hole_radius) return;
-      }
+      if (near_a_hole(ex, q)) return;
       rot_t(R, arm, pb);
       const double d = shape_distance(b, pb, nb);
       rot(R, nb, n);
-      ContactSpring sp;
-      set_spring_point(surf.dofs[size_t(t)], w0, u, w, sp);
-      double vq[3], vb[3], rel[3];
-      spring_point(sp, v, vq);
-      body_point_velocity(s, arm, vb);
-      for (int k = 0; k < 3; ++k) rel[k] = vq[k] - vb[k];
-      const bool speculative = d >= 0;
-      // In front: within the step's reach (the approach predicted, the body's fall included,
-      // or its own travel: light surface nodes it pushed ahead can rebound into it)?
-      if (speculative &&
-          d + h * std::min(dot3(rel, n), 0.0) - h * h * dot3(g.data(), n) * (row >= 0 ? 1.0 : 0.0) >= h * speed)
-        return;
-      if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
-        ++out.dropped;
-        return;
-      }
-      if (speculative) {
-        RigidContactPair pr;
-        pr.spring = static_cast<int32_t>(springs.size());
-        for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
-        pr.depth0 = -d;
-        pairs.push_back(pr);
-      }
-      fill_contact_spring(sp, n, -d, speculative, kc, cc, b.friction, rel, v_stick, out);
-      sp.row_n = row;
-      for (int k = 0; k < 3; ++k) sp.arm_n[k] = arm[k];
-      springs.push_back(sp);
+      // In front (d ≥ 0): made only within the step's reach (the approach predicted, the body's
+      // fall included, or its own travel: light surface nodes it pushed ahead can rebound into it).
+      add_tissue_body_spring(surf.dofs[size_t(t)], w0, u, w, s, row, arm, n, d, kc, cc, b.friction, v_stick, v, h, g,
+                             speed, springs, pairs, out);
     });
   });
 }

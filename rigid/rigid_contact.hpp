@@ -94,6 +94,22 @@ struct ContactExclusion {
   double tip_zone = 0;
 };
 
+/// Whether the world point q is within ex.hole_radius of one of ex's holes.
+bool near_a_hole(const ContactExclusion& ex, const double* q);
+
+/// Appends the contact spring between the tissue's surface point (barycentric b0, b1, b2 on the
+/// triangle with DOFs td) and the point of body state s at `arm` (world, from its centre of
+/// mass; `row` its row, −1 anchored), along the unit n from the body to the tissue, `gap` apart
+/// (< 0 penetrating). One in front (gap ≥ 0) is speculative and made only if the step can close
+/// it — its approach h·v_rel·n plus, for a free body, its fall h²·g·n, or the body's own travel
+/// h·speed. kc, cc: area stiffness and damping; mu, v_stick: friction. Counts a spring beyond
+/// the vectors' capacity as dropped. Returns whether it made one.
+bool add_tissue_body_spring(const SurfaceTriangleDofs& td, double b0, double b1, double b2, const RigidState& s,
+                            int32_t row, const double* arm, const double* n, double gap, double kc, double cc,
+                            double mu, double v_stick, const double* v, double h, const Vec3& g, double speed,
+                            std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                            RigidContactOutput& out);
+
 /// The tissue's surface (points x, velocities v; BVH refitted) against body b at state s.
 /// `row`: the body's row in the step (−1: a fixed body, anchored). `constrained` (per DOF node,
 /// the axes held as bits; may be null): a fixed body skips triangles whose DOFs are all held

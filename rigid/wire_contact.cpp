@@ -128,43 +128,14 @@ void wire_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t r
     // Ahead of the tip: the tip's contact presses there (and punctures); the wire's points behind
     // the apex would take its load (measured: on the 5 kPa liver an exited needle then never
     // punctured an incision's far lip, which its wire touched as it came out of the near one).
-    bool skipped = b.wire_arc[size_t(j)] >= b.needle.length - ex.tip_zone && dot3(n, tip_dir) > 0.5;
-    for (int i = 0; i < ex.n_holes && !skipped; ++i) {
-      const double* hole = ex.holes + 3 * i;
-      const double dq[3] = {q[0] - hole[0], q[1] - hole[1], q[2] - hole[2]};
-      skipped = dot3(dq, dq) < ex.hole_radius * ex.hole_radius;
-    }
-    if (skipped) continue;
+    if (b.wire_arc[size_t(j)] >= b.needle.length - ex.tip_zone && dot3(n, tip_dir) > 0.5) continue;
+    if (near_a_hole(ex, q)) continue;
     double arm[3];
     for (int k = 0; k < 3; ++k) arm[k] = c[j][k] + r * n[k] - s.x[size_t(k)];
-    ContactSpring sp;
-    set_spring_point(surf.dofs[size_t(t)], best_w[j][0], best_w[j][1], best_w[j][2], sp);
-    double vq[3], vb[3], rel[3];
-    spring_point(sp, v, vq);
-    body_point_velocity(s, arm, vb);
-    for (int k = 0; k < 3; ++k) rel[k] = vq[k] - vb[k];
-    const double gap = sigma - r;  // ≥ 0: in front
-    const bool speculative = gap >= 0;
-    if (speculative &&
-        gap + h * std::min(dot3(rel, n), 0.0) - h * h * dot3(g.data(), n) * (row >= 0 ? 1.0 : 0.0) >= h * speed)
-      continue;
-    if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
-      ++out.dropped;
-      continue;
-    }
-    if (speculative) {
-      RigidContactPair pr;
-      pr.spring = static_cast<int32_t>(springs.size());
-      for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
-      pr.depth0 = -gap;
-      pairs.push_back(pr);
-    }
     const double area = 2.0 * r * b.wire_share[size_t(j)];
-    fill_contact_spring(sp, n, -gap, speculative, b.contact_stiffness * area, b.contact_damping * area, b.friction, rel,
-                        v_stick, out);
-    sp.row_n = row;
-    for (int k = 0; k < 3; ++k) sp.arm_n[k] = arm[k];
-    springs.push_back(sp);
+    add_tissue_body_spring(surf.dofs[size_t(t)], best_w[j][0], best_w[j][1], best_w[j][2], s, row, arm, n, sigma - r,
+                           b.contact_stiffness * area, b.contact_damping * area, b.friction, v_stick, v, h, g, speed,
+                           springs, pairs, out);
   }
 }
 
