@@ -144,6 +144,9 @@ struct ModelTopology {
   /// tetrahedron), so a walk ends at the cut. Empty for an uncut model or without needles.
   std::vector<int32_t> element_plane_begin;
   std::vector<std::array<double, 4>> element_planes;
+  /// Needles in a cut model: each element copy's next twin (WalkMesh::next_twin: the copies of
+  /// one tetrahedron in a cycle). Empty when element_plane_begin is.
+  std::vector<int32_t> element_next_twin;
   /// Needles: per collision triangle, the element it is a face of (where a puncture's walk starts).
   std::vector<int32_t> collision_tri_elem;
 

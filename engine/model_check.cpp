@@ -1,5 +1,7 @@
 #include "engine/model_check.hpp"
 
+#include "tissue/cut_topology.hpp"
+
 #include <cmath>
 #include <string>
 
@@ -81,6 +83,11 @@ bool model_invariants_hold(const Model& m, std::string* why) {
           (m.element_plane_begin.size() == ne + 1 && m.element_plane_begin.front() == 0 &&
            static_cast<size_t>(m.element_plane_begin.back()) == m.element_planes.size()),
       "needles: element_plane_begin empty or per element, ending at element_planes' size");
+    c(m.element_next_twin.size() == (m.element_plane_begin.empty() ? 0 : ne), "needles: a next twin per element of a cut model");
+    for (size_t e = 0; e < m.element_next_twin.size(); ++e)
+      c(m.element_next_twin[e] >= 0 && static_cast<size_t>(m.element_next_twin[e]) < ne &&
+            (m.topology == nullptr || m.topology->copies[size_t(m.element_next_twin[e])].tet == m.topology->copies[e].tet),
+        "needles: an element's next twin is a copy of its tetrahedron");
   }
   c(m.body_damage.size() == f.bodies.size(), "one damage model per body");
   c(m.element_region_damage.empty() || m.element_region_damage.size() == ne,

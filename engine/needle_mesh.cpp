@@ -6,6 +6,7 @@
 #include <map>
 
 #include "tissue/cut_model.hpp"
+#include "tissue/cut_walk_neighbours.hpp"
 
 namespace stroma {
 
@@ -41,7 +42,7 @@ void compile_needle_mesh(Model& m) {
 
 void compile_cut_needle_mesh(Model& m, const CutTopology& topo, const CutBase& base, const std::vector<double>& rest,
                              const std::vector<double>& edge_cut) {
-  m.tet_neighbours = tet_face_neighbours(m.fem.elements);
+  m.tet_neighbours = cut_copy_face_neighbours(topo, base.tets, base.adj);
   m.node_tet = element_of_each_node(m.fem);
   m.element_plane_begin.assign(1, 0);
   m.element_planes.clear();
@@ -49,6 +50,10 @@ void compile_cut_needle_mesh(Model& m, const CutTopology& topo, const CutBase& b
     copy_material_planes(topo, base.tets, rest, edge_cut, base.adj, static_cast<int32_t>(c), m.element_planes);
     m.element_plane_begin.push_back(static_cast<int32_t>(m.element_planes.size()));
   }
+  m.element_next_twin.resize(topo.copies.size());
+  for (size_t t = 0; t + 1 < topo.tet_copy_begin.size(); ++t)
+    for (int32_t c = topo.tet_copy_begin[t]; c < topo.tet_copy_begin[t + 1]; ++c)
+      m.element_next_twin[size_t(c)] = c + 1 < topo.tet_copy_begin[t + 1] ? c + 1 : topo.tet_copy_begin[t];
 }
 
 void transfer_needles(const Model& old_m, const std::vector<NeedleState>& from, const Model& m,

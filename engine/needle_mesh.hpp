@@ -18,8 +18,9 @@ struct CutBase;
 /// (each collision triangle's element: the one it is a face of; −1 for none). Load time.
 void compile_needle_mesh(Model& m);
 
-/// A cut model with needles (engine/cut_compile.cpp): tet_neighbours over the copies (copies
-/// across the cut share no face, so cut faces are boundary faces), node_tet, and each split
+/// A cut model with needles (engine/cut_compile.cpp): tet_neighbours over the copies
+/// (tissue/cut_walk_neighbours.hpp: copies across the cut share no face, so cut faces are
+/// boundary faces; a copy's twin is never its neighbour), node_tet, and each split
 /// copy's material planes (tissue/cut_topology.hpp). Its collision_tri_elem is made with its
 /// surface (each triangle's copy). Cut-build time.
 void compile_cut_needle_mesh(Model& m, const CutTopology& topo, const CutBase& base, const std::vector<double>& rest,
@@ -33,6 +34,7 @@ inline WalkMesh needle_walk_mesh(const Model& m) {
   if (!m.element_plane_begin.empty()) {
     w.plane_begin = m.element_plane_begin.data();
     w.planes = m.element_planes.data();
+    w.next_twin = m.element_next_twin.data();
   }
   return w;
 }

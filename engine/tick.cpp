@@ -211,16 +211,10 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
       if (tri >= 0 && size_t(tri) < m.collision_tri_elem.size()) w.tip_element[size_t(k)] = m.collision_tri_elem[size_t(tri)];
     }
     double holes[3 * kMaxNeedleHoles];
-    ContactExclusion ex;
-    if (needle && ns.phase != NeedlePhase::Outside) {
-      ex.holes = holes;
-      ex.n_holes = needle_hole_points(ns, px, holes);
-      ex.hole_radius = std::max(4.0 * b.needle.wire_radius, m.needle_tissue[size_t(ns.tissue_body)].track_spacing);
-      needle_track_arc(ns, &ex.track_s0, &ex.track_s1);
-    }
-    // An exited needle's tip pressing the next lip: the wire just behind it leaves it that surface
-    // (coming out of one lip of an incision its wire already touches the other).
-    if (w.tip_spring[size_t(k)] >= 0 && ns.phase == NeedlePhase::Exited) ex.tip_zone = ex.hole_radius;
+    const ContactExclusion ex =
+        needle ? needle_contact_exclusion(b, ns, px, ns.tissue_body >= 0 ? m.needle_tissue[size_t(ns.tissue_body)].track_spacing : 0.0,
+                                          w.tip_spring[size_t(k)] >= 0, holes)
+               : ContactExclusion{};
     rigid_tissue_contact(b, s.rigid[size_t(k)], tentative(k, 0), surf, w.bvh, px, v, m.fem.constrained.data(),
                          m.fem_step, m.fem.gravity, w.springs, w.rigid_pairs, w.report.rigid_contact[size_t(k)], ex);
     if (needle && ns.phase != NeedlePhase::Outside)

@@ -5,6 +5,7 @@
 
 #include "haptics/tool_shape.hpp"
 #include "tissue/mat3.hpp"
+#include "tissue/triangle_closest_point.hpp"
 
 namespace stroma {
 
@@ -269,9 +270,8 @@ void tool_contact(const ToolSpec& spec, ToolState& ts, ToolOutput& out, const Co
     const double* p0 = x + 3 * tri[0];
     const double* p1 = x + 3 * tri[1];
     const double* p2 = x + 3 * tri[2];
-    const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-    const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-    double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    double nrm[3];
+    triangle_normal(p0, p1, p2, nrm);
     const double twice_area = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
     if (twice_area <= 0) return;
     const double nsign = (surf.active && surf.active[t] == 2) ? -1.0 : 1.0;  // exposed from behind

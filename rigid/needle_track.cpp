@@ -197,20 +197,22 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
   return pr.spring;
 }
 
-void needle_track_arc(const NeedleState& ns, double* s0, double* s1) {
-  *s0 = 1e300, *s1 = -1e300;
+ContactExclusion needle_contact_exclusion(const RigidBodyModel& b, const NeedleState& ns, const double* x,
+                                          double track_spacing, bool tip_pressing, double* holes) {
+  ContactExclusion ex;
+  if (ns.phase == NeedlePhase::Outside) return ex;
+  ex.holes = holes;
+  for (int32_t i = 0; i < ns.count && ex.n_holes < kMaxNeedleHoles; ++i)
+    if (ns.track[size_t(i)].surface) material_point(ns.track[size_t(i)], x, holes + 3 * ex.n_holes++);
+  ex.hole_radius = std::max(4.0 * b.needle.wire_radius, track_spacing);
+  ex.track_s0 = 1e300, ex.track_s1 = -1e300;
   for (int32_t i = 0; i < ns.count; ++i) {
-    *s0 = std::min(*s0, ns.track[size_t(i)].s);
-    *s1 = std::max(*s1, ns.track[size_t(i)].s);
+    ex.track_s0 = std::min(ex.track_s0, ns.track[size_t(i)].s);
+    ex.track_s1 = std::max(ex.track_s1, ns.track[size_t(i)].s);
   }
-  if (ns.has_front) *s0 = std::min(*s0, ns.front.s), *s1 = std::max(*s1, ns.front.s);
-}
-
-int needle_hole_points(const NeedleState& ns, const double* x, double* pts) {
-  int n = 0;
-  for (int32_t i = 0; i < ns.count && n < kMaxNeedleHoles; ++i)
-    if (ns.track[size_t(i)].surface) material_point(ns.track[size_t(i)], x, pts + 3 * n++);
-  return n;
+  if (ns.has_front) ex.track_s0 = std::min(ex.track_s0, ns.front.s), ex.track_s1 = std::max(ex.track_s1, ns.front.s);
+  if (tip_pressing && ns.phase == NeedlePhase::Exited) ex.tip_zone = ex.hole_radius;
+  return ex;
 }
 
 namespace {

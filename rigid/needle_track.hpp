@@ -161,16 +161,20 @@ int32_t needle_tip_contact(const RigidBodyModel& b, const RigidState& s, int32_t
                            std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
                            RigidContactOutput& out, int32_t* triangle);
 
-/// The arc lengths of the needle's wire along its track, [s0, s1]: its first track point's to
-/// its last's or the front's (an empty range, s0 > s1, with neither).
-void needle_track_arc(const NeedleState& ns, double* s0, double* s1);
+/// Most holes (entries and exits) around which contact is skipped for one needle: four bites
+/// (two lips, and a sliver a served cut can leave between them).
+inline constexpr int kMaxNeedleHoles = 8;
 
-/// Most holes (entries and exits) around which contact is skipped for one needle: two bites.
-inline constexpr int kMaxNeedleHoles = 4;
-
-/// Where contact is skipped for needle ns: the track's surface points' positions (world) into
-/// `pts` (3 each); returns how many (≤ kMaxNeedleHoles).
-int needle_hole_points(const NeedleState& ns, const double* x, double* pts);
+/// What the tissue's contact with needle b (state ns, tissue at x) leaves out, the rule in one
+/// place (rigid/rigid_contact.hpp's ContactExclusion): once in, the surface within hole_radius
+/// (4 wire radii, or the track spacing `track_spacing` if larger) of its holes — the track's
+/// entries and exits, their positions written to `holes` (room for kMaxNeedleHoles) — and the
+/// wire along the track's arc (its first track point's to its last's or the front's); and, while
+/// an exited needle's tip presses the next surface (`tip_pressing`: its tip contact this step),
+/// a surface ahead of the wire within hole_radius behind the tip: coming out of one lip of an
+/// incision its wire already touches the other, whose puncture is the tip's. Outside: nothing.
+ContactExclusion needle_contact_exclusion(const RigidBodyModel& b, const NeedleState& ns, const double* x,
+                                          double track_spacing, bool tip_pressing, double* holes);
 
 /// The tissue body of DOF node n (by the bodies' node ranges), or −1.
 int32_t body_of_node(const FemModel& fem, int32_t node);

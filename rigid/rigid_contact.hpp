@@ -90,7 +90,8 @@ struct ContactExclusion {
   double track_s0 = 1, track_s1 = 0;
   /// m of arc before the needle's tip where a surface ahead of the wire (its contact normal
   /// within 60° of the tip's direction) is the tip's to press and puncture, not the wire's
-  /// (rigid/needle_track.hpp; 0: none — the tick sets it while an exited needle's tip presses).
+  /// (0: none; needle_contact_exclusion in rigid/needle_track.hpp sets it while an exited needle's
+  /// tip presses).
   double tip_zone = 0;
 };
 

@@ -66,8 +66,8 @@ void wire_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t r
     const double* A = x + 3 * tri[0];
     const double* B = x + 3 * tri[1];
     const double* C = x + 3 * tri[2];
-    const double e1[3] = {B[0] - A[0], B[1] - A[1], B[2] - A[2]}, e2[3] = {C[0] - A[0], C[1] - A[1], C[2] - A[2]};
-    double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    double nrm[3];
+    triangle_normal(A, B, C, nrm);
     const double len = std::sqrt(dot3(nrm, nrm));
     if (!(len > 0)) return;
     for (double& k : nrm) k /= len;
@@ -108,8 +108,7 @@ void wire_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t r
       cq[k] = q[k] - c[j][k];
     }
     {
-      const double e1[3] = {B[0] - A[0], B[1] - A[1], B[2] - A[2]}, e2[3] = {C[0] - A[0], C[1] - A[1], C[2] - A[2]};
-      face[0] = e1[1] * e2[2] - e1[2] * e2[1], face[1] = e1[2] * e2[0] - e1[0] * e2[2], face[2] = e1[0] * e2[1] - e1[1] * e2[0];
+      triangle_normal(A, B, C, face);
       const double len = std::sqrt(dot3(face, face));
       const double sgn = surf.active && surf.active[t] == 2 ? -1.0 : 1.0;  // a face turned round
       for (double& k : face) k *= sgn / len;

@@ -84,6 +84,23 @@ void WalkMesh::into_material(int32_t e, double* w) const {
   for (int k = 0; k < 4; ++k) w[k] += lam * (m[k] - w[k]);
 }
 
+namespace {
+
+/// Whether twin o holds the same DOFs as e on the face e shares with `from` (the face a walk
+/// entered e through): the face borders both, so the point may be in either's material. A twin
+/// not glued there is across the cut from where the walk came (a front in one lip of an incision
+/// must exit at the cut, not pass into the other lip's copy of the same tetrahedron).
+bool glued_alike(const ElementParams& e, const ElementParams& o, const ElementParams& from) {
+  for (int k = 0; k < 4; ++k) {
+    const int32_t n = e.node[size_t(k)];
+    if ((n == from.node[0] || n == from.node[1] || n == from.node[2] || n == from.node[3]) && o.node[size_t(k)] != n)
+      return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 TetWalkResult walk_to_point(const WalkMesh& mesh, const double* x, int32_t start, const double* p,
                             int32_t max_steps) {
   const std::vector<ElementParams>& elements = *mesh.elements;
@@ -99,8 +116,20 @@ TetWalkResult walk_to_point(const WalkMesh& mesh, const double* x, int32_t start
     r.tet = e;
     if (w[i] >= -1e-9) {
       std::copy(w, w + 4, r.w);
-      if (mesh.material_depth(e, w) < -1e-12) {  // in e's shape, beyond its cut: outside the tissue
-        mesh.into_material(e, r.w);
+      if (mesh.material_depth(e, w) < -1e-12) {  // in e's shape, beyond its cut: in a twin's material?
+        if (mesh.next_twin != nullptr && prev >= 0)
+          for (int32_t o = mesh.next_twin[e]; o != e; o = mesh.next_twin[o]) {
+            if (!glued_alike(elements[size_t(e)], elements[size_t(o)], elements[size_t(prev)])) continue;
+            double wo[4];
+            tet_weights(elements[size_t(o)], x, p, wo);
+            if (*std::min_element(wo, wo + 4) >= -1e-9 && mesh.material_depth(o, wo) >= -1e-12) {
+              r.tet = o;
+              std::copy(wo, wo + 4, r.w);
+              r.inside = true;
+              return r;
+            }
+          }
+        mesh.into_material(e, r.w);  // outside the tissue
         r.past_cut = true;
         return r;
       }

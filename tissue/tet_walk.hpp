@@ -13,7 +13,13 @@
 /// its whole tetrahedron's shape but material only on its side of the cut, and copies across the
 /// cut share no face (their DOFs differ), so the cut faces are boundary faces. A point inside a
 /// copy's shape but beyond its material planes (WalkMesh) is past the cut — outside the tissue
-/// there, as beyond a boundary face: the walk ends outside, its weights moved into the material.
+/// there, as beyond a boundary face: the walk ends outside, its weights moved into the material —
+/// unless the walk entered that copy through a face whose DOFs a twin (another copy of the same
+/// tetrahedron: WalkMesh::next_twin) shares and the twin holds the point in its material. Where
+/// an incision ends, a face can border both twins, each on its part of the face; the walk
+/// enters the one its face neighbours name (tissue/cut_walk_neighbours.hpp) and takes the twin
+/// if the point is there. From its start copy, or into a twin not glued to the face it came
+/// through, a walk never goes: that is across the cut.
 
 #include <array>
 #include <cstdint>
@@ -38,12 +44,15 @@ void tet_weights(const ElementParams& e, const double* x, const double* p, doubl
 /// a cut mesh's copies, where each one's material lies — element e's planes are
 /// planes[plane_begin[e] .. plane_begin[e + 1]), each as weights c with c·w ≥ 0 on the material's
 /// side (tissue/cut_topology.hpp, copy_material_planes; a whole tetrahedron has none).
-/// Invariant: plane_begin is null (an uncut mesh) or has elements->size() + 1 entries.
+/// next_twin[e] is the next copy of e's tetrahedron, cycling through them (e itself for a
+/// tetrahedron of one copy). Invariant: plane_begin and next_twin are both null (an uncut mesh)
+/// or have elements->size() + 1 and elements->size() entries.
 struct WalkMesh {
   const std::vector<ElementParams>* elements = nullptr;
   const int32_t* neighbours = nullptr;
   const int32_t* plane_begin = nullptr;
   const std::array<double, 4>* planes = nullptr;
+  const int32_t* next_twin = nullptr;
 
   /// How far inside e's material the weights w lie (m, rest): the least c·w over its planes
   /// (+∞ for an element all material).
@@ -58,7 +67,7 @@ struct TetWalkResult {
   double w[4] = {0, 0, 0, 0};  ///< p's weights in it (inside: ≥ 0, sum 1; outside: clamped to it)
   bool inside = false;
   bool lost = false;       ///< max_steps reached (a degenerate or cycling path): neither inside nor a boundary
-  bool past_cut = false;   ///< outside because p is beyond the cut in `tet` (its weights moved into its material)
+  bool past_cut = false;   ///< outside because p is beyond the cut in `tet` and its twins (its weights moved into `tet`'s material)
   int32_t steps = 0;
 };
 
@@ -69,7 +78,7 @@ TetWalkResult walk_to_point(const WalkMesh& mesh, const double* x, int32_t start
 /// An uncut mesh's walk.
 inline TetWalkResult walk_to_point(const std::vector<ElementParams>& elements, const int32_t* neighbours,
                                    const double* x, int32_t start, const double* p, int32_t max_steps = 4096) {
-  return walk_to_point(WalkMesh{&elements, neighbours, nullptr, nullptr}, x, start, p, max_steps);
+  return walk_to_point(WalkMesh{&elements, neighbours, nullptr, nullptr, nullptr}, x, start, p, max_steps);
 }
 
 }  // namespace stroma

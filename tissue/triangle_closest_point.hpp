@@ -1,13 +1,23 @@
 #pragma once
 /// \file triangle_closest_point.hpp
-/// Closest point of a triangle to a point, as barycentric weights. Shared by the visual-mesh
-/// mapping (vertices just outside the tetrahedra) and body–body contact (vertex against face).
+/// Closest point of a triangle to a point, as barycentric weights, and its normal. Shared by the
+/// visual-mesh mapping (vertices just outside the tetrahedra), body–body contact (vertex against
+/// face) and a needle's contacts (rigid/).
 
 #include <array>
 
 #include "tissue/tet_mesh.hpp"
 
 namespace stroma {
+
+/// The normal (B − A) × (C − A) of triangle (A, B, C), 3 doubles each: counter-clockwise seen
+/// from where it points; its length twice the area.
+inline void triangle_normal(const double* A, const double* B, const double* C, double* n) {
+  const double e1[3] = {B[0] - A[0], B[1] - A[1], B[2] - A[2]}, e2[3] = {C[0] - A[0], C[1] - A[1], C[2] - A[2]};
+  n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+  n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+  n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+}
 
 /// Closest point of triangle (a, b, c) to p, as weights of a, b, c: the Voronoi-region walk of
 /// Ericson, Real-Time Collision Detection §5.1.5. Exact in the regions (weights 0 or 1 where

@@ -26,6 +26,11 @@
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
 #include "haptics/tool_shape.hpp"
+#include "tissue/tet_walk.hpp"
+#include "engine/needle_mesh.hpp"
+#include "tissue/cut_model.hpp"
+#include <algorithm>
+#include <cstdio>
 #include "tests/test_labels.hpp"
 #include "tests/input_error_message.hpp"
 
@@ -1005,7 +1010,7 @@ TEST(Needle, ACutAcrossAnInsertedNeedlesTrackKeepsItsPoints) {
   std::string why;
   EXPECT_TRUE(state_fits_model(s, *m, &why)) << why;
   EXPECT_TRUE(model_invariants_hold(*m, &why)) << why;
-  const WalkMesh mesh{&m->fem.elements, m->tet_neighbours.data(), m->element_plane_begin.data(), m->element_planes.data()};
+  const WalkMesh mesh = needle_walk_mesh(*m);
   int moved_to_a_copy = 0;
   double worst = 0;
   for (int32_t i = 0; i < after.count; ++i) {
@@ -1027,6 +1032,85 @@ TEST(Needle, ACutAcrossAnInsertedNeedlesTrackKeepsItsPoints) {
   while (s.time < 0.05 + travel / speed && !exited) exited = step().exited;
   EXPECT_TRUE(exited);
   EXPECT_NEAR(track_rest_x(s.needles[0].track[size_t(s.needles[0].count - 1)], *m), 0.02, 1e-6) << "out of the far face";
+}
+
+// The walk a cutting front takes (tissue/tet_walk.hpp) in a cut mesh: near where an incision
+// ends, two copies of one tetrahedron can hold the same DOFs on a face, and the neighbour across
+// it is the next tetrahedron's copy, never the twin (tissue/cut_walk_neighbours.hpp: paired by
+// DOFs alone, a walk went from one twin into the other and back until it gave up, and a served
+// needle's front stopped there and dragged the far lip along). Walks along lines through both
+// lips (0.5 mm clear of the plane: the cut points lie within 0.35 mm of it), 0.25 mm at a time
+// as a front moves, each end inside the material; walks from the near lip to points across the
+// plane stop at the cut (a twin holds such a point in its material, but the walk did not come
+// through a face glued to it).
+TEST(Needle, AWalkThroughACutMeshGoesOnIntoTheNextTetrahedronNeverATwin) {
+  std::shared_ptr<const Model> m = compile_model(parse_scenario(lips_yaml(), "lips.yaml", kSrc));
+  auto w = std::make_unique<TickWorkspace>(*m);
+  State s = State::initial(*m);
+  const double at = 0.011;
+  s.edge_cut = incision(*m, at, 0.004);
+  CutBuild b = build_cut(*m, s.edge_cut);
+  ASSERT_TRUE(apply_cut(b, m, w, s));
+  const CutTopology& topo = *m->topology;
+  const CutBase& base = m->cutting->base;
+  const std::vector<ElementParams>& el = m->fem.elements;
+  int twin_faces = 0;  // faces whose DOFs a copy shares with a copy of its own tetrahedron
+  for (size_t c = 0; c < topo.copies.size(); ++c)
+    for (int i = 0; i < 4; ++i) {
+      const int32_t tet = topo.copies[c].tet, n = m->tet_neighbours[4 * c + size_t(i)];
+      if (n >= 0) {
+        EXPECT_NE(topo.copies[size_t(n)].tet, tet) << "copy " << c << " face " << i << ": its twin";
+        EXPECT_EQ(topo.copies[size_t(n)].tet, base.adj.face_neighbor[size_t(tet)][size_t(i)]) << c << " " << i;
+      }
+      for (int32_t o = topo.tet_copy_begin[size_t(tet)]; o < topo.tet_copy_begin[size_t(tet) + 1]; ++o)
+        twin_faces += size_t(o) != c && sorted_tet_face(el[c], i) == sorted_tet_face(el[size_t(o)], i);
+    }
+  std::printf("%zu copies of %zu tetrahedra; %d faces a copy shares with its twin\n", topo.copies.size(),
+              base.tets.size(), twin_faces);
+  EXPECT_GT(twin_faces, 0) << "the case arises on this incision (it ends inside the block)";
+  const WalkMesh mesh = needle_walk_mesh(*m);
+  const double* x = s.tissue.x.data();
+  auto locate = [&](const double* p) {  // the copy holding p in its material, by brute force
+    for (size_t e = 0; e < el.size(); ++e) {
+      double wt[4];
+      tet_weights(el[e], x, p, wt);
+      if (*std::min_element(wt, wt + 4) >= -1e-12 && mesh.material_depth(int32_t(e), wt) >= 0) return int32_t(e);
+    }
+    return int32_t(-1);
+  };
+  int walks = 0, lost = 0, outside = 0, across = 0, crossed = 0;
+  for (double y = 0.0013; y < 0.02; y += 0.0011)
+    for (double z = 0.0013; z < 0.02; z += 0.0011)
+      for (const auto& [x0, x1] : {std::pair{0.0003, at - 5e-4}, std::pair{at + 5e-4, 0.0197}}) {
+        double p[3] = {x0, y, z};
+        int32_t e = locate(p);
+        ASSERT_GE(e, 0) << y << " " << z;
+        for (p[0] = x0 + 2.5e-4; p[0] <= x1; p[0] += 2.5e-4) {
+          const TetWalkResult r = walk_to_point(mesh, x, e, p);
+          ++walks;
+          lost += r.lost;
+          outside += !r.inside;
+          if (!r.inside) break;
+          EXPECT_GE(mesh.material_depth(r.tet, r.w), -1e-12);
+          e = r.tet;
+        }
+        // From the near lip on across the plane, where the incision is (above y = 4 mm and the
+        // mesh's longest edge, 5.8 mm, to its jagged end): the walk stops at the cut.
+        if (x0 > at || y < 0.0098) continue;
+        for (double to = at - 2.5e-4; to <= at + 1e-3; to += 2.5e-4) {
+          const double q[3] = {to, y, z};
+          const TetWalkResult r = walk_to_point(mesh, x, e, q);
+          if (to <= at + 4e-4) continue;  // (the cut points lie within 0.35 mm of the plane)
+          ++across;
+          crossed += r.inside;
+        }
+      }
+  std::printf("%d walks, %d lost, %d ended outside; %d across the cut, %d went through it\n", walks, lost, outside,
+              across, crossed);
+  EXPECT_EQ(lost, 0);
+  EXPECT_EQ(outside, 0) << "each lip's points are in its material";
+  EXPECT_GT(across, 100);
+  EXPECT_EQ(crossed, 0) << "a walk from one lip never ends in the other";
 }
 
 namespace {
