@@ -789,6 +789,28 @@ void take_needle_events(dds_entity_t reader, std::vector<stroma_NeedleEvent>& ev
   if (n > 0) dds_return_loan(reader, sm, n);
 }
 
+/// A reliable, keep-all reader of stroma_NeedleEvent: every event, in order.
+dds_entity_t needle_event_reader(dds_entity_t pp) {
+  const dds_entity_t t = dds_create_topic(pp, &stroma_NeedleEvent_desc, "stroma_NeedleEvent", nullptr, nullptr);
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
+  const dds_entity_t r = dds_create_reader(pp, t, q, nullptr);
+  dds_delete_qos(q);
+  return r;
+}
+
+/// A best-effort reader of stroma_RigidBodyState keeping each body's newest sample.
+dds_entity_t rigid_state_reader(dds_entity_t pp) {
+  const dds_entity_t t = dds_create_topic(pp, &stroma_RigidBodyState_desc, "stroma_RigidBodyState", nullptr, nullptr);
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t r = dds_create_reader(pp, t, q, nullptr);
+  dds_delete_qos(q);
+  return r;
+}
+
 void needle_over_dds(int domain, bool crtk) {
   std::vector<std::string> args = {STROMA_BINARY, "serve", std::string(STROMA_SOURCE_DIR) + "/tests/data/server/needle_through.yaml",
                                    "--domain", std::to_string(domain), "--realtime", "off", "--duration", "60", "--paused"};
@@ -797,20 +819,14 @@ void needle_over_dds(int domain, bool crtk) {
   Client client(domain);
   const dds_entity_t pp = client.participant();
   const dds_entity_t t_body = dds_create_topic(pp, &stroma_RigidBody_desc, "stroma_RigidBody", nullptr, nullptr);
-  const dds_entity_t t_state = dds_create_topic(pp, &stroma_RigidBodyState_desc, "stroma_RigidBodyState", nullptr, nullptr);
-  const dds_entity_t t_event = dds_create_topic(pp, &stroma_NeedleEvent_desc, "stroma_NeedleEvent", nullptr, nullptr);
+  const dds_entity_t ev_reader = needle_event_reader(pp);
   dds_qos_t* q = dds_create_qos();
   dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
-  const dds_entity_t ev_reader = dds_create_reader(pp, t_event, q, nullptr);
   dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
   const dds_entity_t body_reader = dds_create_reader(pp, t_body, q, nullptr);
-  dds_qos_t* qs = dds_create_qos();
-  dds_qset_reliability(qs, DDS_RELIABILITY_BEST_EFFORT, 0);
-  dds_qset_history(qs, DDS_HISTORY_KEEP_LAST, 1);
-  const dds_entity_t st_reader = dds_create_reader(pp, t_state, qs, nullptr);
   dds_delete_qos(q);
-  dds_delete_qos(qs);
+  const dds_entity_t st_reader = rigid_state_reader(pp);
   ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }));
 
   // The shape, published before we joined (transient-local).
@@ -949,13 +965,7 @@ void needle_through_incision_over_dds(int domain, bool crtk) {
   if (crtk) args.push_back("--crtk");
   Process server(args);
   Client client(domain);
-  const dds_entity_t t_event =
-      dds_create_topic(client.participant(), &stroma_NeedleEvent_desc, "stroma_NeedleEvent", nullptr, nullptr);
-  dds_qos_t* q = dds_create_qos();
-  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
-  const dds_entity_t ev_reader = dds_create_reader(client.participant(), t_event, q, nullptr);
-  dds_delete_qos(q);
+  const dds_entity_t ev_reader = needle_event_reader(client.participant());
   ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
   auto tool = [&](const char* name, const std::string& script) {
     std::vector<std::string> a = {STROMA_BINARY, "tool", "--name", name, "--script", data + script,
@@ -1024,17 +1034,8 @@ TEST(Serve, TwoNeedlesDrivenByTwoClientsEachPunctureExitAndLeave) {
   Process server({STROMA_BINARY, "serve", data + "two_needles.yaml", "--domain", std::to_string(domain), "--realtime",
                   "off", "--duration", "60", "--paused"});
   Client client(domain);
-  const dds_entity_t pp = client.participant();
-  const dds_entity_t t_state = dds_create_topic(pp, &stroma_RigidBodyState_desc, "stroma_RigidBodyState", nullptr, nullptr);
-  const dds_entity_t t_event = dds_create_topic(pp, &stroma_NeedleEvent_desc, "stroma_NeedleEvent", nullptr, nullptr);
-  dds_qos_t* q = dds_create_qos();
-  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
-  const dds_entity_t ev_reader = dds_create_reader(pp, t_event, q, nullptr);
-  dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
-  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);  // the newest of each body
-  const dds_entity_t st_reader = dds_create_reader(pp, t_state, q, nullptr);
-  dds_delete_qos(q);
+  const dds_entity_t ev_reader = needle_event_reader(client.participant());
+  const dds_entity_t st_reader = rigid_state_reader(client.participant());
   ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }));
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the readers matched
   client.control(stroma_RESUME);
