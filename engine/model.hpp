@@ -147,6 +147,10 @@ struct ModelTopology {
   /// Needles in a cut model: each element copy's next twin (WalkMesh::next_twin: the copies of
   /// one tetrahedron in a cycle). Empty when element_plane_begin is.
   std::vector<int32_t> element_next_twin;
+  /// The tissue's positions at t = 0 where they are not its rest positions (a body with
+  /// `prestretch`, docs/TISSUE.md: its mesh, the rest shape shrunk from it); empty: at rest.
+  /// A cut model's is empty (a state is carried onto it, never started on it).
+  std::vector<double> initial_x;
   /// Needles: per collision triangle, the element it is a face of (where a puncture's walk starts).
   std::vector<int32_t> collision_tri_elem;
 

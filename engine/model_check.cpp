@@ -89,6 +89,7 @@ bool model_invariants_hold(const Model& m, std::string* why) {
             (m.topology == nullptr || m.topology->copies[size_t(m.element_next_twin[e])].tet == m.topology->copies[e].tet),
         "needles: an element's next twin is a copy of its tetrahedron");
   }
+  c(m.initial_x.empty() || m.initial_x.size() == f.rest.size(), "initial_x empty or 3 per node");
   c(m.body_damage.size() == f.bodies.size(), "one damage model per body");
   c(m.element_region_damage.empty() || m.element_region_damage.size() == ne,
     "element_region_damage empty or per element");

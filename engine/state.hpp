@@ -44,6 +44,7 @@ struct State {
   static State initial(const Model& m) {
     State s;
     s.tissue = TissueState::at_rest(m.fem);
+    if (!m.initial_x.empty()) s.tissue.x = m.initial_x;  // a prestretched body starts as its mesh
     // A refreshed warped factor keeps its systems in the state (SolverHistory): sized here, so
     // the tick that hands one over copies into room it has. (-1: `auto` not resolved yet — a
     // model not made by compile_scenario; TimeStepper::prepare resolves it to a period.)

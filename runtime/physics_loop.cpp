@@ -32,7 +32,8 @@ StateFrame frame_for(const Model& m) {
   const size_t nodes = static_cast<size_t>(m.fem.num_nodes);
   const size_t dofs = m.cutting ? nodes + 16 * tets : nodes;
   f.x.assign(3 * dofs, 0.0);
-  std::copy(m.fem.rest.begin(), m.fem.rest.end(), f.x.begin());
+  const std::vector<double>& x0 = m.initial_x.empty() ? m.fem.rest : m.initial_x;
+  std::copy(x0.begin(), x0.end(), f.x.begin());
   f.dofs = nodes;
   if (m.has_damage) f.damage.assign(m.cutting ? 4 * tets : tets, 0.0f);
   f.elements = m.has_damage ? tets : 0;

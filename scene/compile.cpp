@@ -354,7 +354,10 @@ void apply_fibres(const BodySpec& b, const PreparedMesh& pm, const std::string& 
 }
 
 /// Materials, constraints and loads of each body, validated against its mesh, as FEM inputs.
-std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes) {
+/// `meshes` are the bodies as they are (selections are made on them); `rest_meshes` their rest
+/// shapes (the same but for a prestretched body's nodes), which the FEM is built on.
+std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes,
+                                      const std::vector<PreparedMesh>& rest_meshes) {
   std::vector<FemBodyInput> inputs;
   for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
     const BodySpec& b = spec.bodies[bi];
@@ -417,7 +420,7 @@ std::vector<FemBodyInput> body_inputs(const ScenarioSpec& spec, const std::vecto
       in.locking_free_patch = lf->patch_elements;
       in.locking_free_bulk = lf->element_bulk;
     }
-    in.mesh = &pm;
+    in.mesh = &rest_meshes[bi];
     apply_regions(b, pm, field, in);
     apply_fibres(b, pm, field, in);
     for (size_t k = 0; k < b.fixed.size(); ++k) {
@@ -785,6 +788,20 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
   model->time_budget = s.time_budget;
 
   const std::vector<PreparedMesh> meshes = load_meshes(spec, out.notes);
+  // Prestretch (docs/TISSUE.md): the mesh is the body as it is; its rest shape is the mesh shrunk
+  // by 1/s per axis about its centroid (an affine map: a point's barycentric weights, the visual
+  // mesh's and the probes', are the same in both), and the state starts as the mesh.
+  std::vector<PreparedMesh> rest_meshes = meshes;
+  std::vector<Vec3> stretch_centre(spec.bodies.size(), Vec3{0, 0, 0});
+  for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
+    const Vec3& s = spec.bodies[bi].prestretch;
+    if (s[0] == 1 && s[1] == 1 && s[2] == 1) continue;
+    Vec3& c = stretch_centre[bi];
+    for (const Vec3& p : meshes[bi].mesh.nodes)
+      for (int k = 0; k < 3; ++k) c[k] += p[k] / static_cast<double>(meshes[bi].mesh.nodes.size());
+    for (Vec3& p : rest_meshes[bi].mesh.nodes)
+      for (int k = 0; k < 3; ++k) p[k] = c[k] + (p[k] - c[k]) / s[k];
+  }
   try {
     // Locking-free node domains: matrix-free under CG, assembled (two-ring) for CHOLMOD.
     // Element patches are always assembled: their pattern grows little, and the warped
@@ -792,7 +809,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
     bool patches = false;
     for (const BodySpec& b : spec.bodies)
       patches = patches || (b.material.locking_free && b.material.locking_free->patch_elements > 0);
-    model->fem = build_fem_model(body_inputs(spec, meshes), spec.gravity,
+    model->fem = build_fem_model(body_inputs(spec, meshes, rest_meshes), spec.gravity,
                                  spec.solver.linear_solver == LinearSolverKind::CG && !patches);
   } catch (const std::invalid_argument& e) {  // a mesh the locking-free smoothing cannot take
     const BodySpec* lf = nullptr;
@@ -801,6 +818,14 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
     if (!lf) throw;
     throw InputError(lf->material.locking_free->where.file, lf->material.locking_free->where.line,
                      "material.locking_free", e.what());
+  }
+  for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {  // a prestretched body starts as its mesh
+    const Vec3& s = spec.bodies[bi].prestretch;
+    if (s[0] == 1 && s[1] == 1 && s[2] == 1) continue;
+    if (model->initial_x.empty()) model->initial_x = model->fem.rest;
+    const Vec3& c = stretch_centre[bi];
+    for (int32_t n = model->fem.bodies[bi].node_begin; n < model->fem.bodies[bi].node_end; ++n)
+      for (int k = 0; k < 3; ++k) model->initial_x[size_t(3 * n + k)] = c[k] + s[k] * (model->fem.rest[size_t(3 * n + k)] - c[k]);
   }
   model->max_step_displacement = 0.5 * bounding_box(model->fem.rest.data(), model->fem.rest.size() / 3).diagonal();
   model->substep_on_cg_cap = resolved_substep_on_cg_cap(s.on_cg_cap, s.integrator, energy_guard_applies(model->fem));

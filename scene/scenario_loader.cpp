@@ -516,6 +516,20 @@ BodySpec parse_body(const MapReader& m, const Context& ctx) {
     if (!(std::fabs(b.translate[k]) <= 1e9))
       m.req("translate").fail(fmt::format("translate component {} = {} is out of range: must be within +-1e9", k,
                                           format_number(b.translate[k])));
+  if (const auto f = m.opt("prestretch")) {
+    if (f->yaml().IsSequence()) {
+      f->get(b.prestretch);
+    } else {
+      double s = 1;
+      f->get(s);
+      b.prestretch = {s, s, s};
+    }
+    for (int k = 0; k < 3; ++k)
+      if (!(b.prestretch[k] >= 0.5 && b.prestretch[k] <= 2.0))
+        f->fail(fmt::format("prestretch {} = {} is out of range: the mesh's stretch over the body's rest shape, "
+                            "0.5 to 2 (1: the mesh is at rest; a number, or [sx, sy, sz])",
+                            "xyz"[k], format_number(b.prestretch[k])));
+  }
   b.material = parse_material(m.req("material"));
   for (const auto& item : m.list("fixed")) b.fixed.push_back(parse_fixed(item));
   for (const auto& item : m.list("loads")) b.loads.push_back(parse_load(item));
@@ -877,7 +891,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   std::map<std::string, int> body_names;
   for (const auto& item : body_items) {
     const MapReader bm =
-        item.map({"name", "mesh", "scale", "translate", "material", "regions", "fixed", "loads", "visual"});
+        item.map({"name", "mesh", "scale", "translate", "prestretch", "material", "regions", "fixed", "loads", "visual"});
     s.bodies.push_back(parse_body(bm, ctx));
     check_unique_name(body_names, s.bodies.back().name, bm.req("name"), "body");
   }

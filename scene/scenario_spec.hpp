@@ -256,6 +256,10 @@ struct BodySpec {
   SourceLocation mesh_where;  ///< where `mesh:` is in the scenario file
   double scale = 1.0;      ///< multiplies node coordinates as read (unit conversion)
   Vec3 translate{0, 0, 0}; ///< added to the coordinates after scaling (placing a body)
+  /// The mesh's stretch over the body's rest shape along x, y, z (docs/TISSUE.md, "Prestretch"):
+  /// the mesh is the tissue as it is, under tension (> 1) or compression (< 1); its rest shape
+  /// is the mesh shrunk by 1/s about the body's centroid. {1, 1, 1}: the mesh is at rest.
+  Vec3 prestretch{1, 1, 1};
   MaterialSpec material;
   std::vector<NodeSelection> fixed;
   std::vector<NodalLoadSpec> loads;
