@@ -10,6 +10,7 @@
 #include "engine/tick.hpp"
 #include "runtime/headless_runner.hpp"
 #include "scene/compiled_scenario.hpp"
+#include "tests/test_labels.hpp"
 #include "tests/test_scenarios.hpp"
 
 using namespace stroma;
@@ -84,6 +85,7 @@ TEST(Damage, VonMisesMeasureOfUniaxialStrainIsExact) {
 // Rupture under a probe pressing hard: elements soften and break, the solve stays convergent
 // and finite, and the energy stays bounded.
 TEST(Damage, RuptureKeepsTheSimulationStableAndConvergent) {
+  STROMA_LONG_TEST();  // 13 s under the sanitizers; they run rupture's faces in the test below
   ScenarioSpec spec = load_scenario(kDir + "liver.yaml");
   spec.tools.at(0).spec.timeout = 100;
   spec.tools.at(0).spec.max_speed = 1e3;

@@ -55,6 +55,7 @@ double extent(const std::vector<double>& x, int k) {
 // tetrahedron back to its rest length (a rigid motion aside) — and its centre of mass stays
 // where it was (the stretch's forces sum to zero).
 TEST(Prestretch, AFreeBodyStartsAsItsMeshAndRelaxesToItsRestShape) {
+  STROMA_LONG_TEST();  // 22 s under the sanitizers (1.5 s of the block to 1e-10); they run the held bar
   std::shared_ptr<const Model> m = compile_model(parse_scenario(cube_yaml("[1.1, 1, 0.95]"), "cube.yaml", kSrc));
   std::string why;
   ASSERT_TRUE(model_invariants_hold(*m, &why)) << why;
@@ -136,6 +137,7 @@ TEST(Prestretch, ABodyHeldAtBothEndsKeepsItsLength) {
 // from the other, whatever the cut surface's shape — the lips part by L (1 − 1/s) = 2.38 mm.
 // (Exactly: every material DOF is there to round-off.)
 TEST(Prestretch, ACutAcrossABodyUnderTensionGapesByItsRetraction) {
+  STROMA_LONG_TEST();  // 24 s under the sanitizers; they run the cut swap in the cut and needle tests
   const std::string fixed_and_scalpel = R"(    fixed:
       - box: {min: [-1, -1, -1], max: [1.0e-9, 1, 1]}
       - box: {min: [0.0499999, -1, -1], max: [1, 1, 1]}
