@@ -461,7 +461,8 @@ WaitResult wait_for_server(Follower& f, const sigset_t& stop_signals) {
   int64_t last_note = wait_start;
   spdlog::info("waiting for a server on DDS domain {} ...", f.o.domain);
   // Recording starts with the first state: before it only the rest shape is known, not the
-  // shape the tissue has now. A paused server sends no states: then after 2 s the rest shape.
+  // shape the tissue has now. A paused server sends its state once (a multirate one none: then
+  // after 2 s the rest shape).
   int64_t mesh_time = 0;
   while (true) {
     poll(f);

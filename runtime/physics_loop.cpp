@@ -54,6 +54,7 @@ PhysicsLoop::PhysicsLoop(std::shared_ptr<const Model> model, PhysicsLoopOptions 
       // The tissue of a multirate model steps on the Simulation's worker (MultirateWorker).
       sim_(std::move(model), SimulationOptions{CutBuilds::OnWorker, ToolHold::Timeout, true, &cut_models, true, true}) {
   multirate_ = sim_.multirate() != nullptr;
+  idle_report_.tools.resize(sim_.model().tools.size());
 }
 
 void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& shutdown) {
@@ -75,6 +76,7 @@ void PhysicsLoop::handle_controls(RunState& rs, uint32_t& steps_pending, bool& s
           break;
         }
         if (version != sim_.model().topology_version) publish_topology_event();
+        frame_due_ = true;
         log(se);
         break;
       }
@@ -115,6 +117,7 @@ void PhysicsLoop::publish_feedback(const TickReport& r) {
 void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, const TickReport& body_report,
                                       uint64_t frame) {
   StateFrame& f = state_out.write_slot();
+  frame_due_ = false;
   f.frame = frame;
   f.sim_time = tissue.time;
   // The positions and damage in the ticking model's layout (a cut model's DOFs and element
@@ -333,6 +336,7 @@ void PhysicsLoop::multirate_step_done(const TickReport& step, const State& tissu
 void PhysicsLoop::service_cuts(int cut_edges) {
   if (reset_pending_ && sim_.reset()) {
     reset_pending_ = false;
+    frame_due_ = true;
     publish_topology_event();  // (pending only when a cut model was ticking)
     SessionEvent se;  // the Reset takes effect now: the log says so at this tick
     se.kind = SessionEvent::Reset;
@@ -403,6 +407,7 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
     int64_t shift = 0;  // the phase lock's move of the next deadline
     if (do_tick) {
       if (rs != RunState::Running) --steps_pending;
+      frame_due_ = true;  // (a frame published below clears it)
       // The engine's work must end a margin before the next deadline, counted from this tick's
       // scheduled start (a late wake-up eats into it).
       Deadline budget;
@@ -438,8 +443,12 @@ void PhysicsLoop::run(const std::atomic<bool>& stop) {
       const int64_t handoff = steady_now_ns() - h0;
       stats_.stage_ns_total[static_cast<int>(Stage::HandOff)] += handoff;
       win.stage_ns[static_cast<int>(Stage::HandOff)] += handoff;
-    } else if (sim_.cutter()) {
-      service_cuts(0);  // paused: a finished build is still swapped in, a pending Reset done
+    } else {
+      if (sim_.cutter()) service_cuts(0);  // paused: a finished build is still swapped in, a pending Reset done
+      // Paused: the state as it is, once, to a subscriber (the multirate worker's tissue state
+      // is published by its finished steps only).
+      if (frame_due_ && !multirate_ && !reset_pending_ && state_wanted.load(std::memory_order_relaxed))
+        publish_state_frame(idle_report_, sim_.state(), idle_report_, ++frame);
     }
     const int64_t done = steady_now_ns();
     const int64_t busy = done - wake;

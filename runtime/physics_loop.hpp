@@ -284,6 +284,14 @@ class PhysicsLoop {
   // (engine/multirate_worker.hpp); the physics thread renders the tools every tick.
   bool multirate_ = false;
   uint64_t ticks_since_frame_ = 0;  ///< ticks since the last state frame of a finished step
+  /// The state changed since the last state frame (at start, after ticks, after a Reset): a
+  /// paused loop publishes it once to a subscriber, so a paused server's state — its initial
+  /// state (a prestretched body's mesh, not its rest shape), or where a Reset or steps left it —
+  /// is seen without a tick.
+  bool frame_due_ = true;
+  /// The report a paused loop's state frame carries (no tick ran: no contacts, zero feedback),
+  /// sized for the model's tools at construction so publishing it never allocates.
+  TickReport idle_report_;
 };
 
 }  // namespace stroma

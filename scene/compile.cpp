@@ -792,11 +792,10 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
   // by 1/s per axis about its centroid (an affine map: a point's barycentric weights, the visual
   // mesh's and the probes', are the same in both), and the state starts as the mesh.
   std::vector<PreparedMesh> rest_meshes = meshes;
-  std::vector<Vec3> stretch_centre(spec.bodies.size(), Vec3{0, 0, 0});
   for (size_t bi = 0; bi < spec.bodies.size(); ++bi) {
     const Vec3& s = spec.bodies[bi].prestretch;
     if (s[0] == 1 && s[1] == 1 && s[2] == 1) continue;
-    Vec3& c = stretch_centre[bi];
+    Vec3 c{0, 0, 0};
     for (const Vec3& p : meshes[bi].mesh.nodes)
       for (int k = 0; k < 3; ++k) c[k] += p[k] / static_cast<double>(meshes[bi].mesh.nodes.size());
     for (Vec3& p : rest_meshes[bi].mesh.nodes)
@@ -823,9 +822,14 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
     const Vec3& s = spec.bodies[bi].prestretch;
     if (s[0] == 1 && s[1] == 1 && s[2] == 1) continue;
     if (model->initial_x.empty()) model->initial_x = model->fem.rest;
-    const Vec3& c = stretch_centre[bi];
-    for (int32_t n = model->fem.bodies[bi].node_begin; n < model->fem.bodies[bi].node_end; ++n)
-      for (int k = 0; k < 3; ++k) model->initial_x[size_t(3 * n + k)] = c[k] + s[k] * (model->fem.rest[size_t(3 * n + k)] - c[k]);
+    // The mesh's nodes themselves (the FEM keeps each body's node order), not the rest shape
+    // stretched back: that differs from the mesh by round-off.
+    const std::vector<Vec3>& nodes = meshes[bi].mesh.nodes;
+    const int32_t begin = model->fem.bodies[bi].node_begin;
+    STROMA_DEMAND(static_cast<size_t>(model->fem.bodies[bi].node_end - begin) == nodes.size(),
+                  "a body's FEM nodes are its mesh's, in order");
+    for (size_t i = 0; i < nodes.size(); ++i)
+      for (int k = 0; k < 3; ++k) model->initial_x[3 * (size_t(begin) + i) + size_t(k)] = nodes[i][k];
   }
   model->max_step_displacement = 0.5 * bounding_box(model->fem.rest.data(), model->fem.rest.size() / 3).diagonal();
   model->substep_on_cg_cap = resolved_substep_on_cg_cap(s.on_cg_cap, s.integrator, energy_guard_applies(model->fem));

@@ -243,6 +243,35 @@ def test_a_scenario_from_a_dict_equals_the_same_file(tmp_path):
     assert "<dict>:" in str(e.value) and "young" in str(e.value).lower()
 
 
+def test_a_prestretched_body_starts_as_its_mesh_and_a_reset_returns_to_it():
+    """docs/TISSUE.md, "Prestretch": the mesh is the tissue under tension; the state starts as the
+    mesh (not the rest shape), the fixed boxes hold it there, the free faces neck in, and a reset
+    returns to the mesh. The mesh's nodes are read from the same body without prestretch."""
+    def bar(prestretch=None):
+        body = {"name": "skin", "mesh": "meshes/cube_tet4_h8p333mm.msh",
+                "material": {"young_modulus": 3.0e4, "poisson_ratio": 0.45, "density": 1000, "rayleigh_mass": 30},
+                "fixed": [{"box": {"min": [-1, -1, -1], "max": [1.0e-9, 1, 1]}},
+                          {"box": {"min": [0.0499999, -1, -1], "max": [1, 1, 1]}}]}
+        if prestretch is not None:
+            body["prestretch"] = prestretch
+        return {"name": "bar", "time_step": 0.001, "gravity": [0, 0, 0], "bodies": [body]}
+    mesh = stroma.simulation_from_dict(bar(), SCENARIOS).positions.copy()
+    sim = stroma.simulation_from_dict(bar([1.05, 1, 1]), SCENARIOS)
+    assert np.array_equal(sim.positions, mesh), "the first state is the mesh"
+    sim.step(300)
+    x = sim.positions
+    assert x[:, 0].min() == 0 and x[:, 0].max() == 0.05, "held at both ends where the mesh has them"
+    mid = x[np.abs(x[:, 0] - 0.025) < 0.005]
+    extent = mid.max(axis=0) - mid.min(axis=0)
+    assert extent[1] < 0.05 - 1e-4 and extent[2] < 0.05 - 1e-4, "the free faces neck in under the tension"
+    sim.reset()
+    assert np.array_equal(sim.positions, mesh), "a reset returns to the mesh, not the rest shape"
+    assert np.array_equal(stroma.simulation_from_dict(bar(1.05), SCENARIOS).positions, mesh), "a number: every axis"
+    with pytest.raises(ValueError) as e:
+        stroma.simulation_from_dict(bar([1.05, 3, 1]), SCENARIOS)
+    assert "<dict>:" in str(e.value) and "prestretch" in str(e.value)
+
+
 def json_as_yaml(scenario, base_dir):
     """The scenario as a YAML file elsewhere: JSON is YAML; the mesh path made absolute."""
     import copy

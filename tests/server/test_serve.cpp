@@ -1094,6 +1094,120 @@ TEST(Serve, TwoNeedlesDrivenByTwoClientsEachPunctureExitAndLeave) {
   EXPECT_EQ(server.wait_exit(15), 0);
 }
 
+namespace {
+/// Bounding box of 3-float points (of those with x in [x0, x1]): min x, y, z then max x, y, z.
+std::array<double, 6> bounds(const float* p, uint32_t n, double x0 = -1e30, double x1 = 1e30) {
+  std::array<double, 6> b{1e30, 1e30, 1e30, -1e30, -1e30, -1e30};
+  for (uint32_t i = 0; i + 2 < n; i += 3)
+    for (int k = 0; k < 3; ++k) {
+      if (p[i] < x0 || p[i] > x1) break;
+      b[size_t(k)] = std::min(b[size_t(k)], double(p[i + size_t(k)]));
+      b[size_t(k) + 3] = std::max(b[size_t(k) + 3], double(p[i + size_t(k)]));
+    }
+  return b;
+}
+
+/// A prestretched body served (docs/TISSUE.md, "Prestretch"): scenarios/prestretched_bar.yaml, a
+/// 50 mm cube whose mesh is stretched 5 % along x over its rest shape, held at both ends. The
+/// TissueMesh's rest positions are the rest shape (50/1.05 mm along x); the state — the first
+/// frame of a paused server, the frames while it runs, the frame after a Reset — is the mesh
+/// (50 mm along x, held there).
+void prestretch_over_dds(int domain, bool crtk) {
+  std::vector<std::string> args = {STROMA_BINARY, "serve", std::string(STROMA_SOURCE_DIR) + "/scenarios/prestretched_bar.yaml",
+                                   "--domain", std::to_string(domain), "--realtime", "off", "--duration", "60", "--paused"};
+  if (crtk) args.push_back("--crtk");
+  Process server(args);
+  Client client(domain);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }));
+  const dds_entity_t pp = client.participant();
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t mesh_reader =
+      dds_create_reader(pp, dds_create_topic(pp, &stroma_TissueMesh_desc, "stroma_TissueMesh", nullptr, nullptr), q, nullptr);
+  dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
+  const dds_entity_t state_reader =
+      dds_create_reader(pp, dds_create_topic(pp, &stroma_TissueState_desc, "stroma_TissueState", nullptr, nullptr), q, nullptr);
+  dds_delete_qos(q);
+
+  const double L = 0.05, s = 1.05;
+  std::array<double, 6> rest{};
+  bool have_mesh = false;
+  for (auto end = Clock::now() + std::chrono::seconds(10); !have_mesh && Clock::now() < end;) {
+    void* samples[1] = {nullptr};
+    dds_sample_info_t info;
+    if (dds_take(mesh_reader, samples, &info, 1, 1) > 0) {
+      const auto* m = static_cast<const stroma_TissueMesh*>(samples[0]);
+      if (info.valid_data) {
+        rest = bounds(m->rest_positions._buffer, m->rest_positions._length);
+        have_mesh = true;
+      }
+      dds_return_loan(mesh_reader, samples, 1);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(have_mesh);
+  EXPECT_NEAR(rest[3] - rest[0], L / s, 1e-6) << "rest positions: the rest shape, shrunk along x";
+  EXPECT_NEAR(rest[4] - rest[1], L, 1e-6);
+  EXPECT_NEAR(rest[5] - rest[2], L, 1e-6);
+
+  // The newest state frame satisfying `pred` within `seconds`; its bounds and sim time.
+  // (mid: of the vertices within 5 mm of mid-length, where the bar necks; its ends are held.)
+  auto state = [&](double seconds, const std::function<bool(double)>& pred, std::array<double, 6>* b, double* t,
+                   std::array<double, 6>* mid) {
+    for (auto end = Clock::now() + std::chrono::duration<double>(seconds); Clock::now() < end;) {
+      void* samples[1] = {nullptr};
+      dds_sample_info_t info;
+      bool ok = false;
+      if (dds_take(state_reader, samples, &info, 1, 1) > 0) {
+        const auto* st = static_cast<const stroma_TissueState*>(samples[0]);
+        if (info.valid_data && st->positions._length > 0 && pred(st->sim_time)) {
+          *b = bounds(st->positions._buffer, st->positions._length);
+          *mid = bounds(st->positions._buffer, st->positions._length, L / 2 - 0.005, L / 2 + 0.005);
+          *t = st->sim_time;
+          ok = true;
+        }
+        dds_return_loan(state_reader, samples, 1);
+      }
+      if (ok) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return false;
+  };
+  auto is_mesh = [&](const std::array<double, 6>& b, const char* when) {
+    EXPECT_NEAR(b[0], 0.0, 1e-6) << when << ": held at x = 0";
+    EXPECT_NEAR(b[3], L, 1e-6) << when << ": held at x = 50 mm, the mesh's length";
+  };
+  std::array<double, 6> b{}, mid{};
+  double t = -1;
+  ASSERT_TRUE(state(10, [](double) { return true; }, &b, &t, &mid)) << "a paused server publishes its state once";
+  EXPECT_EQ(t, 0.0);
+  is_mesh(b, "first frame (paused)");
+  EXPECT_NEAR(mid[4] - mid[1], L, 1e-6) << "the first frame is the mesh: no necking yet";
+  EXPECT_NEAR(mid[5] - mid[2], L, 1e-6);
+
+  client.control(stroma_RESUME);
+  ASSERT_TRUE(state(15, [](double time) { return time > 0.2; }, &b, &t, &mid)) << "frames while running";
+  is_mesh(b, "running");
+  EXPECT_LT(mid[4] - mid[1], L - 1e-4) << "the free faces neck in under the tension";
+  EXPECT_LT(mid[5] - mid[2], L - 1e-4);
+
+  client.control(stroma_PAUSE);
+  ASSERT_TRUE(client.wait_status(5, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }));
+  client.control(stroma_RESET);
+  ASSERT_TRUE(state(10, [](double time) { return time == 0.0; }, &b, &t, &mid))
+      << "a Reset while paused publishes the initial state";
+  is_mesh(b, "after a Reset");
+  EXPECT_NEAR(mid[4] - mid[1], L, 1e-6) << "after a Reset: the mesh again";
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+}  // namespace
+
+TEST(Serve, APrestretchedBodyIsPublishedAsItsMeshFromTheFirstFrame) { prestretch_over_dds(192, false); }
+TEST(Serve, APrestretchedBodyIsPublishedAsItsMeshFromTheFirstFrameWithCrtk) { prestretch_over_dds(193, true); }
 TEST(Serve, RigidBodiesAndNeedleEventsArePublished) { needle_over_dds(183, false); }
 TEST(Serve, ANeedleThroughAnIncisionBitesBothLips) { needle_through_incision_over_dds(188, false); }
 TEST(Serve, ANeedleThroughAnIncisionBitesBothLipsWithCrtk) { needle_through_incision_over_dds(189, true); }
