@@ -16,7 +16,8 @@ Usage: scripts/suture_trajectories.py   (rewrites both files; no arguments)
 import math
 import os
 
-XC, YC, ZC = -0.015, 0.135, 0.0125  # the arc's centre when in place (above the incision's middle)
+XC, YC, ZC = -0.015, 0.129, 0.0125  # the arc's centre when in place (above the incision's middle, 7 mm
+                                     # over the prestretched surface as it settles)
 R = 0.015                            # the needle's arc radius (m)
 JAW = 0.005                          # the jaws' centre from the grasper's position, along its axis
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenarios", "trajectories")
