@@ -60,6 +60,20 @@ bool model_invariants_hold(const Model& m, std::string* why) {
     c(e.volume > 0 && e.lambda >= 0 && e.mu >= 0 && e.beta >= 0, "elements: volume > 0, lambda, mu, beta >= 0");
     if (!c.ok) break;
   }
+  // Rods (tissue/rod.hpp): after the bodies' nodes, in order, each with its slots.
+  int32_t rod_next = f.bodies.empty() ? 0 : f.bodies.back().node_end;
+  size_t rod_slots = 0;
+  for (const RodRange& r : f.rods) {
+    c(r.node_begin == rod_next && r.nodes() >= 3 && static_cast<size_t>(r.node_end) <= n,
+      "rod '" + r.name + "': three nodes or more, after the bodies' and the rods' before it");
+    c(r.segment_length > 0 && r.stretch_stiffness > 0 && r.bend_stiffness >= 0 && r.beta >= 0,
+      "rod '" + r.name + "': segment length and stretch stiffness > 0, bend stiffness and beta >= 0");
+    c(r.slot_begin == static_cast<int32_t>(rod_slots), "rod '" + r.name + "': its slots follow the rods' before it");
+    rod_slots += static_cast<size_t>(3 * r.segments() + 6 * (r.nodes() - 2));
+    rod_next = r.node_end;
+  }
+  c(f.rod_slots.size() == rod_slots, "fem.rod_slots: 3 per segment and 6 per interior node of every rod");
+  for (const int32_t slot : f.rod_slots) c(slot >= 0 && slot < f.pattern.nnzb(), "a rod's slots are in the pattern");
   c(m.time_step > 0 && m.fem_every >= 1, "time_step > 0, fem_every >= 1");
   c(m.max_step_displacement > 0, "max_step_displacement > 0");
   bool shaped = false;

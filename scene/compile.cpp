@@ -746,6 +746,45 @@ void check_multirate(const ScenarioSpec& spec) {
                        s.fem_every, t.spec.name));
 }
 
+/// Each thread as a rod's FEM input (tissue/rod.hpp): its nodes straight from start along its
+/// direction, or at equal arc length along its path; its end nodes fixed as it says.
+std::vector<FemRodInput> thread_inputs(const ScenarioSpec& spec) {
+  std::vector<FemRodInput> out;
+  for (const ThreadSpec& t : spec.threads) {
+    FemRodInput r;
+    r.name = t.name;
+    r.segment_length = t.length / t.segments;
+    r.young_modulus = t.young_modulus;
+    r.diameter = t.diameter;
+    r.density = t.density;
+    r.rayleigh_mass = t.rayleigh_mass;
+    r.rayleigh_stiffness = t.rayleigh_stiffness;
+    size_t leg = 0;       // the path's segment the next node is on
+    double leg_start = 0;  // arc length at the start of that leg
+    for (int i = 0; i <= t.segments; ++i) {
+      const double sl = t.length * i / t.segments;
+      Vec3 p;
+      if (t.path.empty()) {
+        for (int k = 0; k < 3; ++k) p[k] = t.start[k] + sl * t.direction[k];
+      } else {
+        auto leg_length = [&](size_t j) {
+          const Vec3 &a = t.path[j], &b = t.path[j + 1];
+          return std::sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) + (b[2] - a[2]) * (b[2] - a[2]));
+        };
+        while (leg + 2 < t.path.size() && sl > leg_start + leg_length(leg)) leg_start += leg_length(leg++);
+        const double ll = leg_length(leg);
+        const double u = ll > 0 ? std::clamp((sl - leg_start) / ll, 0.0, 1.0) : 0.0;
+        for (int k = 0; k < 3; ++k) p[k] = t.path[leg][k] + u * (t.path[leg + 1][k] - t.path[leg][k]);
+      }
+      r.nodes.push_back(p);
+    }
+    if (t.fix_first) r.fixed.push_back({0, 7});
+    if (t.fix_last) r.fixed.push_back({t.segments, 7});
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
 /// A cutting blade needs ticks (a static run has no sweep between them) and, for now, the
 /// tissue stepped every tick (a multirate haptic model would outlive the topology it came from).
 void check_cutting(const ScenarioSpec& spec) {
@@ -761,6 +800,11 @@ void check_cutting(const ScenarioSpec& spec) {
       throw InputError(t.where.file, t.where.line, field,
                        fmt::format("cutting with solver.fem_every {} is not supported yet (use fem_every 1)",
                                    spec.solver.fem_every));
+    if (!spec.threads.empty())
+      throw InputError(t.where.file, t.where.line, field,
+                       fmt::format("cutting in a scenario with threads is not supported yet (threads[0] '{}'): a cut "
+                                   "model is rebuilt from the tetrahedra alone",
+                                   spec.threads[0].name));
   }
 }
 
@@ -809,7 +853,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
     for (const BodySpec& b : spec.bodies)
       patches = patches || (b.material.locking_free && b.material.locking_free->patch_elements > 0);
     model->fem = build_fem_model(body_inputs(spec, meshes, rest_meshes), spec.gravity,
-                                 spec.solver.linear_solver == LinearSolverKind::CG && !patches);
+                                 spec.solver.linear_solver == LinearSolverKind::CG && !patches, thread_inputs(spec));
   } catch (const std::invalid_argument& e) {  // a mesh the locking-free smoothing cannot take
     const BodySpec* lf = nullptr;
     for (const BodySpec& b : spec.bodies)

@@ -870,6 +870,71 @@ RigidBodySpec parse_rigid_body(const MapReader& m, const Context& ctx) {
   return r;
 }
 
+ThreadSpec parse_thread(const MapReader& m, const Context& ctx) {
+  ThreadSpec t;
+  t.where = {ctx.file, m.line()};
+  m.require("name", t.name);
+  m.require("length", t.length, physical_range(1e-4, 10, "m: a suture is ~0.1..0.75 m long"));
+  {
+    const Field f = m.req("segments");
+    t.segments = f.integer<int>();
+    if (t.segments < 2) f.fail("a thread needs at least 2 segments (its bending acts at the nodes between them), got " + std::to_string(t.segments));
+    if (t.segments > 100000) f.fail("at most 100000 segments, got " + std::to_string(t.segments));
+  }
+  m.require("diameter", t.diameter,
+            physical_range(1e-6, 0.01, "m: USP 3-0 suture is 0.2..0.25 mm, 5-0 0.1 mm, 0 0.35..0.4 mm"));
+  m.require("young_modulus", t.young_modulus,
+            physical_range(1e3, 1e12, "Pa: polyglactin and nylon sutures are ~1..10 GPa, silk ~5..10 GPa"));
+  m.require("density", t.density, physical_range(1, 1e5, "kg/m^3: sutures are ~1000..1500"));
+  const double seg = t.length / t.segments;
+  if (seg > kThreadMaxSegmentRatio * t.diameter)
+    m.req("segments").fail(fmt::format(
+        "segments of {} m are {} diameters long; at most {}: beyond, the bending stiffness E*I/l^3 is below "
+        "{:.1e} of the stretching stiffness E*A/l (their ratio is d^2 / (16 l^2)), under what the step's solves "
+        "resolve — use at least {} segments",
+        format_number(seg), format_number(seg / t.diameter), format_number(kThreadMaxSegmentRatio),
+        1.0 / (16 * kThreadMaxSegmentRatio * kThreadMaxSegmentRatio),
+        static_cast<long>(std::ceil(t.length / (kThreadMaxSegmentRatio * t.diameter)))));
+  const auto path = m.opt("path");
+  if (path) {
+    if (m.opt("start") || m.opt("direction")) path->fail("a thread starts straight (start, direction) or along a path, not both");
+    const std::vector<Field> pts = path->list();
+    if (pts.size() < 2) path->fail("a path needs at least 2 points, got " + std::to_string(pts.size()));
+    double len = 0;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      t.path.push_back(pts[i].vec3());
+      if (i > 0) {
+        const Vec3 &a = t.path[i - 1], &b = t.path[i];
+        len += std::sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) + (b[2] - a[2]) * (b[2] - a[2]));
+      }
+    }
+    if (std::abs(len - t.length) > 1e-6)
+      path->fail(fmt::format("the path is {} m long, the thread {} m: they must agree (within 1e-6 m)",
+                             format_number(len), format_number(t.length)));
+  } else {
+    m.require("start", t.start);
+    if (auto f = m.opt("direction")) {
+      const Vec3 d = f->vec3();
+      const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      if (!(len > 1e-12) || !std::isfinite(len)) f->fail("the direction must be a finite non-zero vector");
+      for (int k = 0; k < 3; ++k) t.direction[k] = d[k] / len;
+    }
+  }
+  if (auto f = m.opt("damping")) {
+    const MapReader dm = f->map({"rayleigh_mass", "rayleigh_stiffness"});
+    dm.read("rayleigh_mass", t.rayleigh_mass, physical_range(0, 1e6, "1/s"));
+    dm.read("rayleigh_stiffness", t.rayleigh_stiffness, physical_range(0, 10, "s"));
+  }
+  if (auto f = m.opt("fixed"))
+    for (const Field& e : f->list()) {
+      const std::string which = e.string();
+      if (which == "first") t.fix_first = true;
+      else if (which == "last") t.fix_last = true;
+      else e.fail("expected first or last (the thread's end nodes), got " + e.got());
+    }
+  return t;
+}
+
 ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   ScenarioSpec s;
   s.file = ctx.file;
@@ -927,6 +992,17 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
       rm.req("name").fail("'" + s.rigid_bodies.back().name + "' is already the name of a tissue body");
   }
 
+  std::map<std::string, int> thread_names;
+  for (const auto& item : m.list("threads")) {
+    const MapReader tm = item.map({"name", "length", "segments", "diameter", "young_modulus", "density", "start",
+                                   "direction", "path", "damping", "fixed"});
+    s.threads.push_back(parse_thread(tm, ctx));
+    const std::string& name = s.threads.back().name;
+    check_unique_name(thread_names, name, tm.req("name"), "thread");
+    if (body_names.count(name) || rigid_names.count(name))
+      tm.req("name").fail("'" + name + "' is already the name of a tissue or rigid body");
+  }
+
   if (auto f = m.opt("body_contact")) {
     if (s.bodies.size() < 2) f->fail("body_contact needs at least two bodies (this scenario has one)");
     s.body_contact = parse_body_contact(*f);
@@ -948,7 +1024,7 @@ ScenarioSpec parse_scenario(const std::string& yaml_text, const std::string& fil
   const int root_line = root.Mark().line >= 0 ? root.Mark().line + 1 : 1;
   const Field root_field(&ctx.file, root, "", root_line);
   const MapReader m = root_field.map(
-      {"name", "time_step", "gravity", "solver", "bodies", "probes", "tools", "rigid_bodies", "body_contact", "run",
+      {"name", "time_step", "gravity", "solver", "bodies", "probes", "tools", "rigid_bodies", "threads", "body_contact", "run",
        "check", "render"});
   return parse_root(m, ctx);
 }

@@ -354,6 +354,27 @@ struct RigidBodySpec {
   SourceLocation shape_where;
 };
 
+/// `threads:` entry (issue 43; docs/THREAD.md): a suture thread, a rod of `segments` equal
+/// segments (tissue/rod.hpp), straight from `start` along `direction` or along the polyline
+/// `path` (its nodes at equal arc length on it). Invariants after load: segments ≥ 2; length,
+/// diameter, young_modulus and density > 0; the segment length at most kThreadMaxSegmentRatio
+/// diameters; direction a unit vector; a path's length within 1e-6 of `length`.
+inline constexpr double kThreadMaxSegmentRatio = 100;
+struct ThreadSpec {
+  std::string name;
+  double length = 0;         ///< m, unstretched
+  int segments = 0;          ///< ≥ 2
+  double diameter = 0;       ///< m
+  double young_modulus = 0;  ///< Pa
+  double density = 0;        ///< kg/m³
+  Vec3 start{0, 0, 0};       ///< the first node (world, m)
+  Vec3 direction{1, 0, 0};   ///< unit: straight from start along it (when no path)
+  std::vector<Vec3> path;    ///< ≥ 2 points, its length = `length`; empty: straight
+  double rayleigh_mass = 0, rayleigh_stiffness = 0;
+  bool fix_first = false, fix_last = false;  ///< `fixed: [first, last]`: those nodes do not move
+  SourceLocation where;
+};
+
 /// A whole scenario. Invariants after load_scenario(): time_step > 0; at least one body; names
 /// of bodies, probes and tools unique; paths resolved; every SourceLocation names the line it
 /// came from (0 when the key was absent).
@@ -367,6 +388,7 @@ struct ScenarioSpec {
   std::vector<ProbeSpec> probes;
   std::vector<ToolEntry> tools;
   std::vector<RigidBodySpec> rigid_bodies;
+  std::vector<ThreadSpec> threads;
   std::optional<BodyContactSpec> body_contact;
   RunSpec run;
   CheckSpec check;

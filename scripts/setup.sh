@@ -7,8 +7,8 @@ set -euo pipefail
 PACKAGES=(
   # toolchain
   build-essential cmake ninja-build pkg-config
-  # numerics: Eigen, SuiteSparse (CHOLMOD) with a fast threaded BLAS
-  libeigen3-dev libsuitesparse-dev libopenblas0-pthread
+  # numerics: Eigen, SuiteSparse (CHOLMOD) with a fast threaded BLAS, LAPACK (rods: banded Cholesky)
+  libeigen3-dev libsuitesparse-dev libopenblas0-pthread liblapack-dev
   # scenario files, CLI, logging
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   # SOFA scenes (.scn XML); compressed VTU meshes (zlib)

@@ -1,5 +1,6 @@
 #include "tissue/cg_solver.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "tissue/mat3.hpp"
@@ -30,7 +31,84 @@ void CgSolver::resize(int32_t n) {
   inv_diag_.assign(9 * n, 0.0);
 }
 
+extern "C" {
+// LAPACK's banded Cholesky (Debian's liblapack-dev: the reference LAPACK or OpenBLAS's): factor, solve.
+void dpbtrf_(const char* uplo, const int* n, const int* kd, double* ab, const int* ldab, int* info);
+void dpbtrs_(const char* uplo, const int* n, const int* kd, const int* nrhs, const double* ab, const int* ldab, double* b,
+             const int* ldb, int* info);
+}
+
+namespace {
+constexpr int kRodBand = 8;  ///< scalar bandwidth of a rod's rows: blocks (i, i+2), 3 rows each, less one
+}  // namespace
+
+void CgSolver::set_rods(const BsrPattern& p, const std::vector<RodRange>& rods) {
+  rods_.clear();
+  rod_slot_.clear();
+  size_t band = 0;
+  for (const RodRange& r : rods) {
+    rods_.push_back({r.node_begin, r.nodes(), static_cast<int32_t>(band)});
+    band += static_cast<size_t>(kRodBand + 1) * 3 * static_cast<size_t>(r.nodes());
+    for (int32_t i = r.node_begin; i < r.node_end; ++i)
+      rod_slot_.push_back({p.diag[i], i + 1 < r.node_end ? p.find(i, i + 1) : -1, i + 2 < r.node_end ? p.find(i, i + 2) : -1});
+  }
+  rod_band_.assign(band, 0.0);
+  rod_ok_.assign(rods_.size(), 0);
+}
+
+// Each rod's sub-matrix in LAPACK's lower band storage, ab[(i − j) + j·ldab] = A(i, j) for
+// j ≤ i ≤ j + kd, factored by dpbtrf. Why LAPACK's scalar Cholesky and not a 3×3-block L·D·Lᵀ:
+// a tilted stiff segment makes a node's block nearly singular across its axis (axial h²·EA/ℓ
+// ~0.06 against ~1e-7 of mass and bending), and inverting such blocks by their adjugate lost
+// accuracy that grew along the chain — 0.49 relative error after 75 nodes, where the scalar
+// factor stays at round-off (tests/tissue/test_rod.cpp). A rod whose matrix is not positive
+// definite (it always is: mass, and positive semi-definite stretching and bending) keeps its
+// rows' Jacobi blocks.
+void CgSolver::factor_rod_bands(const double* A, const double* extra_diag) {
+  constexpr int ld = kRodBand + 1;
+  size_t k = 0;  // rod node index (rod_slot_)
+  for (size_t ri = 0; ri < rods_.size(); ++ri) {
+    const auto [begin, count, offset] = rods_[ri];
+    double* ab = rod_band_.data() + offset;
+    const int n = 3 * count;
+    std::fill(ab, ab + static_cast<size_t>(ld) * n, 0.0);
+    for (int32_t a = 0; a < count; ++a, ++k) {
+      for (int off = 0; off < 3; ++off) {
+        const int32_t slot = rod_slot_[k][off];
+        if (slot < 0) continue;
+        const double* B = A + 9 * slot;  // block (a, a + off), upper: A(3a + r, 3(a + off) + c) = B[r][c]
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) {
+            const int row = 3 * (a + off) + c, col = 3 * a + r;  // the lower entry A(row, col) = B[r][c]
+            if (row < col) continue;
+            double v = B[3 * r + c];
+            if (off == 0 && extra_diag) v += extra_diag[9 * (begin + a) + 3 * r + c];
+            ab[(row - col) + col * ld] = v;
+          }
+      }
+    }
+    int info = 0;
+    const int kd = kRodBand;
+    dpbtrf_("L", &n, &kd, ab, &ld, &info);
+    rod_ok_[ri] = info == 0;
+  }
+}
+
+void CgSolver::solve_rod_bands(const double* r, double* z) const {
+  constexpr int ld = kRodBand + 1;
+  for (size_t ri = 0; ri < rods_.size(); ++ri) {
+    if (!rod_ok_[ri]) continue;  // its Jacobi blocks stand
+    const auto [begin, count, offset] = rods_[ri];
+    const int n = 3 * count, kd = kRodBand, one = 1;
+    double* zr = z + 3 * static_cast<size_t>(begin);
+    std::copy(r + 3 * static_cast<size_t>(begin), r + 3 * static_cast<size_t>(begin + count), zr);
+    int info = 0;
+    dpbtrs_("L", &n, &kd, &one, rod_band_.data() + offset, &ld, zr, &n, &info);
+  }
+}
+
 void CgSolver::build_preconditioner(const BsrPattern& p, const double* A, Preconditioner prec, const double* extra_diag) {
+  if (!rods_.empty() && prec != Preconditioner::WarpedCholesky) factor_rod_bands(A, extra_diag);
   if (prec == Preconditioner::Jacobi) {
     for (int32_t i = 0; i < n_; ++i) {
       const double* D = A + 9 * p.diag[i];
@@ -59,6 +137,7 @@ void CgSolver::apply_preconditioner(Preconditioner prec, const double* r, double
   } else {
     for (int32_t i = 0; i < m; ++i) z[i] = r[i];
   }
+  if (!rods_.empty() && prec != Preconditioner::WarpedCholesky) solve_rod_bands(r, z);
 }
 
 SolveStats CgSolver::solve(const BsrPattern& pat, const double* A, const double* b, double* x,

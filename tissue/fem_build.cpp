@@ -106,6 +106,45 @@ void add_body(FemModel& m, const FemBodyInput& b, const Vec3& gravity, bool any_
   m.bodies.push_back(std::move(br));
 }
 
+/// Appends one rod's nodes (rest = initial positions), lumped masses (ρ·A·ℓ/2 per segment end),
+/// Rayleigh α, gravity, constraints and loads, and its RodRange (slots filled by build_pattern).
+void add_rod(FemModel& m, const FemRodInput& rod, const Vec3& gravity, int32_t node_off) {
+  RodRange r;
+  r.name = rod.name;
+  r.node_begin = node_off;
+  r.node_end = node_off + static_cast<int32_t>(rod.nodes.size());
+  r.segment_length = rod.segment_length;
+  r.stretch_stiffness = rod_stretch_stiffness(rod.young_modulus, rod.diameter, rod.segment_length);
+  r.bend_stiffness = rod_bend_stiffness(rod.young_modulus, rod.diameter, rod.segment_length);
+  r.beta = rod.rayleigh_stiffness;
+  const double pi = 3.14159265358979323846;
+  const double half = rod.density * pi * rod.diameter * rod.diameter / 4.0 * rod.segment_length / 2.0;
+  for (size_t i = 0; i < rod.nodes.size(); ++i) {
+    const int32_t n = node_off + static_cast<int32_t>(i);
+    for (int k = 0; k < 3; ++k) m.rest[3 * n + k] = rod.nodes[i][k];
+    m.mass[n] = (i == 0 || i + 1 == rod.nodes.size()) ? half : 2 * half;
+    m.alpha[n] = rod.rayleigh_mass;
+    for (int k = 0; k < 3; ++k) m.f_ext[3 * n + k] += m.mass[n] * gravity[k];
+  }
+  for (const auto& [i, mask] : rod.fixed) m.constrained[i + node_off] |= mask;
+  for (const auto& [i, f] : rod.nodal_forces)
+    for (int k = 0; k < 3; ++k) m.f_ext[3 * (i + node_off) + k] += f[k];
+  m.rods.push_back(std::move(r));
+}
+
+/// Each rod's slots (RodRange::slot_begin): per segment 3, per interior node 6 (rod.hpp).
+void assign_rod_slots(FemModel& m) {
+  m.rod_slots.clear();
+  for (RodRange& r : m.rods) {
+    r.slot_begin = static_cast<int32_t>(m.rod_slots.size());
+    for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i)
+      for (const auto& [a, b] : {std::pair{i, i}, {i, i + 1}, {i + 1, i + 1}}) m.rod_slots.push_back(m.pattern.find(a, b));
+    for (int32_t i = r.node_begin + 1; i + 1 < r.node_end; ++i)
+      for (const auto& [a, b] : {std::pair{i - 1, i - 1}, {i - 1, i}, {i - 1, i + 1}, {i, i}, {i, i + 1}, {i + 1, i + 1}})
+        m.rod_slots.push_back(m.pattern.find(a, b));
+  }
+}
+
 /// The BSR pattern and every element's 16 slots. Elements of fully fixed bodies stay out of the
 /// pattern: the elastic pass skips them and their nodes' rows are the constraint projection's
 /// identity, so their blocks would only ever hold zeros — which every CG product would still
@@ -116,9 +155,22 @@ void build_pattern(FemModel& m, const std::vector<Tet>& all_tets) {
   for (const ElementRange& r : m.ranges)
     if (!r.fixed) moving_tets.insert(moving_tets.end(), all_tets.begin() + r.begin, all_tets.begin() + r.end);
   std::vector<ElementSlots> moving_slots;
-  // Node domains (locking-free bodies) couple every pair of nodes in their patch.
-  if (m.smoothing.matrix_free) m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots);
-  else m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots, m.smoothing.ptr, m.smoothing.patch_node);
+  // Node groups whose every pair is coupled: the node domains of locking-free bodies (their
+  // patches, when assembled), and each rod's bending stencils (i − 1, i, i + 1).
+  std::vector<int32_t> group_ptr, group_node;
+  if (!m.smoothing.matrix_free) {
+    group_ptr = m.smoothing.ptr;
+    group_node = m.smoothing.patch_node;
+  }
+  if (!m.rods.empty()) {
+    if (group_ptr.empty()) group_ptr.push_back(0);
+    for (const RodRange& r : m.rods)
+      for (int32_t i = r.node_begin + 1; i + 1 < r.node_end; ++i) {
+        group_node.insert(group_node.end(), {i - 1, i, i + 1});
+        group_ptr.push_back(static_cast<int32_t>(group_node.size()));
+      }
+  }
+  m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots, group_ptr, group_node);
   m.slots.resize(all_tets.size());
   size_t next = 0;
   for (const ElementRange& r : m.ranges)
@@ -130,6 +182,7 @@ void build_pattern(FemModel& m, const std::vector<Tet>& all_tets) {
       for (int a = 0; a < 4; ++a)
         for (int b = 0; b < 4; ++b) m.slots[e][4 * a + b] = m.pattern.diag[all_tets[e][a]];
     }
+  assign_rod_slots(m);
   for (int32_t i = 0; i < m.num_nodes; ++i)
     for (int32_t s = m.pattern.row_ptr[i]; s < m.pattern.row_ptr[i + 1]; ++s) {
       const int32_t j = m.pattern.col[s];
@@ -152,7 +205,8 @@ void build_node_elements(FemModel& m) {
 
 }  // namespace
 
-FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity, bool smoothing_matrix_free) {
+FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity, bool smoothing_matrix_free,
+                         const std::vector<FemRodInput>& rods) {
   FemModel m;
   m.smoothing.matrix_free = smoothing_matrix_free;
   int32_t nn = 0, ne = 0;
@@ -160,6 +214,7 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
     nn += static_cast<int32_t>(b.mesh->mesh.nodes.size());
     ne += static_cast<int32_t>(b.mesh->mesh.tets.size());
   }
+  for (const FemRodInput& r : rods) nn += static_cast<int32_t>(r.nodes.size());
   m.num_nodes = nn;
   m.gravity = gravity;
   m.rest.resize(3 * nn);
@@ -187,6 +242,10 @@ FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gr
     add_body(m, b, gravity, any_qr, densities, fibres, node_off, all_tets);
     node_off += static_cast<int32_t>(b.mesh->mesh.nodes.size());
   }
+  for (const FemRodInput& r : rods) {
+    add_rod(m, r, gravity, node_off);
+    node_off += static_cast<int32_t>(r.nodes.size());
+  }
   finish_fem_model(m, all_tets);
   return m;
 }
@@ -205,7 +264,8 @@ void finish_fem_model(FemModel& m, const std::vector<Tet>& all_tets) {
   build_pattern(m, all_tets);
   assign_smoothing_slots(m);
   m.any_stiffness_damping =
-      std::any_of(m.elements.begin(), m.elements.end(), [](const ElementParams& e) { return e.beta != 0.0; });
+      std::any_of(m.elements.begin(), m.elements.end(), [](const ElementParams& e) { return e.beta != 0.0; }) ||
+      std::any_of(m.rods.begin(), m.rods.end(), [](const RodRange& r) { return r.beta != 0.0; });
 }
 
 }  // namespace stroma

@@ -46,13 +46,27 @@ struct FemBodyInput {
   bool uniform_mass = false;
 };
 
+/// A rod (a suture thread, rod.hpp), already validated: its nodes in order along it (at least
+/// three), which are both its rest and its initial positions, with segments of equal rest length.
+struct FemRodInput {
+  std::string name;
+  std::vector<Vec3> nodes;              ///< positions in metres, ≥ 3
+  double segment_length = 0;            ///< rest length of every segment (m)
+  double young_modulus = 0, diameter = 0, density = 0;
+  double rayleigh_mass = 0, rayleigh_stiffness = 0;
+  /// Fixed DOFs: local node index (0 = the first) and axis mask (7 = all).
+  std::vector<std::pair<int32_t, uint8_t>> fixed;
+  std::vector<std::pair<int32_t, Vec3>> nodal_forces;  ///< local node, force (N)
+};
+
 /// Builds the global model: bodies are concatenated (node and element offsets in order).
 /// Lumped mass: each tetrahedron gives ρV/4 to each of its nodes (or, for a body with
 /// uniform_mass, the body's mass is shared equally by its used nodes). Gravity enters f_ext as m·g.
 /// `smoothing_matrix_free`: locking-free bodies' node domains are applied by NodalSystem
 /// instead of assembled (nodal_smoothing.hpp; for CG solves — CHOLMOD needs the matrix).
+/// Rods follow the bodies' nodes, in order: each node gets ρ·A·ℓ/2 from each of its segments.
 FemModel build_fem_model(const std::vector<FemBodyInput>& bodies, const Vec3& gravity,
-                         bool smoothing_matrix_free = false);
+                         bool smoothing_matrix_free = false, const std::vector<FemRodInput>& rods = {});
 
 /// The derived parts of a model whose nodes, elements, ranges, masses, constraints and loads are
 /// set (`all_tets`: each element's nodes): inverse masses, the constrained-node list, the BSR

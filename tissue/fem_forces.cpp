@@ -8,6 +8,7 @@
 #include "tissue/mat3.hpp"
 #include "tissue/nodal_smoothing.hpp"
 #include "tissue/material.hpp"
+#include "tissue/rod_pass.hpp"
 #include "tissue/rotation.hpp"
 #include "tissue/stable_neo_hookean.hpp"
 #include "tissue/st_venant_kirchhoff.hpp"
@@ -33,6 +34,7 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
     }
   }
   if (!m.smoothing.empty() && !p.unsmoothed) energy += nodal_smoothing_pass(m, p);
+  if (!m.rods.empty()) energy += rod_pass(m, p);
   return energy;
 }
 

@@ -15,6 +15,7 @@
 #include "tissue/nodal_smoothing.hpp"
 #include "tissue/viscoelastic.hpp"
 #include "tissue/options.hpp"
+#include "tissue/rod.hpp"
 #include "tissue/tet_mesh.hpp"
 
 namespace stroma {
@@ -77,7 +78,7 @@ struct BodyRange {
 /// Invariants: every array indexed by node has num_nodes entries (rest, f_ext: 3·num_nodes);
 /// elements, slots and (QR only) rest_frame are parallel; ranges and bodies cover the elements
 /// in order without overlap; constrained nodes (mask 7) have zero rows and columns in every
-/// projected matrix; a node used by no tetrahedron is fully constrained and massless.
+/// projected matrix; a node used by no tetrahedron and no rod is fully constrained and massless.
 struct FemModel {
   int32_t num_nodes = 0;
   std::vector<double> rest;                 ///< 3n rest positions
@@ -111,6 +112,11 @@ struct FemModel {
   /// Off-diagonal blocks (slot, row node, column node) touching a constrained DOF.
   std::vector<std::array<int32_t, 3>> constrained_offdiag;
   std::vector<BodyRange> bodies;
+  /// Rods (suture threads, rod.hpp): chains of nodes after the bodies' nodes, with their slots
+  /// (rod_slots: per rod from its slot_begin). Not in `bodies`: they have no tetrahedra, surface
+  /// or elements, and the element pass adds their energy after the elements'.
+  std::vector<RodRange> rods;
+  std::vector<int32_t> rod_slots;
   /// Elements around each node (CSR): node i's are node_element[node_element_ptr[i] ..
   /// node_element_ptr[i + 1]), in increasing order. Damage (mass removal at rupture) and the
   /// warped preconditioner (a rotation per node) read them.

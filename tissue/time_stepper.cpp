@@ -14,6 +14,7 @@ namespace stroma {
 
 TimeStepper::TimeStepper(const FemModel& model, const StepperSettings& settings)
     : m_(model), cfg_(settings), cg_(model.num_nodes) {
+  if (!m_.rods.empty()) cg_.set_rods(m_.pattern, m_.rods);
   const size_t n3 = 3 * static_cast<size_t>(m_.num_nodes);
   force_.assign(n3, 0.0);
   kv_.assign(n3, 0.0);

@@ -428,7 +428,7 @@ TEST(ScenarioLoaderErrors, UnknownKeyWithoutSuggestion) {
     EXPECT_EQ(e.line(), 9);
     EXPECT_EQ(e.field(), "solver_settings");
     EXPECT_NE(e.message().find("unknown key 'solver_settings'"), std::string::npos);
-    EXPECT_NE(e.message().find("name, time_step, gravity, solver, bodies, probes, tools, rigid_bodies, body_contact, run, check"),
+    EXPECT_NE(e.message().find("name, time_step, gravity, solver, bodies, probes, tools, rigid_bodies, threads, body_contact, run, check"),
               std::string::npos)
         << e.message();
     EXPECT_EQ(e.message().find("did you mean"), std::string::npos) << e.message();

@@ -1,0 +1,61 @@
+#pragma once
+/// \file rod.hpp
+/// A rod — a suture thread — as a chain of nodes of the FEM node space (issue 43; the design is
+/// docs/ARCHITECTURE.md, "Bodies of more than one kind"). Its nodes are tissue-like nodes: they
+/// live in TissueState::x and v, are fixed, damped, snapshotted and published as every node is;
+/// its mass is lumped on them (ρ·A·ℓ/2 from each segment). Its energy is
+///
+///   E = Σ_segments ½·k_s·(|x_{i+1} − x_i| − ℓ)²  +  Σ_interior ½·k_b·|x_{i−1} − 2·x_i + x_{i+1}|²
+///
+/// with k_s = E·A/ℓ (stretching: an axial spring per segment) and k_b = E·I/ℓ³ (bending: the
+/// quadratic bending energy of a discrete inextensible curve, Bergou, Wardetzky, Harmon, Zorin &
+/// Grinspun 2006, "A quadratic bending model for inextensible surfaces", in its 1-D form). For
+/// equal segments of length ℓ turning by θ at a node, |x_{i−1} − 2x_i + x_{i+1}| = 2ℓ·sin(θ/2),
+/// so the bending term is ½·E·I·θ²/ℓ (the integral of ½·E·I·κ² over the node's ℓ) to O(θ⁴):
+/// exact as the segments shorten. Its Hessian is constant — precomputed pattern slots, no
+/// rotation to track, no energy gain from linearising it in the implicit step — and the rest
+/// shape is straight (a suture has no memory of its spool worth modelling at these forces).
+/// Twist is not modelled: a round, isotropic thread's twist is quasi-static and decouples from
+/// its centreline when its rest shape is straight (Bergou et al. 2008, "Discrete elastic rods"),
+/// and a suture's torsional stiffness is not a published parameter.
+///
+/// Invariants (rod_check in debug builds): node_end − node_begin ≥ 3 (two segments or more),
+/// consecutive node indices; segment_length > 0; stretch_stiffness > 0; bend_stiffness ≥ 0;
+/// beta ≥ 0; its slots are 3 per segment and 6 per interior node from slot_begin in
+/// FemModel::rod_slots.
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+namespace stroma {
+
+/// One rod's slice of the FEM arrays and its constants.
+struct RodRange {
+  std::string name;
+  int32_t node_begin = 0, node_end = 0;  ///< global node indices [begin, end), in order along the rod
+  double segment_length = 0;             ///< rest length ℓ of every segment (m)
+  double stretch_stiffness = 0;          ///< k_s = E·A/ℓ (N/m)
+  double bend_stiffness = 0;             ///< k_b = E·I/ℓ³ (N/m)
+  double beta = 0;                       ///< Rayleigh stiffness damping (s)
+  /// Its pattern slots in FemModel::rod_slots from here: per segment (i, i+1) the blocks
+  /// (i, i), (i, i+1), (i+1, i+1); then per interior node i the blocks of (i−1, i, i+1):
+  /// (i−1, i−1), (i−1, i), (i−1, i+1), (i, i), (i, i+1), (i+1, i+1).
+  int32_t slot_begin = 0;
+
+  int32_t nodes() const { return node_end - node_begin; }
+  int32_t segments() const { return nodes() - 1; }
+};
+
+/// The stiffnesses of a solid round rod of `diameter` d and Young's modulus E with segments of
+/// length ℓ: A = π d²/4, I = π d⁴/64.
+inline double rod_stretch_stiffness(double young_modulus, double diameter, double segment_length) {
+  const double pi = 3.14159265358979323846;
+  return young_modulus * pi * diameter * diameter / 4.0 / segment_length;
+}
+inline double rod_bend_stiffness(double young_modulus, double diameter, double segment_length) {
+  const double pi = 3.14159265358979323846;
+  return young_modulus * pi * std::pow(diameter, 4) / 64.0 / std::pow(segment_length, 3);
+}
+
+}  // namespace stroma
