@@ -193,6 +193,36 @@ class PySimulation {
   py::array rigid_poses() { return mirror(rp_, rigid_rows_of(sim_->state(), true), 7); }
   /// Rigid bodies' velocities, (k, 6): of the centre of mass (m/s), angular (rad/s), world.
   py::array rigid_velocities() { return mirror(rv_, rigid_rows_of(sim_->state(), false), 6); }
+  /// Per thread (docs/THREAD.md): its name, its nodes' range in `positions` (first, end), its
+  /// segments' rest length, stretch and bending stiffness, and its nodes' positions now (a
+  /// (nodes, 3) copy) and length along them.
+  py::list threads() const {
+    py::list out;
+    const FemModel& f = sim_->model().fem;
+    const std::vector<double>& x = sim_->state().tissue.x;
+    for (const RodRange& r : f.rods) {
+      py::dict d;
+      d["name"] = r.name;
+      d["nodes"] = py::make_tuple(r.node_begin, r.node_end);
+      d["segment_length"] = r.segment_length;
+      d["stretch_stiffness"] = r.stretch_stiffness;
+      d["bend_stiffness"] = r.bend_stiffness;
+      py::array_t<double> pos({static_cast<py::ssize_t>(r.nodes()), static_cast<py::ssize_t>(3)});
+      double* p = pos.mutable_data();
+      double length = 0;
+      for (int32_t i = r.node_begin; i < r.node_end; ++i) {
+        for (int k = 0; k < 3; ++k) p[3 * (i - r.node_begin) + k] = x[3 * static_cast<size_t>(i) + k];
+        if (i > r.node_begin) {
+          const double* a = x.data() + 3 * static_cast<size_t>(i - 1);
+          length += std::sqrt((a[3] - a[0]) * (a[3] - a[0]) + (a[4] - a[1]) * (a[4] - a[1]) + (a[5] - a[2]) * (a[5] - a[2]));
+        }
+      }
+      d["positions"] = pos;
+      d["length"] = length;
+      out.append(d);
+    }
+    return out;
+  }
   /// Per rigid body: name, shape, mass, inertia (body frame, about the centre of mass), fixed,
   /// and its contacts of the last tick (count, penalty energy, force on it).
   py::list rigid_bodies() const {
@@ -428,6 +458,10 @@ PYBIND11_MODULE(_stroma, mod) {
       .def_property_readonly("rigid_velocities", &PySimulation::rigid_velocities,
                              "Rigid bodies' velocities, a (k, 6) read-only array: centre of mass (m/s) and angular "
                              "(rad/s), world")
+      .def_property_readonly("threads", &PySimulation::threads,
+                             "Per thread (docs/THREAD.md): name, nodes (first, end: its rows of positions and "
+                             "velocities), segment_length (rest, m), stretch_stiffness and bend_stiffness (N/m), "
+                             "positions ((nodes, 3) copy, m) and length (along its nodes now, m)")
       .def_property_readonly("rigid_bodies", &PySimulation::rigid_bodies,
                              "Per rigid body: name, shape, mass, inertia (body frame), fixed, and the last tick's "
                              "contacts, contact_energy and contact_force (N, on the body); a needle's `needle`: phase "

@@ -294,6 +294,30 @@ def test_an_incision_where_the_tissue_is_under_tension_gapes():
     assert separation[True] > 2 * separation[False], separation
 
 
+def test_a_thread_is_read_as_its_nodes_and_swings_as_in_stroma_run(tmp_path):
+    """docs/THREAD.md: `threads` names each thread's rows of `positions`; the shipped swinging
+    suture (scenarios/thread_swing.yaml) steps in Python as in `stroma run` (final_state.csv's
+    last rows, bit for bit), hangs from its fixed end after a second, and keeps its length."""
+    sim = stroma.Simulation(str(SCENARIOS / "thread_swing.yaml"))
+    (t,) = sim.threads
+    first, end = t["nodes"]
+    assert t["name"] == "suture" and end == sim.num_nodes and end - first == 61
+    assert t["segment_length"] == pytest.approx(0.0025)
+    start = sim.positions[first:end].copy()
+    np.testing.assert_array_equal(t["positions"], start)
+    assert t["length"] == pytest.approx(0.15, rel=1e-12)
+    sim.step(1000)
+    t = sim.threads[0]
+    x = sim.positions[first:end]
+    np.testing.assert_array_equal(t["positions"], x)
+    np.testing.assert_array_equal(x[0], start[0])  # the fixed end
+    assert x[-1, 1] < start[0, 1] - 0.1, "it hangs down from its fixed end"
+    assert abs(t["length"] / 0.15 - 1) < 1e-3, "a suture barely stretches under its weight"
+    subprocess.run([str(BUILD / "stroma"), "run", str(SCENARIOS / "thread_swing.yaml"), "--out", str(tmp_path),
+                    "--quiet", "--no-metrics"], check=True)
+    np.testing.assert_array_equal(final_state(tmp_path)[first:end], x)
+
+
 def json_as_yaml(scenario, base_dir):
     """The scenario as a YAML file elsewhere: JSON is YAML; the mesh path made absolute."""
     import copy
