@@ -800,6 +800,15 @@ dds_entity_t needle_event_reader(dds_entity_t pp) {
   return r;
 }
 
+/// `stroma serve` of the source tree's `scenario` (a path from its root), paused, on `domain`,
+/// with `--crtk` if asked.
+std::vector<std::string> paused_serve_args(const std::string& scenario, int domain, bool crtk) {
+  std::vector<std::string> args = {STROMA_BINARY, "serve", std::string(STROMA_SOURCE_DIR) + scenario,
+                                   "--domain", std::to_string(domain), "--realtime", "off", "--duration", "60", "--paused"};
+  if (crtk) args.push_back("--crtk");
+  return args;
+}
+
 /// A best-effort reader of stroma_RigidBodyState keeping each body's newest sample.
 dds_entity_t rigid_state_reader(dds_entity_t pp) {
   const dds_entity_t t = dds_create_topic(pp, &stroma_RigidBodyState_desc, "stroma_RigidBodyState", nullptr, nullptr);
@@ -812,10 +821,7 @@ dds_entity_t rigid_state_reader(dds_entity_t pp) {
 }
 
 void needle_over_dds(int domain, bool crtk) {
-  std::vector<std::string> args = {STROMA_BINARY, "serve", std::string(STROMA_SOURCE_DIR) + "/tests/data/server/needle_through.yaml",
-                                   "--domain", std::to_string(domain), "--realtime", "off", "--duration", "60", "--paused"};
-  if (crtk) args.push_back("--crtk");
-  Process server(args);
+  Process server(paused_serve_args("/tests/data/server/needle_through.yaml", domain, crtk));
   Client client(domain);
   const dds_entity_t pp = client.participant();
   const dds_entity_t t_body = dds_create_topic(pp, &stroma_RigidBody_desc, "stroma_RigidBody", nullptr, nullptr);
@@ -1113,10 +1119,7 @@ std::array<double, 6> bounds(const float* p, uint32_t n, double x0 = -1e30, doub
 /// frame of a paused server, the frames while it runs, the frame after a Reset — is the mesh
 /// (50 mm along x, held there).
 void prestretch_over_dds(int domain, bool crtk) {
-  std::vector<std::string> args = {STROMA_BINARY, "serve", std::string(STROMA_SOURCE_DIR) + "/scenarios/prestretched_bar.yaml",
-                                   "--domain", std::to_string(domain), "--realtime", "off", "--duration", "60", "--paused"};
-  if (crtk) args.push_back("--crtk");
-  Process server(args);
+  Process server(paused_serve_args("/scenarios/prestretched_bar.yaml", domain, crtk));
   Client client(domain);
   ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.state == stroma_PAUSED; }));
   const dds_entity_t pp = client.participant();
