@@ -153,6 +153,17 @@ struct ModelTopology {
   std::vector<double> initial_x;
   /// Needles: per collision triangle, the element it is a face of (where a puncture's walk starts).
   std::vector<int32_t> collision_tri_elem;
+  /// Threads' ends tied to needles' tails (docs/THREAD.md): each tick a spring of `stiffness`
+  /// between the rod's node and the body's point x_c + R·arm (arm in the body frame), in the
+  /// step with the body's rows (collide stage; engine/thread_attach.hpp).
+  /// Invariants: node is a rod's node; body indexes rigid_bodies; stiffness > 0.
+  struct ThreadTie {
+    int32_t node = 0;
+    int32_t body = 0;
+    Vec3 arm{0, 0, 0};
+    double stiffness = 0;
+  };
+  std::vector<ThreadTie> thread_ties;
 
   std::shared_ptr<const CutTopology> topology;  ///< this model's topology (the uncut one's too)
   int32_t topology_version = 0;  ///< 0: uncut; +1 per swapped-in cut model

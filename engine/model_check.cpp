@@ -72,8 +72,27 @@ bool model_invariants_hold(const Model& m, std::string* why) {
     rod_slots += static_cast<size_t>(3 * r.segments() + 6 * (r.nodes() - 2));
     rod_next = r.node_end;
   }
-  c(f.rod_slots.size() == rod_slots, "fem.rod_slots: 3 per segment and 6 per interior node of every rod");
+  const int32_t tissue_nodes = f.bodies.empty() ? 0 : f.bodies.back().node_end;
+  for (const RodAnchor& an : f.rod_anchors) {
+    bool ok = an.node >= tissue_nodes && an.node < rod_next && an.stiffness > 0 && an.beta >= 0 &&
+              an.slot_begin == static_cast<int32_t>(rod_slots);
+    double sum = 0;
+    for (int a = 0; a < 4; ++a) {
+      ok = ok && an.tissue[a] >= 0 && an.tissue[a] < tissue_nodes && an.w[a] >= 0;
+      sum += an.w[a];
+    }
+    c(ok && std::abs(sum - 1.0) < 1e-9,
+      "a rod anchor ties a rod's node to tissue nodes with weights >= 0 summing to 1, stiffness > 0, its slots next");
+    rod_slots += kRodAnchorSlots;
+  }
+  c(f.rod_slots.size() == rod_slots, "fem.rod_slots: 3 per segment and 6 per interior node of every rod, 15 per anchor");
   for (const int32_t slot : f.rod_slots) c(slot >= 0 && slot < f.pattern.nnzb(), "a rod's slots are in the pattern");
+  for (const Model::ThreadTie& tie : m.thread_ties) {
+    bool rod_node = false;
+    for (const RodRange& r : f.rods) rod_node = rod_node || (tie.node >= r.node_begin && tie.node < r.node_end);
+    c(rod_node && tie.body >= 0 && static_cast<size_t>(tie.body) < m.rigid_bodies.size() && tie.stiffness > 0,
+      "a thread tie names a rod's node and a rigid body, stiffness > 0");
+  }
   c(m.time_step > 0 && m.fem_every >= 1, "time_step > 0, fem_every >= 1");
   c(m.max_step_displacement > 0, "max_step_displacement > 0");
   bool shaped = false;

@@ -8,10 +8,6 @@
 
 namespace stroma {
 
-namespace {
-
-/// The grasp centre (as haptics/contact.cpp's grasp: the tip, or between a grasper's jaws) and
-/// the reach around it.
 void grasp_centre(const ToolSpec& spec, const ToolState& ts, const double* R, double* gc, double* reach) {
   const Vec3& c = tool_center(spec, ts);
   *reach = spec.grasp_reach * spec.radius;
@@ -21,8 +17,6 @@ void grasp_centre(const ToolSpec& spec, const ToolState& ts, const double* R, do
     *reach += 0.5 * spec.shaft_length;
   }
 }
-
-}  // namespace
 
 double hold_lever(const ToolSpec& spec) { return std::max(spec.radius, 1e-3); }
 

@@ -24,6 +24,10 @@ namespace stroma {
 /// lets go.
 void update_rigid_grasps(const Model& m, State& s);
 
+/// The grasp centre `gc` (as haptics/contact.cpp's grasp: the tip, or between a grasper's jaws)
+/// and the reach around it, for a tool at rotation R (row-major).
+void grasp_centre(const ToolSpec& spec, const ToolState& ts, const double* R, double* gc, double* reach);
+
 /// The lever of the hold points (m): the tool's radius, at least a millimetre.
 double hold_lever(const ToolSpec& spec);
 

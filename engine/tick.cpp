@@ -10,6 +10,7 @@
 #include "engine/multirate.hpp"
 #include "engine/needle_mesh.hpp"
 #include "engine/rigid_grasp.hpp"
+#include "engine/thread_attach.hpp"
 #include "engine/stage_timer.hpp"
 #include "engine/step_with_recovery.hpp"
 #include "haptics/contact.hpp"
@@ -248,6 +249,10 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
     if (rigid_grasp_springs(m.tools[t], s.tools[t], s.rigid[size_t(k)], tentative(k, 0), w.springs) > 0) commit(k);
     w.hold_end[t] = static_cast<int32_t>(w.springs.size());
   }
+  // Threads tied to needles' tails (engine/thread_attach.hpp).
+  for (const Model::ThreadTie& tie : m.thread_ties)
+    if (thread_tie_spring(tie, s.rigid[size_t(tie.body)], tentative(tie.body, 0), x, m.fem.pattern, w.springs) > 0)
+      commit(tie.body);
   w.rigid_in.rows = rows;
 }
 
@@ -271,11 +276,14 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   w.bvh.refit(px);
   w.springs.clear();  // keeps its capacity: no allocation
   update_rigid_grasps(m, s);  // before the tools' own grasps: a jaw closing on a body holds it
+  update_thread_grasps(m, s);  // then on a thread
   const ContactSurface surf{m.collision_triangles, m.collision_dofs, m.collision_edge,
                             s.face_active.empty() ? nullptr : s.face_active.data(),
                             m.collision_cut_face.empty() ? nullptr : m.collision_cut_face.data()};
-  for (size_t k = 0; k < m.tools.size(); ++k)
+  for (size_t k = 0; k < m.tools.size(); ++k) {
     tool_contact(m.tools[k], s.tools[k], w.report.tools[k], surf, w.bvh, px, v, m.fem_step, w.springs);
+    thread_grasp_springs(m, m.tools[k], s.tools[k], x, w.report.tools[k], w.springs);
+  }
   if (m.body_contact)
     body_contact(*m.body_contact, surf, w.bvh, px, pv, m.fem_step, m.fem.gravity.data(), w.body_boxes.data(),
                  w.springs, w.body_pairs, w.report.body_contact);

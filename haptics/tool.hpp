@@ -173,6 +173,13 @@ struct ToolState {
   int32_t grasped_body = -1;
   std::array<Vec3, 3> body_hold_point{};
   std::array<Vec3, 3> tool_hold_point{};
+  // Grasp of a thread (engine/thread_attach.hpp): the segment held — its first node, a global
+  // node index (−1: none) — the point's place along it (0..1) and where the point was in the
+  // tool's frame (about the tool centre) at the moment of grasping. Invariant:
+  // grasped_segment ≥ 0 only while jaw_closed, and then grasped = 0 and grasped_body = −1.
+  int32_t grasped_segment = -1;
+  double grasp_segment_s = 0;
+  Vec3 grasp_segment_offset{0, 0, 0};
   // Cutting: the blade's edge at the end of the last tick (the swept surface starts there) and
   // the cutting resistance felt (N, smoothed over kCutForceTime).
   bool has_blade = false;

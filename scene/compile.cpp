@@ -20,6 +20,7 @@
 #include "io/surface_io.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "scene/solver_comparison.hpp"
+#include "scene/yaml_schema.hpp"
 #include "tissue/bounding_box.hpp"
 #include "tissue/cholmod_solver.hpp"
 #include "tissue/demand.hpp"
@@ -746,11 +747,41 @@ void check_multirate(const ScenarioSpec& spec) {
                        s.fem_every, t.spec.name));
 }
 
+/// A needle's tail (its curve at s = 0, world) and the way a thread leaves it (the curve's
+/// tangent there, backwards), from the scenario's pose and shape.
+void needle_tail(const RigidBodySpec& r, Vec3& tail, Vec3& away) {
+  NeedleGeometry g;
+  g.wire_radius = r.wire_radius;
+  g.curved = r.angle_deg > 0;
+  g.arc_radius = g.curved ? r.radius : 0.0;
+  g.angle = r.angle_deg * M_PI / 180.0;
+  g.length = g.curved ? g.arc_radius * g.angle : r.length;
+  double c[3], t[3], R[9];
+  needle_curve(g, 0.0, c, t);
+  quaternion_to_matrix(r.orientation, R);
+  for (int k = 0; k < 3; ++k) {
+    tail[k] = r.position[k] + R[3 * k] * c[0] + R[3 * k + 1] * c[1] + R[3 * k + 2] * c[2];
+    away[k] = -(R[3 * k] * t[0] + R[3 * k + 1] * t[1] + R[3 * k + 2] * t[2]);
+  }
+}
+
+const RigidBodySpec& rigid_spec(const ScenarioSpec& spec, const std::string& name) {
+  for (const RigidBodySpec& r : spec.rigid_bodies)
+    if (r.name == name) return r;
+  throw std::logic_error("no rigid body " + name);  // the loader checked the name
+}
+
 /// Each thread as a rod's FEM input (tissue/rod.hpp): its nodes straight from start along its
-/// direction, or at equal arc length along its path; its end nodes fixed as it says.
-std::vector<FemRodInput> thread_inputs(const ScenarioSpec& spec) {
+/// direction (or from its needle's tail, backwards), or at equal arc length along its path; its
+/// end nodes fixed as it says; an end attached to a tissue body tied to the material point it
+/// lies at (an anchor: within one segment of the body, else an error naming the attachment).
+std::vector<FemRodInput> thread_inputs(const ScenarioSpec& spec, const std::vector<PreparedMesh>& meshes) {
   std::vector<FemRodInput> out;
-  for (const ThreadSpec& t : spec.threads) {
+  for (size_t ti = 0; ti < spec.threads.size(); ++ti) {
+    ThreadSpec t = spec.threads[ti];
+    if (t.from_needle)
+      for (const ThreadSpec::Attach& a : t.attach)
+        if (a.needle && !a.last) needle_tail(rigid_spec(spec, a.target), t.start, t.direction);
     FemRodInput r;
     r.name = t.name;
     r.segment_length = t.length / t.segments;
@@ -780,9 +811,92 @@ std::vector<FemRodInput> thread_inputs(const ScenarioSpec& spec) {
     }
     if (t.fix_first) r.fixed.push_back({0, 7});
     if (t.fix_last) r.fixed.push_back({t.segments, 7});
+    for (size_t ai = 0; ai < t.attach.size(); ++ai) {
+      const ThreadSpec::Attach& a = t.attach[ai];
+      const int32_t local = a.last ? t.segments : 0;
+      const Vec3& p = r.nodes[size_t(local)];
+      const std::string field = fmt::format("threads[{}].attach[{}]", ti, ai);
+      if (a.needle) {  // the end must start at the tail: the tie would otherwise yank it there
+        Vec3 tail, away;
+        needle_tail(rigid_spec(spec, a.target), tail, away);
+        const double d = std::sqrt((p[0] - tail[0]) * (p[0] - tail[0]) + (p[1] - tail[1]) * (p[1] - tail[1]) +
+                                   (p[2] - tail[2]) * (p[2] - tail[2]));
+        if (d > 0.5 * r.segment_length)
+          throw InputError(a.where.file, a.where.line, field + ".needle",
+                           fmt::format("the thread's {} end is at ({}, {}, {}), {} mm from needle '{}''s tail at ({}, "
+                                       "{}, {}): it must start there (within half a segment, {} mm) — or omit start "
+                                       "and direction to start the thread at the tail",
+                                       a.last ? "last" : "first", yaml::format_number(p[0]), yaml::format_number(p[1]),
+                                       yaml::format_number(p[2]), fmt::format("{:.3g}", 1e3 * d), a.target, yaml::format_number(tail[0]),
+                                       yaml::format_number(tail[1]), yaml::format_number(tail[2]),
+                                       yaml::format_number(500 * r.segment_length)));
+        continue;
+      }
+      size_t bi = 0;
+      int32_t off = 0;
+      while (spec.bodies[bi].name != a.target) off += static_cast<int32_t>(meshes[bi++].mesh.nodes.size());
+      const BarycentricPoint bp = locate_point(meshes[bi].mesh, p);
+      if (bp.tet < 0 || bp.distance > r.segment_length)
+        throw InputError(a.where.file, a.where.line, field + ".tissue",
+                         fmt::format("the thread's {} end at ({}, {}, {}) is {} mm from tissue body '{}': an anchor "
+                                     "must lie in the body or within one segment ({} mm) of it",
+                                     a.last ? "last" : "first", yaml::format_number(p[0]), yaml::format_number(p[1]),
+                                     yaml::format_number(p[2]), fmt::format("{:.3g}", 1e3 * bp.distance), a.target,
+                                     yaml::format_number(1e3 * r.segment_length)));
+      RodAnchor an;
+      an.node = local;
+      for (int k = 0; k < 4; ++k) {
+        an.tissue[k] = bp.node[size_t(k)] + off;
+        an.w[k] = bp.w[size_t(k)];
+      }
+      an.stiffness = rod_stretch_stiffness(t.young_modulus, t.diameter, r.segment_length);
+      r.anchors.push_back(an);
+    }
     out.push_back(std::move(r));
   }
   return out;
+}
+
+/// Threads' ends tied to needles' tails (Model::thread_ties, stiff as one of the thread's
+/// segments), and no thread node inside a rigid body but the one at its needle's tail.
+void compile_thread_ties(const ScenarioSpec& spec, Model& model) {
+  size_t rod = 0;
+  for (size_t ti = 0; ti < spec.threads.size(); ++ti, ++rod) {
+    const ThreadSpec& t = spec.threads[ti];
+    const RodRange& r = model.fem.rods[rod];
+    std::vector<int32_t> tied_body(size_t(r.nodes()), -1);
+    for (const ThreadSpec::Attach& a : t.attach) {
+      if (!a.needle) continue;
+      Model::ThreadTie tie;
+      tie.node = a.last ? r.node_end - 1 : r.node_begin;
+      for (size_t k = 0; k < spec.rigid_bodies.size(); ++k)
+        if (spec.rigid_bodies[k].name == a.target) tie.body = static_cast<int32_t>(k);
+      const RigidBodyModel& b = model.rigid_bodies[size_t(tie.body)];
+      double c[3], tan[3];
+      needle_curve(b.needle, 0.0, c, tan);
+      for (int k = 0; k < 3; ++k) tie.arm[k] = b.shape_origin[k] + c[k];
+      tie.stiffness = r.stretch_stiffness;
+      tied_body[size_t(tie.node - r.node_begin)] = tie.body;
+      model.thread_ties.push_back(tie);
+    }
+    for (int32_t i = r.node_begin; i < r.node_end; ++i)
+      for (size_t k = 0; k < model.rigid_bodies.size(); ++k) {
+        if (tied_body[size_t(i - r.node_begin)] == static_cast<int32_t>(k)) continue;
+        const RigidBodyModel& b = model.rigid_bodies[k];
+        const std::array<double, 9> R = rotation_of(b.initial.q);
+        const double* x = model.fem.rest.data() + 3 * i;
+        const double d[3] = {x[0] - b.initial.x[0], x[1] - b.initial.x[1], x[2] - b.initial.x[2]};
+        double pb[3], nrm[3];
+        for (int a = 0; a < 3; ++a) pb[a] = R[size_t(a)] * d[0] + R[size_t(3 + a)] * d[1] + R[size_t(6 + a)] * d[2];
+        const double dist = shape_distance(b, pb, nrm);
+        if (dist < 0)
+          throw InputError(t.where.file, t.where.line, fmt::format("threads[{}]", ti),
+                           fmt::format("thread '{}' starts inside rigid body '{}': its node {} at ({}, {}, {}) is {} "
+                                       "mm deep in it",
+                                       t.name, b.name, i - r.node_begin, yaml::format_number(x[0]), yaml::format_number(x[1]),
+                                       yaml::format_number(x[2]), fmt::format("{:.3g}", -1e3 * dist)));
+      }
+  }
 }
 
 /// A cutting blade needs ticks (a static run has no sweep between them) and, for now, the
@@ -853,7 +967,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
     for (const BodySpec& b : spec.bodies)
       patches = patches || (b.material.locking_free && b.material.locking_free->patch_elements > 0);
     model->fem = build_fem_model(body_inputs(spec, meshes, rest_meshes), spec.gravity,
-                                 spec.solver.linear_solver == LinearSolverKind::CG && !patches, thread_inputs(spec));
+                                 spec.solver.linear_solver == LinearSolverKind::CG && !patches, thread_inputs(spec, meshes));
   } catch (const std::invalid_argument& e) {  // a mesh the locking-free smoothing cannot take
     const BodySpec* lf = nullptr;
     for (const BodySpec& b : spec.bodies)
@@ -917,6 +1031,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
   compile_probes(spec, meshes, *model);
   compile_tools(spec, *model, out.tool_scripts);
   compile_rigid_bodies(spec, *model);
+  compile_thread_ties(spec, *model);
   if (spec.body_contact) model->has_contact = true;
   if (model->has_contact) compile_collision_faces(*model);
   if (model->has_needles) compile_needle_mesh(*model);  // the needles' walks (engine/needle_mesh.hpp)

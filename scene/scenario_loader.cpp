@@ -911,6 +911,8 @@ ThreadSpec parse_thread(const MapReader& m, const Context& ctx) {
     if (std::abs(len - t.length) > 1e-6)
       path->fail(fmt::format("the path is {} m long, the thread {} m: they must agree (within 1e-6 m)",
                              format_number(len), format_number(t.length)));
+  } else if (!m.opt("start") && !m.opt("direction") && m.opt("attach")) {
+    t.from_needle = true;  // checked below: the first end must be attached to a needle
   } else {
     m.require("start", t.start);
     if (auto f = m.opt("direction")) {
@@ -932,6 +934,32 @@ ThreadSpec parse_thread(const MapReader& m, const Context& ctx) {
       else if (which == "last") t.fix_last = true;
       else e.fail("expected first or last (the thread's end nodes), got " + e.got());
     }
+  if (auto f = m.opt("attach")) {
+    for (const Field& e : f->list()) {
+      const MapReader am = e.map({"end", "needle", "tissue"});
+      ThreadSpec::Attach a;
+      a.where = {ctx.file, am.line()};
+      const Field end = am.req("end");
+      const std::string which = end.string();
+      if (which == "last") a.last = true;
+      else if (which != "first") end.fail("expected first or last (the thread's end nodes), got " + end.got());
+      const auto needle = am.opt("needle"), tissue = am.opt("tissue");
+      if (needle && tissue) tissue->fail("an end is attached to a needle or to a tissue body, not both");
+      if (!needle && !tissue) e.fail("an attachment names a needle (needle: NAME) or a tissue body (tissue: NAME)");
+      a.needle = static_cast<bool>(needle);
+      a.target = (needle ? *needle : *tissue).string();
+      for (const ThreadSpec::Attach& b : t.attach)
+        if (b.last == a.last) end.fail("the thread's " + which + " end is attached twice");
+      if (a.last ? t.fix_last : t.fix_first)
+        end.fail("the thread's " + which + " end is fixed (fixed: [" + which + "]) and attached: one or the other");
+      t.attach.push_back(a);
+    }
+  }
+  if (t.from_needle && !std::any_of(t.attach.begin(), t.attach.end(), [](const ThreadSpec::Attach& a) {
+        return a.needle && !a.last;
+      }))
+    m.fail("missing `start`: a thread starts at `start` (along `direction`) or along a `path` — or, with its first "
+           "end attached to a needle (attach: [{end: first, needle: NAME}]), at the needle's tail");
   return t;
 }
 
@@ -995,12 +1023,30 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   std::map<std::string, int> thread_names;
   for (const auto& item : m.list("threads")) {
     const MapReader tm = item.map({"name", "length", "segments", "diameter", "young_modulus", "density", "start",
-                                   "direction", "path", "damping", "fixed"});
+                                   "direction", "path", "damping", "fixed", "attach"});
     s.threads.push_back(parse_thread(tm, ctx));
     const std::string& name = s.threads.back().name;
     check_unique_name(thread_names, name, tm.req("name"), "thread");
     if (body_names.count(name) || rigid_names.count(name))
       tm.req("name").fail("'" + name + "' is already the name of a tissue or rigid body");
+    const std::vector<Field> attach = tm.opt("attach") ? tm.req("attach").list() : std::vector<Field>{};
+    for (size_t ai = 0; ai < attach.size(); ++ai) {
+      const ThreadSpec::Attach& a = s.threads.back().attach[ai];
+      const MapReader am = attach[ai].map({"end", "needle", "tissue"});
+      if (a.needle) {
+        std::vector<std::string> needles;
+        for (const RigidBodySpec& r : s.rigid_bodies)
+          if (r.shape == RigidShapeKind::Needle) needles.push_back(r.name);
+        if (std::find(needles.begin(), needles.end(), a.target) != needles.end()) continue;
+        am.req("needle").fail(
+            (rigid_names.count(a.target) ? "'" + a.target + "' is a rigid body but not a needle: "
+                                         : "unknown needle '" + a.target + "': " + did_you_mean(a.target, needles)) +
+            (needles.empty() ? std::string("the scenario has no needle") : "needles are: " + join(needles)));
+      } else if (!body_names.count(a.target)) {
+        am.req("tissue").fail("unknown tissue body '" + a.target + "': " + did_you_mean(a.target, known_bodies) +
+                              "bodies are: " + join(known_bodies));
+      }
+    }
   }
 
   if (auto f = m.opt("body_contact")) {

@@ -372,6 +372,19 @@ struct ThreadSpec {
   std::vector<Vec3> path;    ///< ≥ 2 points, its length = `length`; empty: straight
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
   bool fix_first = false, fix_last = false;  ///< `fixed: [first, last]`: those nodes do not move
+  /// `attach:` entries: an end tied to a needle's tail (it follows the needle) or to the tissue
+  /// body it lies in or on (an anchor knot). Invariants after load: each end at most once, never
+  /// also fixed; the target names a needle (rigid body of shape needle) or a tissue body.
+  struct Attach {
+    bool last = false;      ///< the thread's last node (else its first)
+    bool needle = false;    ///< to a needle's tail (else to a tissue body)
+    std::string target;     ///< the needle's or the tissue body's name
+    SourceLocation where;
+  };
+  std::vector<Attach> attach;
+  /// No start, direction or path: the thread leaves its needle's tail straight backwards (only
+  /// when its first end is attached to a needle).
+  bool from_needle = false;
   SourceLocation where;
 };
 

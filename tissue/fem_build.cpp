@@ -127,6 +127,11 @@ void add_rod(FemModel& m, const FemRodInput& rod, const Vec3& gravity, int32_t n
     for (int k = 0; k < 3; ++k) m.f_ext[3 * n + k] += m.mass[n] * gravity[k];
   }
   for (const auto& [i, mask] : rod.fixed) m.constrained[i + node_off] |= mask;
+  for (RodAnchor a : rod.anchors) {
+    a.node += node_off;
+    a.beta = rod.rayleigh_stiffness;
+    m.rod_anchors.push_back(a);
+  }
   for (const auto& [i, f] : rod.nodal_forces)
     for (int k = 0; k < 3; ++k) m.f_ext[3 * (i + node_off) + k] += f[k];
   m.rods.push_back(std::move(r));
@@ -142,6 +147,12 @@ void assign_rod_slots(FemModel& m) {
     for (int32_t i = r.node_begin + 1; i + 1 < r.node_end; ++i)
       for (const auto& [a, b] : {std::pair{i - 1, i - 1}, {i - 1, i}, {i - 1, i + 1}, {i, i}, {i, i + 1}, {i + 1, i + 1}})
         m.rod_slots.push_back(m.pattern.find(a, b));
+  }
+  for (RodAnchor& an : m.rod_anchors) {
+    an.slot_begin = static_cast<int32_t>(m.rod_slots.size());
+    const int32_t nodes[5] = {an.node, an.tissue[0], an.tissue[1], an.tissue[2], an.tissue[3]};
+    for (int a = 0; a < 5; ++a)
+      for (int b = a; b < 5; ++b) m.rod_slots.push_back(m.pattern.find_upper(nodes[a], nodes[b]));  // blocks ∝ I: a transpose is the block
   }
 }
 
@@ -169,6 +180,10 @@ void build_pattern(FemModel& m, const std::vector<Tet>& all_tets) {
         group_node.insert(group_node.end(), {i - 1, i, i + 1});
         group_ptr.push_back(static_cast<int32_t>(group_node.size()));
       }
+    for (const RodAnchor& an : m.rod_anchors) {  // an anchor couples its rod node and tetrahedron
+      group_node.insert(group_node.end(), {an.node, an.tissue[0], an.tissue[1], an.tissue[2], an.tissue[3]});
+      group_ptr.push_back(static_cast<int32_t>(group_node.size()));
+    }
   }
   m.pattern = build_bsr_pattern(m.num_nodes, moving_tets, moving_slots, group_ptr, group_node);
   m.slots.resize(all_tets.size());

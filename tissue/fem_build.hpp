@@ -57,6 +57,8 @@ struct FemRodInput {
   /// Fixed DOFs: local node index (0 = the first) and axis mask (7 = all).
   std::vector<std::pair<int32_t, uint8_t>> fixed;
   std::vector<std::pair<int32_t, Vec3>> nodal_forces;  ///< local node, force (N)
+  /// Anchors (rod.hpp, RodAnchor): `node` local to the rod, `tissue` global node indices.
+  std::vector<RodAnchor> anchors;
 };
 
 /// Builds the global model: bodies are concatenated (node and element offsets in order).

@@ -116,6 +116,9 @@ struct FemModel {
   /// (rod_slots: per rod from its slot_begin). Not in `bodies`: they have no tetrahedra, surface
   /// or elements, and the element pass adds their energy after the elements'.
   std::vector<RodRange> rods;
+  /// Rods' nodes tied to material points of the tissue (anchor knots, rod.hpp); their slots
+  /// follow the rods' in rod_slots.
+  std::vector<RodAnchor> rod_anchors;
   std::vector<int32_t> rod_slots;
   /// Elements around each node (CSR): node i's are node_element[node_element_ptr[i] ..
   /// node_element_ptr[i + 1]), in increasing order. Damage (mass removal at rupture) and the

@@ -47,6 +47,26 @@ struct RodRange {
   int32_t segments() const { return nodes() - 1; }
 };
 
+/// A rod's node tied to a material point of the tissue (an anchor knot; docs/THREAD.md): a
+/// zero-length spring of energy ½·k·|x_node − Σ_a w_a x_tissue[a]|², whose Hessian is the
+/// constant k·(c cᵀ ⊗ I) with c = (1, −w_0, −w_1, −w_2, −w_3) — like the rods' terms, assembled
+/// into precomputed pattern slots (the five nodes are one pattern group), nothing linearised.
+/// Invariants (model_check): node is a rod's node; tissue[] are tissue nodes (before the rods');
+/// w ≥ 0 summing to 1; stiffness > 0; beta ≥ 0; its 15 slots (the upper triangle of the
+/// 5×5 block pairs in the order (0,0), (0,1) … (0,4), (1,1) … (4,4) of (node, tissue[0..3]))
+/// are in FemModel::rod_slots from slot_begin.
+struct RodAnchor {
+  int32_t node = 0;
+  int32_t tissue[4] = {0, 0, 0, 0};
+  double w[4] = {1, 0, 0, 0};
+  double stiffness = 0;  ///< k (N/m)
+  double beta = 0;       ///< Rayleigh stiffness damping (s): the rod's
+  int32_t slot_begin = 0;
+};
+
+/// The slots of one anchor: the upper triangle of its 5×5 node pairs.
+inline constexpr int kRodAnchorSlots = 15;
+
 /// The stiffnesses of a solid round rod of `diameter` d and Young's modulus E with segments of
 /// length ℓ: A = π d²/4, I = π d⁴/64.
 inline double rod_stretch_stiffness(double young_modulus, double diameter, double segment_length) {

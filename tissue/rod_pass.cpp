@@ -97,6 +97,34 @@ double rod_pass(const FemModel& m, const ElasticPass& p) {
       }
     }
   }
+  // Anchors: ½ k |x_r − Σ w_a x_a|²; Hessian k c cᵀ ⊗ I, c = (1, −w_0 … −w_3) (rod.hpp).
+  const int32_t* anchor_slot = m.rod_slots.data() + (m.rod_anchors.empty() ? 0 : m.rod_anchors.front().slot_begin);
+  for (const RodAnchor& an : m.rod_anchors) {
+    const int32_t nodes[5] = {an.node, an.tissue[0], an.tissue[1], an.tissue[2], an.tissue[3]};
+    const double c[5] = {1.0, -an.w[0], -an.w[1], -an.w[2], -an.w[3]};
+    double d[3] = {0, 0, 0};
+    for (int a = 0; a < 5; ++a)
+      for (int k = 0; k < 3; ++k) d[k] += c[a] * x[3 * nodes[a] + k];
+    energy += 0.5 * an.stiffness * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (p.force)
+      for (int a = 0; a < 5; ++a)
+        for (int k = 0; k < 3; ++k) p.force[3 * nodes[a] + k] -= an.stiffness * c[a] * d[k];
+    const double kscale = p.k_beta * an.beta + p.k_const;
+    const double vscale = p.kv_beta * an.beta + p.kv_const;
+    if (p.kvals) {
+      const int32_t* slot = anchor_slot;
+      for (int a = 0; a < 5; ++a)
+        for (int b = a; b < 5; ++b) add_identity(p.kvals + 9 * *slot++, kscale * an.stiffness * c[a] * c[b]);
+    }
+    if (p.kv && vscale != 0) {
+      double dv[3] = {0, 0, 0};
+      for (int a = 0; a < 5; ++a)
+        for (int k = 0; k < 3; ++k) dv[k] += c[a] * p.v[3 * nodes[a] + k];
+      for (int a = 0; a < 5; ++a)
+        for (int k = 0; k < 3; ++k) p.kv[3 * nodes[a] + k] += vscale * an.stiffness * c[a] * dv[k];
+    }
+    anchor_slot += kRodAnchorSlots;
+  }
   return energy;
 }
 

@@ -21,6 +21,8 @@
 #include "tissue/time_stepper.hpp"
 #include "tissue/tissue_state.hpp"
 #include "tests/test_fem.hpp"
+#include "tests/test_meshes.hpp"
+#include "tissue/mesh_prepare.hpp"
 
 using namespace stroma;
 using stroma::test_fem::energy_and_force;
@@ -107,6 +109,69 @@ TEST(Rod, ForcesAreTheEnergysGradientAndTheTangentTheirDerivative) {
   for (double mi : m.mass) total += mi;
   EXPECT_NEAR(total, 1100 * A * 0.05, 1e-15);
   EXPECT_NEAR(m.mass[0], 1100 * A * 0.005, 1e-16);
+}
+
+// An anchor (RodAnchor: a rod's end tied to a material point of a tetrahedron) joins the same
+// pass: with a linear tetrahedron beside it (whose forces are exactly its energy's gradient),
+// the total force is −∂E/∂x and the assembled tangent −∂f/∂x by central differences; the
+// pattern couples the rod's end and the tetrahedron's nodes.
+TEST(Rod, AnAnchorsForcesAndTangentAreItsEnergys) {
+  TetMesh tet;
+  tet.nodes = {{0, 0, 0}, {0.01, 0, 0}, {0, 0.01, 0}, {0, 0, 0.01}};
+  tet.tets = {{0, 1, 2, 3}};
+  const PreparedMesh pm = prepare_mesh(tet);
+  const FemBodyInput b = test_meshes::body_input(pm, ElementModel::Linear, RotationMethod::Polar, 1e3, 0.45, 1000);
+  FemRodInput rod = straight_rod(0.01, 2e6, 1e-3, 1100, 0, 5);
+  for (Vec3& p : rod.nodes) p[0] += 0.003, p[1] += 0.002, p[2] += 0.001;  // the first node inside the tet
+  RodAnchor an;
+  an.node = 0;
+  for (int a = 0; a < 4; ++a) an.tissue[a] = a;
+  const double w[4] = {0.4, 0.3, 0.2, 0.1};
+  for (int a = 0; a < 4; ++a) an.w[a] = w[a];
+  an.stiffness = 500;
+  rod.anchors.push_back(an);
+  const FemModel m = build_fem_model({b}, {0, 0, 0}, false, {rod});
+  ASSERT_EQ(m.rod_anchors.size(), 1u);
+  EXPECT_EQ(m.rod_anchors[0].node, 4);
+  for (int a = 0; a < 4; ++a) EXPECT_GE(m.pattern.find_upper(a, 4), 0) << "tissue node " << a << " and the rod's end";
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<double> x = m.rest;
+  for (int32_t i = 5; i < m.num_nodes; ++i) x[3 * i] += 0.005 * (i - 4);  // every segment stretched (the
+  for (double& v : x) v += 1e-3 * u(rng);  // compressed tangent is projected, not the derivative)
+  std::vector<double> f;
+  energy_and_force(m, x, &f);
+  const double eps = 1e-7;
+  double worst_f = 0, fmax = 0;
+  for (size_t d = 0; d < x.size(); ++d) {
+    std::vector<double> xp = x, xm = x;
+    xp[d] += eps;
+    xm[d] -= eps;
+    const double g = (energy_and_force(m, xp, nullptr) - energy_and_force(m, xm, nullptr)) / (2 * eps);
+    worst_f = std::max(worst_f, std::abs(f[d] + g));
+    fmax = std::max(fmax, std::abs(f[d]));
+  }
+  EXPECT_LT(worst_f, 1e-6 * fmax) << "f = −∂E/∂x";
+  // The anchor's own force: −k·d on the rod's end, +k·w_a·d on the tetrahedron's nodes.
+  std::vector<double> K(9 * m.pattern.nnzb(), 0.0);
+  ElasticPass p;
+  p.x = x.data();
+  p.kvals = K.data();
+  p.k_const = 1.0;
+  elastic_pass(m, p);
+  std::vector<double> dir(x.size()), Kd(x.size(), 0.0);
+  for (double& v : dir) v = u(rng);
+  bsr_spmv(m.pattern, K.data(), dir.data(), Kd.data());
+  std::vector<double> xp = x, xm = x, fp, fm;
+  for (size_t d = 0; d < x.size(); ++d) xp[d] += eps * dir[d], xm[d] -= eps * dir[d];
+  energy_and_force(m, xp, &fp);
+  energy_and_force(m, xm, &fm);
+  double worst_k = 0, kmax = 0;
+  for (size_t d = 0; d < x.size(); ++d) {
+    worst_k = std::max(worst_k, std::abs(Kd[d] + (fp[d] - fm[d]) / (2 * eps)));
+    kmax = std::max(kmax, std::abs(Kd[d]));
+  }
+  EXPECT_LT(worst_k, 1e-5 * kmax) << "K = −∂f/∂x";
 }
 
 // A thread of length L = 1 m hanging under its weight between two fixed points 0.8 m apart at

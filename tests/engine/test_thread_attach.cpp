@@ -1,0 +1,251 @@
+// A thread's attachments (issue 43; docs/THREAD.md): an end anchored in tissue (tissue/rod.hpp,
+// RodAnchor), an end tied to a needle's tail and a grasper's hold on a thread
+// (engine/thread_attach.hpp) — each against a statics or free-fall expectation — and the
+// attachments' bad input.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "engine/model_check.hpp"
+#include "engine/state.hpp"
+#include "engine/tick.hpp"
+#include "rigid/rigid_motion.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
+#include "tests/input_error_message.hpp"
+#include "tests/test_scenarios.hpp"
+
+using namespace stroma;
+using stroma::test_support::message_of;
+
+namespace {
+
+const std::string kSrc = STROMA_SOURCE_DIR;
+constexpr double kG = 9.81;
+constexpr double kPi = 3.14159265358979323846;
+
+/// The thread of these tests: 0.2 mm, E 5 GPa, 1100 kg/m³ (USP 3-0), damped by its mass
+/// (`rayleigh_mass` 1/s) so that it settles; `where` places it (YAML lines at 4 spaces).
+std::string thread_entry(const std::string& where, double length, int segments, double damping) {
+  return "threads:\n  - name: suture\n    length: " + std::to_string(length) + "\n    segments: " +
+         std::to_string(segments) +
+         "\n    diameter: 2.0e-4\n    young_modulus: 5.0e9\n    density: 1100\n    damping: {rayleigh_mass: " +
+         std::to_string(damping) + "}\n" + where;
+}
+
+double thread_mass(const Model& m) {
+  double mass = 0;
+  for (int32_t i = m.fem.rods[0].node_begin; i < m.fem.rods[0].node_end; ++i) mass += m.fem.mass[i];
+  return mass;
+}
+
+/// One tick with tool 0 at `pos` (jaws down: tool z = world −y), jaw `jaw`.
+const TickReport& tick_tool(const Model& m, State& s, TickWorkspace& w, const Vec3& pos, double jaw) {
+  ToolInput in;
+  in.tool = 0;
+  in.seq = static_cast<uint64_t>(s.step + 1);
+  in.pose.position = pos;
+  in.pose.orientation = {std::sqrt(0.5), std::sqrt(0.5), 0, 0};
+  in.pose.jaw = jaw;
+  return tick(m, s, w, &in, 1);
+}
+
+}  // namespace
+
+// A thread anchored by its first end in the side of a tissue block (bonded at its base) hangs
+// from the anchor: at rest the anchor carries the whole thread's weight (statics: nothing else
+// holds it), the end sits at its material point within that weight over the anchor's
+// stiffness. The anchor's forces and tangent are the element
+// pass's: a checked model, and an unbudgeted step that converges.
+TEST(ThreadAttach, AThreadAnchoredInTissueCarriesItsWeightThere) {
+  const std::string yaml = R"(name: anchor
+time_step: 0.001
+gravity: [0, -9.81, 0]
+solver: {integrator: implicit_euler, linear_solver: cholmod}
+bodies:
+  - name: block
+    mesh: )" + kSrc + R"(/scenarios/meshes/cube_tet4_h8p333mm.msh
+    material: {young_modulus: 3.0e3, poisson_ratio: 0.45, density: 1000, rayleigh_mass: 10}
+    fixed:
+      - box: {min: [-1, -1, -1], max: [1, 0.001, 1]}
+)" + thread_entry("    start: [0.05, 0.04, 0.025]\n    direction: [1, 0, 0]\n    attach: [{end: first, tissue: block}]\n",
+                  0.04, 20, 20.0);
+  const auto m = compile_model(parse_scenario(yaml, "anchor.yaml", kSrc));
+  std::string why;
+  ASSERT_TRUE(model_invariants_hold(*m, &why)) << why;
+  ASSERT_EQ(m->fem.rod_anchors.size(), 1u);
+  const RodAnchor& an = m->fem.rod_anchors[0];
+  EXPECT_EQ(an.node, m->fem.rods[0].node_begin);
+  EXPECT_DOUBLE_EQ(an.stiffness, m->fem.rods[0].stretch_stiffness);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  auto anchor_point = [&](const State& st, double* p) {
+    for (int k = 0; k < 3; ++k) {
+      p[k] = 0;
+      for (int a = 0; a < 4; ++a) p[k] += an.w[a] * st.tissue.x[3 * an.tissue[a] + k];
+    }
+  };
+  for (int i = 0; i < 1000; ++i) ASSERT_TRUE(tick(*m, s, w, nullptr, 0).status == TickStatus::Ok) << i;
+  double p[3];
+  anchor_point(s, p);
+  const double* xe = s.tissue.x.data() + 3 * an.node;
+  double f[3];  // the anchor's force on the thread: k (anchor − end)
+  for (int k = 0; k < 3; ++k) f[k] = an.stiffness * (p[k] - xe[k]);
+  const double W = thread_mass(*m) * kG;
+  EXPECT_NEAR(f[1], W, 0.01 * W) << "the anchor holds the thread's weight";
+  EXPECT_LT(std::hypot(f[0], f[2]), 0.01 * W) << "and pulls it sideways by nothing";
+  EXPECT_LT(std::hypot(p[0] - xe[0], p[1] - xe[1], p[2] - xe[2]), 1.02 * W / an.stiffness);
+  // The thread hangs: its free end below the anchor by nearly its length (bending is ~0 here).
+  const double* last = s.tissue.x.data() + 3 * (m->fem.rods[0].node_end - 1);
+  EXPECT_LT(last[1], p[1] - 0.9 * 0.04);
+  EXPECT_LT(std::abs(last[0] - p[0]), 0.1 * 0.04);
+}
+
+// A thread tied by its first end to the tail of a needle held by a grasper: it starts at the
+// tail (no start given: backwards along the needle), hangs from it, and at rest the grasper
+// carries the needle's and the thread's weight; carried 20 mm sideways, the thread's end stays
+// at the tail within its tension over the tie's stiffness.
+TEST(ThreadAttach, AThreadTiedToANeedlesTailFollowsItAndWeighsOnTheGrasper) {
+  const std::string yaml = test_scenarios::rigid_scene_head("tie") + R"(tools:
+  - name: grasper
+    shape: {type: grasper, radius: 0.002, length: 0.01}
+    grasp: {close: 0.05, open: 0.1}
+    max_speed: 1.0
+    pose: {position: [0, 0.102, 0], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
+rigid_bodies:
+  - name: needle
+    shape: {type: needle, wire_radius: 0.0004, length: 0.04}
+    density: 7800
+    pose: {position: [0, 0.1, 0], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
+)" + thread_entry("    attach: [{end: first, needle: needle}]\n", 0.04, 20, 20.0);
+  const auto m = compile_model(parse_scenario(yaml, "tie.yaml", kSrc));
+  std::string why;
+  ASSERT_TRUE(model_invariants_hold(*m, &why)) << why;
+  ASSERT_EQ(m->thread_ties.size(), 1u);
+  const RodRange& r = m->fem.rods[0];
+  // Starts at the tail (0, 0.1, 0), straight up (away from the tip below it).
+  EXPECT_NEAR(m->fem.rest[3 * r.node_begin + 1], 0.1, 1e-12);
+  EXPECT_NEAR(m->fem.rest[3 * (r.node_end - 1) + 1], 0.14, 1e-12);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  auto tail_gap = [&] {
+    const RigidState& b = s.rigid[0];
+    const std::array<double, 9> R = rotation_of(b.q);
+    const Vec3& a = m->thread_ties[0].arm;
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double tail = b.x[size_t(k)] + R[size_t(3 * k)] * a[0] + R[size_t(3 * k + 1)] * a[1] + R[size_t(3 * k + 2)] * a[2];
+      d2 += std::pow(s.tissue.x[3 * r.node_begin + k] - tail, 2);
+    }
+    return std::sqrt(d2);
+  };
+  double worst = 0;
+  Vec3 pos{0, 0.102, 0};
+  for (int i = 0; i < 2000; ++i) {
+    ASSERT_TRUE(tick_tool(*m, s, w, pos, 0.0).status == TickStatus::Ok) << i;
+    worst = std::max(worst, tail_gap());
+  }
+  ASSERT_EQ(s.tools[0].grasped_body, 0);
+  const double W = (m->rigid_bodies[0].mass.mass + thread_mass(*m)) * kG;
+  EXPECT_NEAR(w.report.tools[0].force[1], -W, 0.02 * W) << "the grasper carries the needle and its thread";
+  // The thread fell from upright and hangs from the tail.
+  EXPECT_LT(s.tissue.x[3 * (r.node_end - 1) + 1], 0.1 - 0.03);
+  for (int i = 0; i < 1000; ++i) {  // 20 mm along x at 20 mm/s, then at rest
+    pos[0] = std::min(0.02, 0.02 * i / 1000.0);
+    ASSERT_TRUE(tick_tool(*m, s, w, pos, 0.0).status == TickStatus::Ok) << i;
+    worst = std::max(worst, tail_gap());
+  }
+  EXPECT_NEAR(s.tissue.x[3 * r.node_begin], 0.02, 1e-3) << "the thread's end went with the needle";
+  // The tension at the tail is at most the weight and the pull of a 20 mm/s drag: ~1e-5 N over
+  // a tie of ~8e4 N/m.
+  EXPECT_LT(worst, 1e-8) << "the end stays at the tail";
+}
+
+// A grasper closing on a free thread's middle holds it: held still, it carries the thread's
+// whole weight, each half drooping as a cantilever; opened, the thread falls freely — its centre
+// of mass at the velocity of a mass-damped fall, v_{n+1} = (v_n − h·g)/(1 + h·α) exactly (the
+// implicit step of dv/dt = −g − α·v; its elastic forces are internal).
+TEST(ThreadAttach, AGrasperHoldsAThreadAndLetsItFall) {
+  const std::string yaml = test_scenarios::rigid_scene_head("hold") + R"(tools:
+  - name: grasper
+    shape: {type: grasper, radius: 0.002, length: 0.01}
+    grasp: {close: 0.05, open: 0.1}
+    pose: {position: [0, 0.105, 0], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
+)" + thread_entry("    start: [-0.025, 0.1, 0]\n    direction: [1, 0, 0]\n", 0.05, 25, 10.0);
+  const auto m = compile_model(parse_scenario(yaml, "hold.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const RodRange& r = m->fem.rods[0];
+  const Vec3 pos{0, 0.105, 0};  // the grasp centre 5 mm below: on the thread's middle
+  for (int i = 0; i < 2000; ++i) ASSERT_TRUE(tick_tool(*m, s, w, pos, 0.0).status == TickStatus::Ok) << i;
+  EXPECT_EQ(s.tools[0].grasped_segment, r.node_begin + 12);
+  EXPECT_NEAR(s.tools[0].grasp_segment_s, 0.5, 1e-9);
+  const double W = thread_mass(*m) * kG;
+  EXPECT_NEAR(w.report.tools[0].force[1], -W, 0.01 * W) << "the grasper carries the thread";
+  const double* mid = s.tissue.x.data() + 3 * (r.node_begin + 12);
+  EXPECT_NEAR(0.5 * (mid[1] + mid[4]), 0.1, 1e-6) << "held where it was grasped";
+  // Each half is a cantilever from the hold (a pin, balanced by the other half) under its
+  // weight: its end droops by w·L⁴/(8·E·I) (small deflection: 4e-5 m on 25 mm; within 3 %).
+  const double L = 0.025, w_len = 1100 * kPi * 1e-8 * kG, EI = 5.0e9 * kPi * 1.6e-15 / 64;
+  const double droop = w_len * std::pow(L, 4) / (8 * EI);
+  EXPECT_NEAR(0.1 - s.tissue.x[3 * r.node_begin + 1], droop, 0.03 * droop) << "its ends droop as cantilevers";
+  EXPECT_NEAR(0.1 - s.tissue.x[3 * (r.node_end - 1) + 1], droop, 0.03 * droop);
+  // Opened: released, the tool feels nothing, the thread falls.
+  auto com_vy = [&] {
+    double p = 0, mass = 0;
+    for (int32_t i = r.node_begin; i < r.node_end; ++i) p += m->fem.mass[i] * s.tissue.v[3 * i + 1], mass += m->fem.mass[i];
+    return p / mass;
+  };
+  double v = com_vy();
+  const double h = m->time_step, alpha = 10.0;
+  for (int i = 0; i < 100; ++i) {
+    ASSERT_TRUE(tick_tool(*m, s, w, pos, 0.3).status == TickStatus::Ok) << i;
+    v = (v - h * kG) / (1 + h * alpha);
+  }
+  EXPECT_EQ(s.tools[0].grasped_segment, -1);
+  EXPECT_EQ(w.report.tools[0].force[1], 0.0);
+  EXPECT_NEAR(com_vy(), v, 1e-3 * std::abs(v));
+  EXPECT_LT(com_vy(), -0.05);
+}
+
+TEST(ThreadAttach, BadAttachmentsAreRefusedWithFileLineAndField) {
+  const std::string head = test_scenarios::rigid_scene_head("bad") + R"(rigid_bodies:
+  - name: needle
+    shape: {type: needle, wire_radius: 0.0004, length: 0.04}
+    density: 7800
+    pose: {position: [0, 0.1, 0], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
+  - name: ball
+    shape: {type: sphere, radius: 0.01}
+    density: 1000
+    pose: {position: [0.2, 0.1, 0]}
+)";
+  auto msg = [&](const std::string& where) {
+    return message_of([&] { compile_model(parse_scenario(head + thread_entry(where, 0.04, 20, 0), "bad.yaml", kSrc)); });
+  };
+  // thread_entry's lines: 22 "threads:", 23 "- name", ... 30 the first line of `where`.
+  std::string e = msg("    attach: [{end: first, needle: neddle}]\n");
+  EXPECT_NE(e.find("bad.yaml:30: threads[0].attach[0].needle: unknown needle 'neddle'"), std::string::npos) << e;
+  EXPECT_NE(e.find("needles are: needle"), std::string::npos) << e;
+  e = msg("    attach: [{end: first, needle: ball}]\n");
+  EXPECT_NE(e.find("'ball' is a rigid body but not a needle"), std::string::npos) << e;
+  e = msg("    attach: [{end: first, tissue: liver}]\n    start: [0, 0.2, 0]\n");
+  EXPECT_NE(e.find("threads[0].attach[0].tissue: unknown tissue body 'liver'"), std::string::npos) << e;
+  e = msg("    start: [0, 0.2, 0]\n    attach: [{end: last, tissue: far}]\n");
+  EXPECT_NE(e.find("bad.yaml:31: threads[0].attach[0].tissue"), std::string::npos) << e;
+  EXPECT_NE(e.find("last end at (0.04, 0.2, 0)"), std::string::npos) << e;
+  EXPECT_NE(e.find("within one segment (2 mm)"), std::string::npos) << e;
+  e = msg("    start: [0, 0.2, 0]\n    attach: [{end: first, needle: needle}]\n");
+  EXPECT_NE(e.find("threads[0].attach[0].needle"), std::string::npos) << e;
+  EXPECT_NE(e.find("100 mm from needle 'needle''s tail"), std::string::npos) << e;
+  e = msg("    attach: [{end: last, needle: needle}]\n");
+  EXPECT_NE(e.find("missing `start`"), std::string::npos) << e;
+  e = msg("    start: [0, 0.2, 0]\n    fixed: [first]\n    attach: [{end: first, tissue: far}]\n");
+  EXPECT_NE(e.find("fixed (fixed: [first]) and attached"), std::string::npos) << e;
+  e = msg("    start: [0, 0.2, 0]\n    attach: [{end: first, tissue: far, needle: needle}]\n");
+  EXPECT_NE(e.find("not both"), std::string::npos) << e;
+  e = msg("    start: [0.19, 0.1, 0]\n");  // through the ball (radius 10 mm at x = 0.2)
+  EXPECT_NE(e.find("bad.yaml:23: threads[0]: thread 'suture' starts inside rigid body 'ball'"), std::string::npos) << e;
+  EXPECT_NE(e.find("its node 1 at (0.192, 0.1, 0) is 2 mm deep"), std::string::npos) << e;
+}
