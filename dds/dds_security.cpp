@@ -42,11 +42,12 @@ const char* const kRos2NodeTopics[] = {"ros_discovery_info", "rt/rosout", "rt/pa
 const char* const kServerTopics[] = {"stroma_ToolFeedback", "stroma_TissueMesh",     "stroma_TissueState",
                                      "stroma_ToolState",    "stroma_Scene",          "stroma_DamageEvent",
                                      "stroma_SimStatus",    "stroma_TopologyEvent",  "stroma_RigidBody",
-                                     "stroma_RigidBodyState", "stroma_NeedleEvent"};
+                                     "stroma_RigidBodyState", "stroma_NeedleEvent",   "stroma_ThreadState"};
 /// What the renderer reads.
 const char* const kRendererTopics[] = {"stroma_TissueMesh", "stroma_TissueState",    "stroma_ToolState",
                                        "stroma_Scene",      "stroma_DamageEvent",    "stroma_SimStatus",
-                                       "stroma_TopologyEvent", "stroma_RigidBody",   "stroma_RigidBodyState"};
+                                       "stroma_TopologyEvent", "stroma_RigidBody",   "stroma_RigidBodyState",
+                                       "stroma_ThreadState"};
 
 /// Certificate subjects: no spaces (Cyclone compares subject names token by token). `group`
 /// (empty, or an organisational unit chosen by make_identity) steers the handshake order.

@@ -47,7 +47,7 @@ namespace {
 
 /// The readers of the render process.
 struct Readers {
-  dds_entity_t mesh = 0, state = 0, tool = 0, scene = 0, damage = 0, rigid_body = 0, rigid_state = 0;
+  dds_entity_t mesh = 0, state = 0, tool = 0, scene = 0, damage = 0, rigid_body = 0, rigid_state = 0, thread_state = 0;
   /// Built-in discovery topics, to say why no server was found: participants seen whose
   /// endpoints are not (a protected domain hides them from a participant without an identity).
   dds_entity_t participants = 0, publications = 0;
@@ -77,6 +77,7 @@ Readers create_readers(dds_entity_t pp) {
   r.damage = dds_check(dds_create_reader(pp, topic(&stroma_DamageEvent_desc, "stroma_DamageEvent"), q_all, nullptr), "reader stroma_DamageEvent");
   r.rigid_body = dds_check(dds_create_reader(pp, topic(&stroma_RigidBody_desc, "stroma_RigidBody"), q_late, nullptr), "reader stroma_RigidBody");
   r.rigid_state = dds_check(dds_create_reader(pp, topic(&stroma_RigidBodyState_desc, "stroma_RigidBodyState"), q_fast, nullptr), "reader stroma_RigidBodyState");
+  r.thread_state = dds_check(dds_create_reader(pp, topic(&stroma_ThreadState_desc, "stroma_ThreadState"), q_fast, nullptr), "reader stroma_ThreadState");
   for (dds_qos_t* q : {q_late, q_fast, q_all}) dds_delete_qos(q);
   r.participants = dds_create_reader(pp, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, nullptr);
   r.publications = dds_create_reader(pp, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr);
@@ -189,6 +190,8 @@ struct SceneState {
   /// before its meshes), and the newest view of each body of this session.
   std::map<std::string, std::pair<uint64_t, render::RigidShapeDesc>> rigid_shapes;
   std::map<std::string, render::RigidView> rigid;
+  std::map<std::string, render::RigidView> threads;  ///< the newest tube of each thread, this session
+  uint64_t thread_states = 0;                        ///< ThreadStates applied
   uint64_t state_frame = 0;
   double sim_time = 0;
   int64_t newest_publish_ns = 0;  // of the newest state not yet shown in a frame
@@ -325,6 +328,7 @@ void start_session(Follower& f, uint64_t session) {
   f.st.body_topology.clear();
   f.st.tools.clear();
   f.st.rigid.clear();
+  f.st.threads.clear();
 }
 
 void apply_mesh(Follower& f, const stroma_TissueMesh& m) {
@@ -431,6 +435,14 @@ void poll(Follower& f) {
     ++f.st.rigid_shapes_received;
   });
   take_all<stroma_RigidBodyState>(f.rd.rigid_state, [&](const stroma_RigidBodyState& s) { apply_rigid_state(f, s); });
+  take_all<stroma_ThreadState>(f.rd.thread_state, [&](const stroma_ThreadState& t) {
+    if (t.session != f.st.session) {  // a restarted server's, before its meshes: not this scene's
+      ++f.st.stale_states;
+      return;
+    }
+    f.st.threads[t.thread] = render::make_thread_view(t.positions._buffer, t.positions._length / 3, t.diameter);
+    ++f.st.thread_states;
+  });
   take_all<stroma_DamageEvent>(f.rd.damage, [&](const stroma_DamageEvent& d) {
     if (d.level >= 0 && d.level < 3) ++f.st.damage_events[d.level];
   });
@@ -527,6 +539,7 @@ void show_tools(Follower& f) {
   f.renderer.set_tools(std::move(tools));
   std::vector<render::RigidView> rigid;
   for (const auto& [name, v] : f.st.rigid) rigid.push_back(v);
+  for (const auto& [name, v] : f.st.threads) rigid.push_back(v);
   f.renderer.set_rigid_bodies(std::move(rigid));
 }
 
@@ -642,6 +655,7 @@ nlohmann::ordered_json make_stats(const RenderOptions& o, const render::GlContex
   stats["damage_events"] = {{"warning", st.damage_events[0]}, {"onset", st.damage_events[1]}, {"rupture", st.damage_events[2]}};
   stats["rigid_bodies"] = {{"shapes_received", st.rigid_shapes_received}, {"states_applied", st.rigid_states},
                            {"track_marks_max", st.track_marks_max}};
+  stats["threads"] = {{"states_applied", st.thread_states}, {"shown", st.threads.size()}};
   stats["last_sim_time"] = st.sim_time;
   return stats;
 }

@@ -197,9 +197,9 @@ struct Renderer::Impl {
   std::vector<Body> bodies;
   std::vector<ToolView> tools;
   std::vector<RigidView> rigid;
-  GpuMesh tool_mesh, rigid_mesh;  // steel (tools, needles); the other rigid bodies
-  std::vector<float> tool_vertices, rigid_vertices;
-  std::vector<uint32_t> tool_indices, rigid_indices;
+  GpuMesh tool_mesh, rigid_mesh, thread_mesh;  // steel (tools, needles); the other rigid bodies; threads
+  std::vector<float> tool_vertices, rigid_vertices, thread_vertices;
+  std::vector<uint32_t> tool_indices, rigid_indices, thread_indices;
   GLuint marker_vao = 0, marker_vbo = 0, track_vao = 0, track_vbo = 0;
   std::vector<float> markers, track_marks;  // 3 per marker
   size_t marker_capacity = 0, track_capacity = 0;
@@ -279,12 +279,14 @@ struct Renderer::Impl {
     tool_indices.clear();
     rigid_vertices.clear();
     rigid_indices.clear();
+    thread_vertices.clear();
+    thread_indices.clear();
     for (const ToolView& t : tools)
       for (const ToolView::Capsule& c : t.capsules)
         append_capsule(c.a, c.b, c.r, tool_vertices, tool_indices, kFloatsPerVertex);
     for (const RigidView& b : rigid) {
-      std::vector<float>& vert = b.steel ? tool_vertices : rigid_vertices;
-      std::vector<uint32_t>& idx = b.steel ? tool_indices : rigid_indices;
+      std::vector<float>& vert = b.thread ? thread_vertices : b.steel ? tool_vertices : rigid_vertices;
+      std::vector<uint32_t>& idx = b.thread ? thread_indices : b.steel ? tool_indices : rigid_indices;
       for (const ToolView::Capsule& c : b.capsules) append_capsule(c.a, c.b, c.r, vert, idx, kFloatsPerVertex);
       for (size_t t = 0; t + 8 < b.triangles.size(); t += 9) {  // flat: the face's normal at its corners
         const Vector3f p0(&b.triangles[t]), p1(&b.triangles[t + 3]), p2(&b.triangles[t + 6]);
@@ -301,6 +303,8 @@ struct Renderer::Impl {
     tool_mesh.upload_indices(tool_indices.data(), tool_indices.size());
     rigid_mesh.upload_vertices(rigid_vertices.data(), rigid_vertices.size() / kFloatsPerVertex);
     rigid_mesh.upload_indices(rigid_indices.data(), rigid_indices.size());
+    thread_mesh.upload_vertices(thread_vertices.data(), thread_vertices.size() / kFloatsPerVertex);
+    thread_mesh.upload_indices(thread_indices.data(), thread_indices.size());
   }
 
   /// A needle's track points → marks (drawn like contact markers, in Look::track).
@@ -474,6 +478,7 @@ struct Renderer::Impl {
     };
     draw_solid(tool_mesh, look.tool, 80.0f, 0.9f);
     draw_solid(rigid_mesh, look.rigid, 32.0f, 0.4f);
+    draw_solid(thread_mesh, look.thread, 24.0f, 0.3f);
   }
 
   /// Contact markers and track marks: round points drawn over the surface they sit on.
@@ -535,6 +540,7 @@ Renderer::Renderer(int width, int height, const Look& look) : impl_(std::make_un
   glGenVertexArrays(1, &s.empty_vao);
   s.tool_mesh.create();
   s.rigid_mesh.create();
+  s.thread_mesh.create();
   for (auto [vao, vbo] : {std::pair{&s.marker_vao, &s.marker_vbo}, std::pair{&s.track_vao, &s.track_vbo}}) {
     glGenVertexArrays(1, vao);
     glGenBuffers(1, vbo);
@@ -553,6 +559,7 @@ Renderer::~Renderer() {
   for (Body& b : s.bodies) b.gpu.destroy();
   s.tool_mesh.destroy();
   s.rigid_mesh.destroy();
+  s.thread_mesh.destroy();
   glDeleteVertexArrays(1, &s.marker_vao);
   glDeleteBuffers(1, &s.marker_vbo);
   glDeleteVertexArrays(1, &s.track_vao);

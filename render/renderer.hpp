@@ -36,6 +36,7 @@ struct Look {
   Vec3f marker{1.0f, 0.85f, 0.15f};   ///< contact markers
   Vec3f rigid{0.35f, 0.55f, 0.80f};   ///< rigid bodies other than needles (needles are steel: `tool`)
   Vec3f track{0.12f, 0.03f, 0.05f};   ///< a needle's track marks: dark, where the tissue was pierced
+  Vec3f thread{0.45f, 0.22f, 0.66f};  ///< suture threads: violet (dyed polyglactin)
   /// Key light direction in world coordinates (from the light towards the scene); all zero:
   /// above and to the left of the camera, following it.
   Vec3f light_direction{0, 0, 0};
@@ -65,6 +66,7 @@ struct RigidView {
   std::vector<float> triangles;
   std::vector<Vec3f> track;
   bool steel = false;  ///< drawn in the tools' steel (a needle) rather than Look::rigid
+  bool thread = false;  ///< a suture thread's tube, drawn in Look::thread
 };
 
 /// Off-screen renderer of bodies (triangle surfaces with per-vertex fields) and tools.

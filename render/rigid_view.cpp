@@ -1,6 +1,7 @@
 #include "render/rigid_view.hpp"
 
 #include <cmath>
+#include <algorithm>
 
 namespace stroma::render {
 
@@ -84,6 +85,22 @@ RigidView make_rigid_view(const RigidShapeDesc& s, const double position[3], con
     }
   }
   for (size_t i = 0; i < track_points; ++i) v.track.push_back({track[3 * i], track[3 * i + 1], track[3 * i + 2]});
+  return v;
+}
+
+RigidView make_thread_view(const float* positions, size_t nodes, double diameter) {
+  RigidView v;
+  v.thread = true;
+  const float r = static_cast<float>(std::max(0.5 * diameter, kThreadMinDrawRadius));
+  for (size_t i = 0; i + 1 < nodes; ++i) {
+    ToolView::Capsule c;
+    for (int k = 0; k < 3; ++k) {
+      c.a[size_t(k)] = positions[3 * i + size_t(k)];
+      c.b[size_t(k)] = positions[3 * i + 3 + size_t(k)];
+    }
+    c.r = r;
+    v.capsules.push_back(c);
+  }
   return v;
 }
 

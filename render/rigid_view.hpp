@@ -3,7 +3,8 @@
 /// A rigid body as the renderer draws it (issue 42): its shape (stroma_RigidBody's fields, in
 /// its shape frame) posed in the world (stroma_RigidBodyState) as capsules — a sphere, a capsule,
 /// a needle's wire as a chain of them along its curve: a tube — and flat triangles (a box's or a
-/// mesh's faces), with a needle's track points as marks. Plain arrays: no GL, no DDS.
+/// mesh's faces), with a needle's track points as marks; a suture thread as a tube along its
+/// nodes (issue 43). Plain arrays: no GL, no DDS.
 
 #include <array>
 #include <cstdint>
@@ -33,5 +34,13 @@ inline constexpr int kNeedleSegments = 24;
 /// triangles with an index out of range are skipped.
 RigidView make_rigid_view(const RigidShapeDesc& shape, const double position[3], const double orientation[4],
                           const float* track, size_t track_points);
+
+/// Radius (m) a thread's tube is drawn with at least: a suture (0.1 mm) is below a pixel at the
+/// distances organs are framed from (~0.3 mm per pixel at 0.3 m and 720 lines), and would vanish.
+inline constexpr double kThreadMinDrawRadius = 4e-4;
+
+/// A suture thread (stroma_ThreadState) as a tube: a capsule along each segment between its
+/// `nodes` positions (3 floats each, world), of radius max(diameter / 2, kThreadMinDrawRadius).
+RigidView make_thread_view(const float* positions, size_t nodes, double diameter);
 
 }  // namespace stroma::render

@@ -36,7 +36,7 @@ struct Endpoints {
   std::vector<int> command_reader_tool;
   dds_entity_t feedback_writer = 0, damage_writer = 0, topology_writer = 0;
   dds_entity_t tool_state_writer = 0, scene_writer = 0;
-  dds_entity_t rigid_body_writer = 0, rigid_state_writer = 0, needle_writer = 0;
+  dds_entity_t rigid_body_writer = 0, rigid_state_writer = 0, needle_writer = 0, thread_state_writer = 0;
   dds_entity_t waitset = 0;
 };
 
@@ -135,6 +135,8 @@ Endpoints create_endpoints(dds_entity_t pp, const Model& model, bool per_tool_pa
   const dds_entity_t t_rigid_state = newer_topic(pp, &stroma_RigidBodyState_desc, "stroma_RigidBodyState");
   e.rigid_body_writer = dds_check(dds_create_writer(pp, t_rigid, q_mesh, nullptr), "writer stroma_RigidBody");
   e.rigid_state_writer = dds_check(dds_create_writer(pp, t_rigid_state, q_state, nullptr), "writer stroma_RigidBodyState");
+  const dds_entity_t t_thread_state = newer_topic(pp, &stroma_ThreadState_desc, "stroma_ThreadState");
+  e.thread_state_writer = dds_check(dds_create_writer(pp, t_thread_state, q_state, nullptr), "writer stroma_ThreadState");
   e.state_writer = dds_check(dds_create_writer(pp, t_state, q_state, nullptr), "writer stroma_TissueState");
   e.status_writer = dds_check(dds_create_writer(pp, t_status, q_status, nullptr), "writer stroma_SimStatus");
   e.control_reader = dds_check(dds_create_reader(pp, t_control, q_control, nullptr), "reader stroma_Control");
@@ -180,7 +182,7 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
                       const InputCounters& in, std::atomic<uint64_t>& status_sent, uint64_t session,
                       const std::string& solver) {
   const Model& m = loop.model();
-  std::vector<float> capsules, track;
+  std::vector<float> capsules, track, thread_positions;
   capsules.reserve(7 * kMaxCapsules);
   uint64_t seen = 0;
   while (!loop.finished.load()) {
@@ -188,7 +190,7 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
     seen = loop.outputs_published.load();
     // State frames while a renderer reads any of the per-frame topics.
     bool wanted = false;
-    for (const dds_entity_t w : {ep.state_writer, ep.tool_state_writer, ep.rigid_state_writer}) {
+    for (const dds_entity_t w : {ep.state_writer, ep.tool_state_writer, ep.rigid_state_writer, ep.thread_state_writer}) {
       dds_publication_matched_status_t ms{};
       if (dds_get_publication_matched_status(w, &ms) >= 0 && ms.current_count > 0) wanted = true;
     }
@@ -212,6 +214,10 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
       for (size_t k = 0; k < f.rigid.size(); ++k) {
         const stroma_RigidBodyState msg = rigid_body_state_message(m, static_cast<int>(k), f, session, track);
         dds_write(ep.rigid_state_writer, &msg);
+      }
+      for (size_t k = 0; k < m.fem.rods.size(); ++k) {
+        const stroma_ThreadState msg = thread_state_message(m, static_cast<int>(k), f, session, thread_positions);
+        dds_write(ep.thread_state_writer, &msg);
       }
     }
     DamageEventRecord ev;

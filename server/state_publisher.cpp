@@ -313,6 +313,32 @@ stroma_RigidBody rigid_body_message(const Model& m, int k, uint64_t session, std
   return msg;
 }
 
+stroma_ThreadState thread_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
+                                        std::vector<float>& positions) {
+  const RodRange& r = m.fem.rods[size_t(k)];
+  stroma_ThreadState msg{};
+  std::snprintf(msg.thread, sizeof(msg.thread), "%s", r.name.c_str());
+  msg.thread_index = static_cast<uint32_t>(k);
+  msg.frame = f.frame;
+  msg.sim_time = f.sim_time;
+  msg.session = session;
+  msg.diameter = r.diameter;
+  msg.rest_length = r.segment_length * r.segments();
+  positions.clear();
+  if (static_cast<size_t>(r.node_end) <= f.dofs) {  // (a frame of another model: never, cutting refuses threads)
+    for (int32_t i = r.node_begin; i < r.node_end; ++i)
+      for (int c = 0; c < 3; ++c) positions.push_back(static_cast<float>(f.x[3 * size_t(i) + size_t(c)]));
+    for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i) {
+      const double* a = f.x.data() + 3 * i;
+      const double len = std::sqrt((a[3] - a[0]) * (a[3] - a[0]) + (a[4] - a[1]) * (a[4] - a[1]) + (a[5] - a[2]) * (a[5] - a[2]));
+      msg.length += len;
+      msg.max_tension = std::max(msg.max_tension, r.stretch_stiffness * (len - r.segment_length));
+    }
+  }
+  set_sequence(msg.positions, positions.data(), positions.size());
+  return msg;
+}
+
 stroma_RigidBodyState rigid_body_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
                                                std::vector<float>& track) {
   const RigidBodyModel& b = m.rigid_bodies[size_t(k)];

@@ -79,6 +79,11 @@ stroma_RigidBody rigid_body_message(const Model& m, int k, uint64_t session, std
 /// The RigidBodyState sample of rigid body k at frame f: the shape frame's pose, velocities, the
 /// tool holding it, contacts and a needle's insertion (its track's material points evaluated on
 /// f's positions, written into `track`).
+/// The ThreadState sample of thread (rod) k at frame f: its nodes' positions (into `positions`,
+/// which the message borrows), length and largest tension.
+stroma_ThreadState thread_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
+                                        std::vector<float>& positions);
+
 stroma_RigidBodyState rigid_body_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
                                                std::vector<float>& track);
 /// The Scene sample: the scenario's render: section (camera up defaults to against gravity).

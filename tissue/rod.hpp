@@ -38,6 +38,7 @@ struct RodRange {
   double stretch_stiffness = 0;          ///< k_s = E·A/ℓ (N/m)
   double bend_stiffness = 0;             ///< k_b = E·I/ℓ³ (N/m)
   double beta = 0;                       ///< Rayleigh stiffness damping (s)
+  double diameter = 0;                   ///< m (for output: the stiffnesses carry it)
   /// Its pattern slots in FemModel::rod_slots from here: per segment (i, i+1) the blocks
   /// (i, i), (i, i+1), (i+1, i+1); then per interior node i the blocks of (i−1, i, i+1):
   /// (i−1, i−1), (i−1, i), (i−1, i+1), (i, i), (i, i+1), (i+1, i+1).

@@ -1027,5 +1027,34 @@ TEST(RendererBasics, AWoundsEdgeIsDrawnAlongItsLips) {
   EXPECT_NEAR(side_cut, side_uncut, 3) << "away from the lip the sheet is as it was";
 }
 
+// A suture thread (issue 43) is a violet tube along its nodes: a capsule per segment, at least
+// kThreadMinDrawRadius thick (a 0.2 mm suture would be below a pixel), drawn where it is in the
+// thread's colour (redder and bluer than green, unlike the steel and the background).
+TEST(ThreadView, AThreadIsATubeAlongItsNodesInItsColour) {
+  const float nodes[9] = {-1.0f, -0.5f, 0.0f, 0.0f, 0.0f, 0.0f, 1.0f, -0.5f, 0.0f};
+  const RigidView thin = make_thread_view(nodes, 3, 2e-4);
+  ASSERT_EQ(thin.capsules.size(), 2u);
+  EXPECT_TRUE(thin.thread);
+  EXPECT_FLOAT_EQ(thin.capsules[0].r, static_cast<float>(kThreadMinDrawRadius));
+  EXPECT_FLOAT_EQ(thin.capsules[1].a[0], 0.0f);
+  EXPECT_FLOAT_EQ(thin.capsules[1].b[1], -0.5f);
+  const RigidView thick = make_thread_view(nodes, 3, 0.1);
+  EXPECT_FLOAT_EQ(thick.capsules[0].r, 0.05f);
+  const Look look = plain_look();
+  Renderer r(160, 120, look);
+  Camera cam;
+  cam.position = {0, 0, 5};
+  cam.target = {0, 0, 0};
+  r.set_camera(cam);
+  const Image bg = render_once(r);
+  r.set_rigid_bodies({thick});
+  const Image drawn = render_once(r);
+  const auto apex = pixel(drawn, 80, 60);  // the middle node, at the centre
+  EXPECT_GT(max_channel_difference(apex, pixel(bg, 80, 60)), 24) << "the tube is at its middle node";
+  EXPECT_GT(apex[2], apex[1] + 10) << "violet: more blue than green";
+  EXPECT_GT(apex[0], apex[1]) << "and more red than green";
+  EXPECT_LE(max_channel_difference(pixel(drawn, 80, 15), pixel(bg, 80, 15)), 1) << "and nothing above it";
+}
+
 }  // namespace
 }  // namespace stroma::render

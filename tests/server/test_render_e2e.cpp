@@ -334,3 +334,35 @@ TEST(RenderEndToEnd, TheRendererDrawsANeedleAndItsTrack) {
   fs::remove_all(out);
 }
 
+
+// The renderer draws threads from DDS: the swinging suture of tests/data/server/thread.yaml
+// (stroma_ThreadState with every frame) as a tube — applied with the frames and shown.
+TEST(RenderEndToEnd, TheRendererDrawsAThread) {
+  const std::string domain = "196";
+  const fs::path out = fs::temp_directory_path() / ("stroma_e2e_thread_" + std::to_string(getpid()));
+  fs::remove_all(out);
+  Process server({STROMA_BINARY, "serve", kSrc + "/tests/data/server/thread.yaml", "--domain", domain, "--realtime",
+                  "off", "--duration", "60"});
+  Process renderer({STROMA_BINARY, "render", "--domain", domain, "--out", out.string(), "--duration", "2", "--fps",
+                    "15", "--width", "240", "--height", "180", "--msaa", "0", "--no-video", "--wait", "30"});
+  EXPECT_EQ(renderer.wait_exit(60), 0);
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(20), 0);
+  const auto rs = nlohmann::json::parse(std::ifstream(out / "render_stats.json"));
+  ASSERT_TRUE(rs.contains("threads")) << rs.dump();
+  EXPECT_GT(rs["threads"]["states_applied"].get<int>(), 10) << "its nodes, with the frames";
+  EXPECT_EQ(rs["threads"]["shown"].get<int>(), 1) << "one thread drawn";
+  // In the last frame: violet pixels (red and blue above green), which neither the red-brown
+  // tissue nor the blue-grey background has.
+  int frames = 0;
+  while (fs::exists(out / fmt::format("frame_{:06d}.png", frames))) ++frames;
+  ASSERT_GT(frames, 2);
+  const render::Image last = render::read_png((out / fmt::format("frame_{:06d}.png", frames - 1)).string());
+  int violet = 0;
+  for (size_t i = 0; i + 2 < last.pixels.size(); i += size_t(last.channels)) {
+    const int r = last.pixels[i], g = last.pixels[i + 1], b = last.pixels[i + 2];
+    if (r > g + 10 && b > g + 20) ++violet;
+  }
+  EXPECT_GT(violet, 20) << "the thread's tube is on screen";
+  fs::remove_all(out);
+}

@@ -1209,6 +1209,78 @@ void prestretch_over_dds(int domain, bool crtk) {
 }
 }  // namespace
 
+namespace {
+/// A thread scene served (tests/data/server/thread.yaml): its stroma_ThreadState samples, as a
+/// client written from the IDL reads them — the paused first frame is the thread as the
+/// scenario lays it out (straight along −x from its start, its rest length), and while running
+/// its free end swings down while its held end stays and it stretches < 1 %.
+void thread_over_dds(int domain, bool crtk) {
+  Process server(paused_serve_args("/tests/data/server/thread.yaml", domain, crtk));
+  Client client(domain);
+  const dds_entity_t pp = client.participant();
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t reader =
+      dds_create_reader(pp, dds_create_topic(pp, &stroma_ThreadState_desc, "stroma_ThreadState", nullptr, nullptr), q, nullptr);
+  dds_delete_qos(q);
+  ASSERT_GT(reader, 0);
+  struct Sample {
+    double t = -1, length = 0, rest = 0, diameter = 0, tension = 0;
+    std::vector<float> x;
+    std::string name;
+  };
+  auto take = [&](double seconds, const std::function<bool(double)>& pred, Sample* out) {
+    for (auto end = Clock::now() + std::chrono::duration<double>(seconds); Clock::now() < end;) {
+      void* sm[1] = {nullptr};
+      dds_sample_info_t info;
+      bool ok = false;
+      if (dds_take(reader, sm, &info, 1, 1) > 0) {
+        const auto* st = static_cast<const stroma_ThreadState*>(sm[0]);
+        if (info.valid_data && pred(st->sim_time)) {
+          out->t = st->sim_time;
+          out->length = st->length;
+          out->rest = st->rest_length;
+          out->diameter = st->diameter;
+          out->tension = st->max_tension;
+          out->x.assign(st->positions._buffer, st->positions._buffer + st->positions._length);
+          out->name = st->thread;
+          ok = true;
+        }
+        dds_return_loan(reader, sm, 1);
+      }
+      if (ok) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return false;
+  };
+  Sample s;
+  ASSERT_TRUE(take(15, [](double) { return true; }, &s)) << "a paused server publishes the thread once";
+  EXPECT_EQ(s.t, 0.0);
+  EXPECT_EQ(s.name, "suture");
+  ASSERT_EQ(s.x.size(), 3u * 41u);
+  EXPECT_DOUBLE_EQ(s.rest, 0.1);
+  EXPECT_DOUBLE_EQ(s.diameter, 2e-4);
+  EXPECT_NEAR(s.length, 0.1, 1e-6);
+  EXPECT_LT(s.tension, 1e-9) << "straight at its rest length: no tension but round-off";
+  for (int i = 0; i <= 40; ++i) {
+    EXPECT_NEAR(s.x[3 * i], -0.01 - 0.0025 * i, 1e-6) << i;
+    EXPECT_NEAR(s.x[3 * i + 1], 0.1, 1e-6) << i;
+  }
+  client.control(stroma_RESUME);
+  ASSERT_TRUE(take(15, [](double t) { return t > 0.2; }, &s)) << "frames while running";
+  EXPECT_NEAR(s.x[0], -0.01, 1e-6) << "the held end stays";
+  EXPECT_NEAR(s.x[1], 0.1, 1e-6);
+  EXPECT_LT(s.x[3 * 40 + 1], 0.1 - 0.05) << "the free end swung down";
+  EXPECT_NEAR(s.length, 0.1, 0.001) << "stretched < 1 %";
+  EXPECT_GT(s.tension, 0.0) << "its weight and swing pull on it";
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+}
+}  // namespace
+
+TEST(Serve, AThreadsNodesArePublished) { thread_over_dds(194, false); }
+TEST(Serve, AThreadsNodesArePublishedWithCrtk) { thread_over_dds(195, true); }
 TEST(Serve, APrestretchedBodyIsPublishedAsItsMeshFromTheFirstFrame) { prestretch_over_dds(192, false); }
 TEST(Serve, APrestretchedBodyIsPublishedAsItsMeshFromTheFirstFrameWithCrtk) { prestretch_over_dds(193, true); }
 TEST(Serve, RigidBodiesAndNeedleEventsArePublished) { needle_over_dds(183, false); }
