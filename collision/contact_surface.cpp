@@ -27,9 +27,9 @@ int add_dof(int32_t* dof, int& n, int max_n, int32_t d) {
 }
 
 void fill_slots(const BsrPattern& pattern, const int32_t* dof, int n, int32_t* slot) {
-  for (int i = 0; i < kSpringMaxNodes * kSpringMaxNodes; ++i) slot[i] = -1;
+  for (int i = 0; i < kSurfaceDofs * kSurfaceDofs; ++i) slot[i] = -1;
   for (int a = 0; a < n; ++a)
-    for (int b = 0; b < n; ++b) slot[kSpringMaxNodes * a + b] = pair_slot(pattern, dof[a], dof[b]);
+    for (int b = 0; b < n; ++b) slot[kSurfaceDofs * a + b] = pair_slot(pattern, dof[a], dof[b]);
 }
 
 }  // namespace
@@ -41,7 +41,7 @@ SurfaceTriangleDofs triangle_dofs(const BsrPattern& pattern, const std::array<in
   for (int v = 0; v < 3; ++v) {
     const int32_t p = tri[v];
     const int32_t d = p < num_dofs ? p : embedded_dof[static_cast<size_t>(p - num_dofs)];
-    const int i = add_dof(td.dof, n, kSpringMaxNodes, d);
+    const int i = add_dof(td.dof, n, kSurfaceDofs, d);
     if (i < 0)
       throw std::invalid_argument("surface triangle (" + std::to_string(tri[0]) + ", " + std::to_string(tri[1]) +
                                   ", " + std::to_string(tri[2]) + ") involves more than four DOFs");

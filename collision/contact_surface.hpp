@@ -22,14 +22,15 @@ namespace stroma {
 /// How a point of a surface triangle acts on the DOFs: the triangle's distinct DOFs (≤ 4: a
 /// triangle lies in one element copy), the weight of each for each triangle vertex (the point
 /// with barycentric b has weight Σ_v b_v·W[v][d] on dof[d]), and the BSR slots of the DOF pairs
-/// (4a + b, as ContactSpring::slot). Invariants: 1 ≤ n ≤ 4; each row W[v][0..n) sums to 1;
-/// slot[4a + b] for a, b < n is the stored block (dof[a], dof[b]) or −1 for the lower triangle.
-/// An uncut triangle: its three nodes, W the identity.
+/// (kSurfaceDofs·a + b). Invariants: 1 ≤ n ≤ kSurfaceDofs; each row W[v][0..n) sums to 1;
+/// slot[kSurfaceDofs·a + b] for a, b < n is the stored block (dof[a], dof[b]) or −1 for the
+/// lower triangle. An uncut triangle: its three nodes, W the identity.
+inline constexpr int kSurfaceDofs = 4;
 struct SurfaceTriangleDofs {
   int32_t n = 3;
-  int32_t dof[kSpringMaxNodes] = {0, 0, 0, 0};
-  double W[3][kSpringMaxNodes] = {};
-  int32_t slot[kSpringMaxNodes * kSpringMaxNodes] = {};
+  int32_t dof[kSurfaceDofs] = {0, 0, 0, 0};
+  double W[3][kSurfaceDofs] = {};
+  int32_t slot[kSurfaceDofs * kSurfaceDofs] = {};
 };
 
 /// How a single surface point acts on the DOFs (body contact's vertex side): on one DOF with
@@ -116,7 +117,8 @@ inline void set_spring_point(const SurfaceTriangleDofs& td, double b0, double b1
     sp.node[d] = td.dof[d];
     sp.w[d] = b0 * td.W[0][d] + b1 * td.W[1][d] + b2 * td.W[2][d];
   }
-  for (int i = 0; i < kSpringMaxNodes * kSpringMaxNodes; ++i) sp.slot[i] = td.slot[i];
+  for (int a = 0; a < td.n; ++a)
+    for (int b = 0; b < td.n; ++b) sp.slot[spring_slot(a, b)] = td.slot[kSurfaceDofs * a + b];
 }
 
 /// Sets sp to act on a single surface point's DOF.

@@ -108,6 +108,9 @@ struct ModelConstants {
 ///  - element_node_mass is sized to the elements when has_damage (empty otherwise),
 ///    element_face_ptr to the elements + 1 when has_contact; element_region_damage is empty or
 ///    sized to the elements.
+/// Punctures a scene's threads may go through at once (two per bite: eight stitches).
+inline constexpr int32_t kThreadPunctures = 16;
+
 struct ModelTopology {
   FemModel fem;                    ///< all bodies in one system
   std::vector<ProbeModel> probes;
@@ -164,6 +167,9 @@ struct ModelTopology {
     double stiffness = 0;
   };
   std::vector<ThreadTie> thread_ties;
+  /// Most punctures threads go through at once (State::punctures' size): kThreadPunctures when
+  /// a thread is tied to a needle, else 0.
+  int32_t puncture_capacity = 0;
 
   std::shared_ptr<const CutTopology> topology;  ///< this model's topology (the uncut one's too)
   int32_t topology_version = 0;  ///< 0: uncut; +1 per swapped-in cut model

@@ -143,7 +143,9 @@ bool state_sized_for(const Model& m, const State& s) {
          (m.has_damage ? s.damage.size() == ne && s.damage_level.size() == ne &&
                              s.node_mass.size() == static_cast<size_t>(m.fem.num_nodes)
                        : s.damage.empty()) &&
-         s.edge_cut.size() == (m.cutting ? m.cut_edge_dofs.size() : 0);
+         s.edge_cut.size() == (m.cutting ? m.cut_edge_dofs.size() : 0) &&
+         s.punctures.size() == static_cast<size_t>(m.puncture_capacity) && s.puncture_count >= 0 &&
+         s.puncture_count <= m.puncture_capacity;
 }
 
 }  // namespace stroma

@@ -23,6 +23,11 @@ struct State {
   /// One per Model::rigid_bodies: a needle's insertion (rigid/needle_track.hpp; its track sized
   /// to the body's track_capacity); other bodies' stay empty and outside.
   std::vector<NeedleState> needles;
+  /// Where threads go through the tissue (tissue/rod.hpp, engine/thread_attach.hpp):
+  /// punctures[0, puncture_count) in the order they were made; the vector is sized to
+  /// Model::puncture_capacity (no allocation in the tick).
+  std::vector<RodPuncture> punctures;
+  int32_t puncture_count = 0;
   // Damage (empty when no body has a damage model):
   std::vector<float> damage;          ///< per element d ∈ [0, 1]; stiffness × (1 − d)
   std::vector<uint8_t> damage_level;  ///< per element DamageLevel
@@ -62,6 +67,7 @@ struct State {
       s.rigid.push_back(b.initial);
       s.needles.emplace_back().track.resize(size_t(b.track_capacity));
     }
+    s.punctures.resize(size_t(m.puncture_capacity));
     for (size_t k = 0; k < m.tools.size(); ++k) s.tools[k].pose = m.tools[k].rest_pose;
     if (m.cutting) s.edge_cut.assign(m.cut_edge_dofs.size(), kEdgeUncut);
     if (m.has_damage) {

@@ -15,7 +15,7 @@ constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', '
 constexpr uint32_t kVersion = 8;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body; 6: needles;
                                   // 7: refresh ids as presence flags (one encoding per state); track
                                   // points name their body (needles through two bites); 8: a tool's
-                                  // grasp of a thread
+                                  // grasp of a thread; threads' punctures
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
@@ -271,6 +271,8 @@ std::string encode_state(const State& s, uint64_t fingerprint) {
     w.value(n.punctures);
     w.value(n.tip_offset);
   }
+  w.array(s.punctures);
+  w.value(s.puncture_count);
   w.array(s.damage);
   w.array(s.damage_level);
   w.array(s.node_mass);
@@ -348,6 +350,10 @@ State decode_state(const std::string& bytes, uint64_t* fingerprint) {
     if (n.count < 0 || size_t(n.count) > n.track.size() || static_cast<uint8_t>(n.phase) > 2)
       throw InputError(kWhat, 0, "needle", "a needle's track count or phase is out of range");
   }
+  r.array(s.punctures, "punctures");
+  r.value(s.puncture_count, "puncture_count");
+  if (s.puncture_count < 0 || size_t(s.puncture_count) > s.punctures.size())
+    throw InputError(kWhat, 0, "puncture_count", "a thread's puncture count is out of range");
   r.array(s.damage, "damage");
   r.array(s.damage_level, "damage_level");
   r.array(s.node_mass, "node_mass");
@@ -412,6 +418,25 @@ bool needle_tracks_fit(const State& s, const State& ref, const Model& m, std::st
   }
   return true;
 }
+
+/// Whether the threads' punctures are the model's: capacity, count, rods, elements.
+bool punctures_fit(const State& s, const State& ref, const Model& m, std::string* why) {
+  auto fail = [&](const std::string& what) {
+    if (why) *why = "thread punctures: " + what;
+    return false;
+  };
+  if (s.punctures.size() != ref.punctures.size()) return fail("their capacity differs from the model's");
+  if (s.puncture_count < 0 || size_t(s.puncture_count) > s.punctures.size()) return fail("count out of range");
+  for (int32_t i = 0; i < s.puncture_count; ++i) {
+    const RodPuncture& p = s.punctures[size_t(i)];
+    if (p.rod < 0 || size_t(p.rod) >= m.fem.rods.size()) return fail("a puncture names a thread the model does not have");
+    const RodRange& r = m.fem.rods[size_t(p.rod)];
+    if (!(p.sigma >= 0 && p.sigma <= r.segments()) || !(p.stiffness > 0)) return fail("a puncture is off its thread");
+    for (const int32_t n : p.node)
+      if (n < 0 || n >= (m.fem.bodies.empty() ? 0 : m.fem.bodies.back().node_end)) return fail("a puncture names a node that is not tissue");
+  }
+  return true;
+}
 }  // namespace
 
 bool state_fits_model(const State& s, const Model& m, std::string* why) {
@@ -428,7 +453,8 @@ bool state_fits_model(const State& s, const Model& m, std::string* why) {
          check(s.tissue.visco_q.size(), ref.tissue.visco_q.size(), "visco-elastic branches") &&
          check(s.tissue.visco_s0.size(), ref.tissue.visco_s0.size(), "visco-elastic stresses") &&
          check(s.tools.size(), ref.tools.size(), "tools") && check(s.rigid.size(), ref.rigid.size(), "rigid bodies") &&
-         check(s.needles.size(), ref.needles.size(), "needles") && needle_tracks_fit(s, ref, m, why) && check(s.damage.size(), ref.damage.size(), "damage") &&
+         check(s.needles.size(), ref.needles.size(), "needles") && needle_tracks_fit(s, ref, m, why) &&
+         punctures_fit(s, ref, m, why) && check(s.damage.size(), ref.damage.size(), "damage") &&
          check(s.damage_level.size(), ref.damage_level.size(), "damage levels") &&
          check(s.node_mass.size(), ref.node_mass.size(), "node masses") &&
          check(s.face_active.size(), ref.face_active.size(), "collision faces") &&

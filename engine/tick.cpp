@@ -288,6 +288,9 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
     body_contact(*m.body_contact, surf, w.bvh, px, pv, m.fem_step, m.fem.gravity.data(), w.body_boxes.data(),
                  w.springs, w.body_pairs, w.report.body_contact);
   if (!m.rigid_bodies.empty()) rigid_contacts(m, s, w, surf, x, px, v);
+  // Threads through the tissue, last: the springs with matrix-free pairs close the list.
+  thread_punctures_before_step(m, s);
+  for (int32_t i = 0; i < s.puncture_count; ++i) thread_puncture_spring(m.fem, s.punctures[size_t(i)], x, w.springs);
 }
 
 namespace {
@@ -396,6 +399,10 @@ bool step_tissue(const Model& m, State& s, TickWorkspace& w, Deadline deadline, 
                           m.fem, needle_walk_mesh(m), m.node_tet.data(), w.backup_x.data(), s.tissue.x.data(),
                           s.tissue.v.data(), s.needles[k], r.needles[k]);
   }
+  r.punctures_made = 0;
+  if (m.puncture_capacity > 0)  // threads slide through their punctures; new ones where tails passed
+    r.punctures_made = thread_punctures_after_step(m, s, s.tissue.x.data(), s.tissue.v.data(), r.needles.data(),
+                                                   &r.punctures_dropped);
   s.step += ticks;
   s.time = static_cast<double>(s.step) * m.time_step;
   if (m.has_damage) {

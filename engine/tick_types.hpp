@@ -112,6 +112,9 @@ struct TickReport {
   std::vector<RigidContactOutput> rigid_contact;
   /// Per rigid body: a needle's insertion this tick (rigid/needle_track.hpp; zeros for other bodies).
   std::vector<NeedleOutput> needles;
+  /// Threads through the tissue (engine/thread_attach.hpp): punctures made this tick, and
+  /// those a full State::punctures could not take (should stay 0).
+  int32_t punctures_made = 0, punctures_dropped = 0;
   int damage_events = 0;            ///< elements reaching a new damage level this tick
   /// Edges of the uncut mesh the blades cut this tick (in s.edge_cut; the topology follows when
   /// the runner swaps in the cut model).

@@ -32,7 +32,7 @@ void spring_on(const TrackPoint& tp, const FemModel& fem, int32_t row, const dou
     sp.w[a] = tp.w[a];
   }
   for (int a = 0; a < 4; ++a)
-    for (int c = 0; c < 4; ++c) sp.slot[4 * a + c] = tp.node[size_t(a)] <= tp.node[size_t(c)] ? es[size_t(4 * a + c)] : -1;
+    for (int c = 0; c < 4; ++c) sp.slot[spring_slot(a, c)] = tp.node[size_t(a)] <= tp.node[size_t(c)] ? es[size_t(4 * a + c)] : -1;
   sp.row_n = row;
   for (int k = 0; k < 3; ++k) sp.arm_n[k] = arm[k];
 }
@@ -487,7 +487,11 @@ void needle_after_step(const RigidBodyModel& b, int32_t body_index, const RigidS
   int32_t kept = 0;
   for (int32_t i = 0; i < ns.count; ++i) {
     const TrackPoint& tp = ns.track[size_t(i)];
-    if (tp.s < 0) continue;
+    if (tp.s < 0) {  // past the tail: an entry or exit there is where a tied thread now passes
+      if (tp.surface != 0 && out.passed_count < static_cast<int32_t>(out.passed.size()))
+        out.passed[size_t(out.passed_count++)] = tp;
+      continue;
+    }
     if (tp.s > Lapex) {
       if (ns.phase == NeedlePhase::Exited && i + 1 == ns.count) {  // withdrawn back through the exit
         ns.phase = NeedlePhase::Inserted;

@@ -115,6 +115,10 @@ struct NeedleOutput {
   double friction_force = 0;   ///< N: Σ the track's axial forces on the needle along t at the tip (signed)
   double inserted_length = 0;  ///< m
   int32_t track_points = 0;
+  /// Entries and exits (surface track points) the needle's tail passed this step — where a
+  /// thread tied to its tail now goes through the tissue (engine/thread_attach.hpp).
+  std::array<TrackPoint, 4> passed{};
+  int32_t passed_count = 0;
 };
 
 /// A track point or front sliding in this step (its axial force the kinetic one, constant): if

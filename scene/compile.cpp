@@ -790,6 +790,7 @@ std::vector<FemRodInput> thread_inputs(const ScenarioSpec& spec, const std::vect
     r.density = t.density;
     r.rayleigh_mass = t.rayleigh_mass;
     r.rayleigh_stiffness = t.rayleigh_stiffness;
+    r.friction = t.friction;
     size_t leg = 0;       // the path's segment the next node is on
     double leg_start = 0;  // arc length at the start of that leg
     for (int i = 0; i <= t.segments; ++i) {
@@ -878,6 +879,7 @@ void compile_thread_ties(const ScenarioSpec& spec, Model& model) {
       tie.stiffness = r.stretch_stiffness;
       tied_body[size_t(tie.node - r.node_begin)] = tie.body;
       model.thread_ties.push_back(tie);
+      model.puncture_capacity = kThreadPunctures;
     }
     for (int32_t i = r.node_begin; i < r.node_end; ++i)
       for (size_t k = 0; k < model.rigid_bodies.size(); ++k) {

@@ -927,6 +927,7 @@ ThreadSpec parse_thread(const MapReader& m, const Context& ctx) {
     dm.read("rayleigh_mass", t.rayleigh_mass, physical_range(0, 1e6, "1/s"));
     dm.read("rayleigh_stiffness", t.rayleigh_stiffness, physical_range(0, 10, "s"));
   }
+  m.read("friction", t.friction, physical_range(0, 2, "Coulomb coefficient of the thread on tissue: ~0.1..0.4"));
   if (auto f = m.opt("fixed"))
     for (const Field& e : f->list()) {
       const std::string which = e.string();
@@ -1023,7 +1024,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   std::map<std::string, int> thread_names;
   for (const auto& item : m.list("threads")) {
     const MapReader tm = item.map({"name", "length", "segments", "diameter", "young_modulus", "density", "start",
-                                   "direction", "path", "damping", "fixed", "attach"});
+                                   "direction", "path", "damping", "fixed", "attach", "friction"});
     s.threads.push_back(parse_thread(tm, ctx));
     const std::string& name = s.threads.back().name;
     check_unique_name(thread_names, name, tm.req("name"), "thread");

@@ -39,6 +39,7 @@ struct RodRange {
   double bend_stiffness = 0;             ///< k_b = E·I/ℓ³ (N/m)
   double beta = 0;                       ///< Rayleigh stiffness damping (s)
   double diameter = 0;                   ///< m (for output: the stiffnesses carry it)
+  double friction = 0;                   ///< Coulomb coefficient where it passes through tissue (punctures)
   /// Its pattern slots in FemModel::rod_slots from here: per segment (i, i+1) the blocks
   /// (i, i), (i, i+1), (i+1, i+1); then per interior node i the blocks of (i−1, i, i+1):
   /// (i−1, i−1), (i−1, i), (i−1, i+1), (i, i), (i, i+1), (i+1, i+1).
@@ -64,6 +65,26 @@ struct RodAnchor {
   double beta = 0;       ///< Rayleigh stiffness damping (s): the rod's
   int32_t slot_begin = 0;
 };
+
+/// Where a rod passes through the tissue (a puncture the needle made; engine/thread_attach.hpp):
+/// a material point of a tetrahedron and the rod's point tied to it, at σ along the rod in node
+/// units from its first node (segment ⌊σ⌋, fraction σ − ⌊σ⌋). Tied by a spring stiff across the
+/// rod and, along it, stuck until the Coulomb limit μ·|normal force| — past it the rod slides
+/// (σ moves); while it slides, each step's σ starts ahead by the thread's travel at its last
+/// relative speed (`slip`), so a steady pull meets the friction limit, not that plus the spring
+/// dragged a step's travel — and a thread that stops predicts no travel.
+/// Invariants: w ≥ 0, Σw = 1, node are a tetrahedron's; 0 ≤ sigma ≤ the rod's segments;
+/// stiffness > 0. No padding (copied and hashed as bytes).
+struct RodPuncture {
+  double w[4] = {0, 0, 0, 0};
+  double sigma = 0;
+  double stiffness = 0;  ///< N/m: the tissue body's needle-track spring (track_stiffness × spacing)
+  double slip = 0;       ///< σ the next step starts ahead by (the last one's travel; 0: stuck)
+  int32_t node[4] = {0, 0, 0, 0};
+  int32_t rod = 0;   ///< index into FemModel::rods
+  int32_t body = 0;  ///< the tissue body it is in
+};
+static_assert(sizeof(RodPuncture) == 80, "RodPuncture has padding");
 
 /// The slots of one anchor: the upper triangle of its 5×5 node pairs.
 inline constexpr int kRodAnchorSlots = 15;

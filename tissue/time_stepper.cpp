@@ -52,6 +52,31 @@ void TimeStepper::extra_apply(void* self, const double* x, double* y) {
   const TimeStepper& t = *static_cast<const TimeStepper*>(self);
   if (t.nodal_) t.nodal_->op()->apply(t.nodal_->op()->context, x, y);
   t.rows_.apply(x, y);
+  t.apply_cross(x, y);
+}
+
+void TimeStepper::apply_cross(const double* x, double* y) const {
+  const double ks = h_ * h_, cs = h_;
+  for (int c = cross_begin_; c < cross_end_; ++c) {
+    const ContactSpring& sp = in_.springs[c];
+    if (!sp.matrix_free) continue;
+    double Kp[9];
+    for (int k = 0; k < 9; ++k) Kp[k] = ks * sp.K[k] + cs * sp.C[k];
+    for (int a = 0; a < sp.n; ++a) {
+      const int32_t na = sp.node[a];
+      double acc[3] = {0, 0, 0};
+      for (int b = 0; b < sp.n; ++b) {
+        if (sp.slot[spring_slot(a, b)] != kSlotMatrixFree) continue;
+        const int32_t nb = sp.node[b];
+        double xb[3];
+        for (int k = 0; k < 3; ++k) xb[k] = dof_constrained(m_, nb, k) ? 0.0 : x[3 * nb + k];
+        const double ww = sp.w[a] * sp.w[b];
+        for (int r = 0; r < 3; ++r) acc[r] += ww * (Kp[3 * r] * xb[0] + Kp[3 * r + 1] * xb[1] + Kp[3 * r + 2] * xb[2]);
+      }
+      for (int r = 0; r < 3; ++r)
+        if (!dof_constrained(m_, na, r)) y[3 * na + r] += acc[r];
+    }
+  }
 }
 
 void TimeStepper::set_realtime(bool realtime) {
@@ -102,9 +127,10 @@ void TimeStepper::scatter_springs(double* force, double* A, double k_scale, doub
     if (!A) continue;
     for (int a = 0; a < sp.n; ++a)
       for (int b = 0; b < sp.n; ++b) {
-        if (sp.slot[4 * a + b] < 0) continue;  // lower triangle: the symmetric (b, a) adds it
+        const int32_t slot = sp.slot[spring_slot(a, b)];
+        if (slot < 0) continue;  // lower triangle: the symmetric (b, a) adds it; or matrix-free
         const double ww = sp.w[a] * sp.w[b];
-        double* B = A + 9 * sp.slot[4 * a + b];
+        double* B = A + 9 * slot;
         for (int k = 0; k < 9; ++k) B[k] += ww * (k_scale * sp.K[k] + c_scale * sp.C[k]);
       }
   }
@@ -124,6 +150,12 @@ double TimeStepper::assemble(TissueState& s, double h, const StepInputs& inputs)
   }
   in_ = inputs;
   h_ = h;
+  cross_begin_ = cross_end_ = 0;
+  for (int c = 0; c < in_.spring_count; ++c)
+    if (in_.springs[c].matrix_free) {
+      if (cross_end_ == 0) cross_begin_ = c;
+      cross_end_ = c + 1;
+    }
   rows_.clear();  // until this step's are assembled
   std::fill(force_.begin(), force_.end(), 0.0);
   ElasticPass p;
@@ -177,6 +209,7 @@ double TimeStepper::assemble(TissueState& s, double h, const StepInputs& inputs)
     // h(f_ext + f − αMv − (β + h)Kv) = h(f_ext + f) + Mv − Av   (constrained v are 0).
     bsr_spmv(m_.pattern, A_.data(), s.v.data(), tmp_.data());
     if (nodal_) nodal_->apply(s.v.data(), tmp_.data());
+    apply_cross(s.v.data(), tmp_.data());  // springs across parts: their unassembled pairs
     for (int32_t i = 0; i < n; ++i) {
       const double mi = mass(i), dm = mi - m_.mass[i];  // gravity follows the current mass
       for (int k = 0; k < 3; ++k) {
@@ -265,13 +298,15 @@ SolveStats TimeStepper::solve(TissueState& s, Deadline* deadline) {
       if (dof_constrained(m_, i, k)) dv[3 * i + k] = 0.0;
   if (cfg_.linear_solver == LinearSolverKind::Cholmod) {
     st.converged = cholmod_->factor(A_.data());
-    if (st.converged && rows_.rows() > 0) {
-      // The Schur complement is A minus a term of rank ≤ 6·rows: CG preconditioned by A's
-      // factor converges in at most that many + 1 iterations.
+    if (st.converged && (rows_.rows() > 0 || has_cross())) {
+      // The Schur complement is A minus a term of rank ≤ 6·rows (and springs across parts add
+      // their unassembled pairs, of rank ≤ 3 each): CG preconditioned by A's factor converges in
+      // at most that many + 1 iterations.
       const ExternalPreconditioner factor_solve{
           [](void* c, const double* r, double* z) { static_cast<CholmodSolver*>(c)->solve(r, z); }, cholmod_.get()};
       st = cg_.solve(m_.pattern, A_.data(), rhs_.data(), dv, Preconditioner::WarpedCholesky,
-                     std::max(cfg_.max_iterations, 6 * rows_.rows() + 2), cfg_.tolerance, &factor_solve, deadline,
+                     std::max(cfg_.max_iterations, 6 * rows_.rows() + 3 * (cross_end_ - cross_begin_) + 2),
+                     cfg_.tolerance, &factor_solve, deadline,
                      true, extra());
       rows_.back_substitute(dv);
       return st;

@@ -252,6 +252,12 @@ class TimeStepper {
   bool realtime_ = false;
   StepInputs in_;  ///< the inputs of the last assemble()
   double h_ = 0;  ///< the step of the last assemble()
+  /// The springs of in_ with matrix-free pairs (ContactSpring::matrix_free) lie in
+  /// [cross_begin_, cross_end_) (empty: none): their cross terms are applied in each product.
+  int cross_begin_ = 0, cross_end_ = 0;
+  bool has_cross() const { return cross_end_ > cross_begin_; }
+  /// y += Σ over the matrix-free pairs (a, b) of those springs w_a w_b (h²K + hC) x_b, on free DOFs.
+  void apply_cross(const double* x, double* y) const;
   double u_start_ = 0;  ///< elastic energy at the last assemble()'s positions
   /// The visco-elastic state at the last assemble() (integrate() moves the state's on): the
   /// energy guard measures the step's own potential c·Ψ₀ + H:ε with it, before and after.
@@ -298,7 +304,7 @@ class TimeStepper {
   ExtraOperator extra_op_;
   static void extra_apply(void* self, const double* x, double* y);
   const ExtraOperator* extra() const {
-    if (rows_.rows() > 0) return &extra_op_;
+    if (rows_.rows() > 0 || has_cross()) return &extra_op_;
     return nodal_ ? nodal_->op() : nullptr;
   }
 };

@@ -57,20 +57,12 @@ double bisect(const std::function<double(double)>& g, double lo, double hi) {
   return 0.5 * (lo + hi);
 }
 
-}  // namespace
-
-// The forces are −∂E/∂x and the assembled tangent is −∂f/∂x (central differences, a stretched
-// and bent rod in 3-D, so the geometric part of the stretching tangent is exercised).
-TEST(Rod, ForcesAreTheEnergysGradientAndTheTangentTheirDerivative) {
-  const FemModel m = rod_model(straight_rod(0.01, 2e6, 1e-3, 1100, 0, 5), {0, 0, 0});
-  ASSERT_EQ(m.rods.size(), 1u);
-  std::mt19937_64 rng(7);
+/// Expects the element pass's forces at x to be −∂E/∂x (within 1e-6 of the largest) and its
+/// assembled tangent −∂f/∂x along a random direction (within 1e-5), by central differences.
+void expect_forces_and_tangent_are_the_energys(const FemModel& m, const std::vector<double>& x, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(-1, 1);
-  std::vector<double> x = m.rest;
-  for (size_t i = 0; i < x.size(); ++i) x[i] = 1.5 * x[i] + 1e-3 * u(rng);  // every segment stretched
   std::vector<double> f;
-  const double E = energy_and_force(m, x, &f);
-  EXPECT_GT(E, 0);
+  energy_and_force(m, x, &f);
   const double eps = 1e-7;
   double worst_f = 0, fmax = 0;
   for (size_t d = 0; d < x.size(); ++d) {
@@ -102,6 +94,21 @@ TEST(Rod, ForcesAreTheEnergysGradientAndTheTangentTheirDerivative) {
     kmax = std::max(kmax, std::abs(Kd[d]));
   }
   EXPECT_LT(worst_k, 1e-5 * kmax) << "K = −∂f/∂x";
+}
+
+}  // namespace
+
+// The forces are −∂E/∂x and the assembled tangent is −∂f/∂x (central differences, a stretched
+// and bent rod in 3-D, so the geometric part of the stretching tangent is exercised).
+TEST(Rod, ForcesAreTheEnergysGradientAndTheTangentTheirDerivative) {
+  const FemModel m = rod_model(straight_rod(0.01, 2e6, 1e-3, 1100, 0, 5), {0, 0, 0});
+  ASSERT_EQ(m.rods.size(), 1u);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<double> x = m.rest;
+  for (size_t i = 0; i < x.size(); ++i) x[i] = 1.5 * x[i] + 1e-3 * u(rng);  // every segment stretched
+  EXPECT_GT(energy_and_force(m, x, nullptr), 0);
+  expect_forces_and_tangent_are_the_energys(m, x, rng);
 
   // The mass: ρ·A·L in all, half a segment's on each end node.
   const double A = kPi * 1e-6 / 4;
@@ -139,39 +146,78 @@ TEST(Rod, AnAnchorsForcesAndTangentAreItsEnergys) {
   std::vector<double> x = m.rest;
   for (int32_t i = 5; i < m.num_nodes; ++i) x[3 * i] += 0.005 * (i - 4);  // every segment stretched (the
   for (double& v : x) v += 1e-3 * u(rng);  // compressed tangent is projected, not the derivative)
-  std::vector<double> f;
-  energy_and_force(m, x, &f);
-  const double eps = 1e-7;
-  double worst_f = 0, fmax = 0;
-  for (size_t d = 0; d < x.size(); ++d) {
-    std::vector<double> xp = x, xm = x;
-    xp[d] += eps;
-    xm[d] -= eps;
-    const double g = (energy_and_force(m, xp, nullptr) - energy_and_force(m, xm, nullptr)) / (2 * eps);
-    worst_f = std::max(worst_f, std::abs(f[d] + g));
-    fmax = std::max(fmax, std::abs(f[d]));
-  }
-  EXPECT_LT(worst_f, 1e-6 * fmax) << "f = −∂E/∂x";
-  // The anchor's own force: −k·d on the rod's end, +k·w_a·d on the tetrahedron's nodes.
-  std::vector<double> K(9 * m.pattern.nnzb(), 0.0);
-  ElasticPass p;
-  p.x = x.data();
-  p.kvals = K.data();
-  p.k_const = 1.0;
-  elastic_pass(m, p);
-  std::vector<double> dir(x.size()), Kd(x.size(), 0.0);
-  for (double& v : dir) v = u(rng);
-  bsr_spmv(m.pattern, K.data(), dir.data(), Kd.data());
-  std::vector<double> xp = x, xm = x, fp, fm;
-  for (size_t d = 0; d < x.size(); ++d) xp[d] += eps * dir[d], xm[d] -= eps * dir[d];
-  energy_and_force(m, xp, &fp);
-  energy_and_force(m, xm, &fm);
-  double worst_k = 0, kmax = 0;
-  for (size_t d = 0; d < x.size(); ++d) {
-    worst_k = std::max(worst_k, std::abs(Kd[d] + (fp[d] - fm[d]) / (2 * eps)));
-    kmax = std::max(kmax, std::abs(Kd[d]));
-  }
-  EXPECT_LT(worst_k, 1e-5 * kmax) << "K = −∂f/∂x";
+  expect_forces_and_tangent_are_the_energys(m, x, rng);
+}
+
+// A spring joining two parts the pattern does not couple (a rod's node and a tetrahedron's
+// point: ContactSpring with signed weights, its cross pairs kSlotMatrixFree, applied in each
+// CG product) steps exactly as the same zero-length spring assembled into the pattern (the
+// model's RodAnchor): a linear spring linearised at the step's start is the spring itself, so
+// the two trajectories agree to the solves' tolerance — under CG with Jacobi, block Jacobi
+// (the rod's band), and CHOLMOD (the factor of the assembled part preconditioning CG).
+TEST(Rod, ASpringAcrossPartsAppliedMatrixFreeStepsAsTheAssembledAnchor) {
+  TetMesh tet;
+  tet.nodes = {{0, 0, 0}, {0.01, 0, 0}, {0, 0.01, 0}, {0, 0, 0.01}};
+  tet.tets = {{0, 1, 2, 3}};
+  const PreparedMesh pm = prepare_mesh(tet);
+  FemBodyInput b = test_meshes::body_input(pm, ElementModel::Corotational, RotationMethod::Polar, 3e3, 0.45, 1000);
+  b.fixed = {{0, 7}};  // one corner held: the tetrahedron hangs and turns
+  FemRodInput rod = straight_rod(0.002, 5e7, 2e-4, 1100, 0, 10);
+  for (Vec3& p : rod.nodes) p[0] += 0.003, p[1] += 0.002, p[2] += 0.001;  // its first node inside the tet
+  const double w[4] = {0.4, 0.3, 0.2, 0.1};
+  RodAnchor an;
+  for (int a = 0; a < 4; ++a) an.tissue[a] = a, an.w[a] = w[a];
+  an.stiffness = 300;
+  FemRodInput anchored = rod;
+  anchored.anchors.push_back(an);
+  const FemModel with = build_fem_model({b}, {0, -9.81, 0}, false, {anchored});
+  const FemModel without = build_fem_model({b}, {0, -9.81, 0}, false, {rod});
+  const int32_t r0 = without.rods[0].node_begin;
+  for (const LinearSolverKind solver : {LinearSolverKind::CG, LinearSolverKind::Cholmod})
+    for (const Preconditioner prec : {Preconditioner::Jacobi, Preconditioner::BlockJacobi}) {
+      if (solver == LinearSolverKind::Cholmod && prec == Preconditioner::BlockJacobi) continue;
+      StepperSettings set;
+      set.linear_solver = solver;
+      set.preconditioner = prec;
+      set.tolerance = 1e-12;
+      set.max_iterations = 500;
+      TimeStepper ta(with, set), tb(without, set);
+      TissueState sa = TissueState::at_rest(with), sb = TissueState::at_rest(without);
+      const double h = 1e-3;
+      double worst = 0, scale = 0;
+      for (int step = 0; step < 300; ++step) {
+        ta.assemble(sa, h, {});
+        ASSERT_TRUE(ta.solve(sa).converged);
+        ta.integrate(sa, h);
+        ContactSpring sp;
+        sp.n = 5;
+        const int32_t nodes[5] = {r0, 0, 1, 2, 3};
+        const double c[5] = {1.0, -w[0], -w[1], -w[2], -w[3]};
+        for (int a = 0; a < 5; ++a) sp.node[a] = nodes[a], sp.w[a] = c[a];
+        for (int a = 0; a < 5; ++a)
+          for (int q = 0; q < 5; ++q) {
+            const int32_t sl = without.pattern.find_upper(nodes[a], nodes[q]);
+            sp.slot[spring_slot(a, q)] = sl < 0 ? kSlotMatrixFree : (nodes[a] <= nodes[q] ? sl : -1);
+          }
+        sp.matrix_free = 1;
+        double d[3];
+        spring_point(sp, sb.x.data(), d);
+        for (int k = 0; k < 3; ++k) sp.force[k] = -an.stiffness * d[k], sp.K[4 * k] = an.stiffness;
+        StepInputs in;
+        in.springs = &sp;
+        in.spring_count = 1;
+        in.contact_origin = sb.x.data();
+        tb.assemble(sb, h, in);
+        ASSERT_TRUE(tb.solve(sb).converged);
+        tb.integrate(sb, h);
+        for (size_t i = 0; i < sb.x.size(); ++i) {
+          worst = std::max(worst, std::abs(sa.x[i] - sb.x[i]));
+          scale = std::max(scale, std::abs(sa.x[i] - with.rest[i]));
+        }
+      }
+      EXPECT_GT(scale, 1e-3) << "it moved";
+      EXPECT_LT(worst, 1e-9 * scale) << "solver " << int(solver) << ", preconditioner " << int(prec);
+    }
 }
 
 // A thread of length L = 1 m hanging under its weight between two fixed points 0.8 m apart at
