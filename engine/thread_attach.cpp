@@ -240,7 +240,22 @@ int thread_punctures_after_step(const Model& m, State& s, const double* x, const
       }
       if (va * way > 0) p.slip = -va * m.fem_step / len;
     }
-    if (p.sigma < 0 || p.sigma > r.segments()) continue;  // the thread's end left the puncture
+    // A free end that slides out leaves the puncture; an end tied to a needle cannot (the needle
+    // is there: σ stays at it — as right after the puncture is made, where the tissue's point,
+    // dragged on by the needle's friction, may lie a little ahead of the tail).
+    auto tied = [&](int32_t node) {
+      for (const Model::ThreadTie& tie : m.thread_ties)
+        if (tie.node == node) return true;
+      return false;
+    };
+    if (p.sigma < 0) {
+      if (!tied(r.node_begin)) continue;
+      p.sigma = 0, p.slip = 0;
+    }
+    if (p.sigma > r.segments()) {
+      if (!tied(r.node_end - 1)) continue;
+      p.sigma = r.segments(), p.slip = 0;
+    }
     s.punctures[size_t(kept++)] = p;
   }
   s.puncture_count = kept;

@@ -19,8 +19,8 @@
 ///    cross pairs applied matrix-free (ContactSpring::matrix_free), so pulling the thread pulls
 ///    the tissue there. After each step, friction: along the thread the spring holds at most
 ///    μ·|its force across the thread| (Coulomb, μ the thread's `friction`) — beyond, σ moves so
-///    that it holds exactly that (the thread slides through); a puncture the thread's end leaves
-///    is gone. At a bend θ through a point this is T₂ − T₁ = μ·N, the capstan law's first order.
+///    that it holds exactly that (the thread slides through); a puncture a free end slides out
+///    of is gone (at an end tied to the needle σ stays at the end). At a bend θ through a point this is T₂ − T₁ = μ·N, the capstan law's first order.
 /// (An end anchored in tissue is a constant of the model: tissue/rod.hpp, RodAnchor.)
 
 #include <vector>

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "engine/model_check.hpp"
+#include "engine/thread_attach.hpp"
 #include "engine/state.hpp"
 #include "engine/tick.hpp"
 #include "rigid/rigid_motion.hpp"
@@ -350,4 +351,100 @@ TEST(ThreadPuncture, APulledThreadPassesItsTensionThroughAPunctureLessItsFrictio
   const double ratio = (1 + 0.2) / (1 - 0.2);
   EXPECT_NEAR(rough.pull, ratio * rough.weight, 0.05 * ratio * rough.weight) << "with friction 0.2";
   EXPECT_NEAR(rough.slid, 0.01, 0.001);
+}
+
+// End to end: a needle with a thread tied to its tail is driven through the 50 mm block by one
+// grasper, taken at its tip by a second beyond the far face and pulled on through: where its
+// tail passes the entry and then the exit, the thread goes through the tissue there (one
+// puncture each, made from the needle's track), and pulled further it slides through both —
+// at the end each puncture's point of the thread is at its material point, at the arc length
+// from the tail the needle has travelled past it.
+TEST(ThreadPuncture, ANeedleDrawsItsThreadThroughTheTissue) {
+  const std::string yaml = R"(name: draw_through
+time_step: 0.001
+gravity: [0, 0, 0]
+solver: {integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-8}
+bodies:
+  - name: block
+    mesh: )" + kSrc + R"(/scenarios/meshes/cube_tet4_h8p333mm.msh
+    material:
+      young_modulus: 3.0e4
+      poisson_ratio: 0.45
+      density: 1000
+      rayleigh_mass: 20
+      needle: {puncture_force: 0.3, cutting_force: 0.15, friction: {static: 5, kinetic: 3}}
+    fixed:
+      - box: {min: [-1, -1.0e-9, -1], max: [1, 1.0e-9, 1]}
+tools:
+  - name: driver
+    shape: {type: grasper, radius: 0.002, length: 0.01}
+    grasp: {close: 0.05, open: 0.1, stiffness: 1.0e5}
+  - name: puller
+    shape: {type: grasper, radius: 0.002, length: 0.01}
+    grasp: {close: 0.05, open: 0.1, stiffness: 1.0e5}
+rigid_bodies:
+  - name: needle
+    shape: {type: needle, wire_radius: 0.0004, length: 0.08}
+    density: 7800
+    pose: {position: [-0.0805, 0.03, 0.025], orientation: [0.7071067811865476, 0, 0.7071067811865476, 0]}
+threads:
+  - name: suture
+    length: 0.1
+    segments: 50
+    diameter: 2.0e-4
+    young_modulus: 5.0e9
+    density: 1100
+    damping: {rayleigh_mass: 5}
+    attach: [{end: first, needle: needle}]
+)";
+  const auto m = compile_model(parse_scenario(yaml, "draw.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const RodRange& r = m->fem.rods[0];
+  EXPECT_NEAR(m->fem.rest[3 * (r.node_end - 1)], -0.1805, 1e-12) << "the thread leaves the tail backwards";
+  // Jaws along +x (their grasp centre 5 mm ahead of the tool centre), 40 mm/s.
+  const std::array<double, 4> along_x = {std::sqrt(0.5), 0, std::sqrt(0.5), 0};
+  auto ramp = [](double t, double t0, double t1, double a, double b) {
+    return t <= t0 ? a : (t >= t1 ? b : a + (b - a) * (t - t0) / (t1 - t0));
+  };
+  int made = 0, dropped = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const double t = 0.001 * i;
+    ToolInput in[2];
+    for (int k = 0; k < 2; ++k) {
+      in[k].tool = k;
+      in[k].seq = static_cast<uint64_t>(s.step + 1);
+      in[k].pose.orientation = along_x;
+      in[k].pose.position = {0, 0.03, 0.025};
+    }
+    in[0].pose.position[0] = ramp(t, 0.05, 1.675, -0.0825, -0.0175);  // drives it 65 mm in
+    in[0].pose.jaw = t < 1.75 ? 0.0 : 0.3;                           // and lets go
+    in[1].pose.position[0] = ramp(t, 1.8, 3.8, 0.054, 0.134);         // takes its tip, pulls 80 mm
+    in[1].pose.jaw = t < 1.7 ? 0.3 : 0.0;
+    const TickReport& rep = tick(*m, s, w, in, 2);
+    ASSERT_TRUE(rep.status == TickStatus::Ok || rep.status == TickStatus::SolverNotConverged) << t;
+    made += rep.punctures_made;
+    dropped += rep.punctures_dropped;
+  }
+  EXPECT_EQ(s.tools[1].grasped_body, 0) << "the puller holds the needle";
+  EXPECT_EQ(s.needles[0].phase, NeedlePhase::Outside) << "the needle is through and out";
+  ASSERT_EQ(made, 2) << "the entry and the exit";
+  EXPECT_EQ(dropped, 0);
+  ASSERT_EQ(s.puncture_count, 2);
+  const double* x = s.tissue.x.data();
+  const double tail_x = x[3 * r.node_begin];
+  EXPECT_NEAR(tail_x, -0.0805 + 0.145, 0.003) << "the thread's end went with the needle";
+  const double expect_x[2] = {0.0, 0.05};
+  for (int q = 0; q < 2; ++q) {
+    const RodPuncture& p = s.punctures[size_t(q)];
+    double P[3] = {0, 0, 0};
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k) P[k] += p.w[a] * x[3 * p.node[a] + k];
+    EXPECT_NEAR(P[0], expect_x[q], 0.003) << "puncture " << q << ": the needle's " << (q ? "exit" : "entry");
+    const RodPoint rp = rod_point(r, p.sigma);
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) d2 += std::pow((1 - rp.u) * x[3 * rp.j + k] + rp.u * x[3 * rp.j + 3 + k] - P[k], 2);
+    EXPECT_LT(std::sqrt(d2), 5e-4) << "puncture " << q << ": the thread passes through its point";
+    EXPECT_NEAR(p.sigma * r.segment_length, tail_x - P[0], 0.004) << "puncture " << q << ": slid through by the travel";
+  }
 }
