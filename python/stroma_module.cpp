@@ -219,6 +219,27 @@ class PySimulation {
       }
       d["positions"] = pos;
       d["length"] = length;
+      // Where it goes through the tissue (docs/THREAD.md): each puncture's tissue body, the
+      // thread's point tied there (sigma, in segments from its first node) and the material
+      // point now.
+      py::list punctures;
+      const State& st = sim_->state();
+      for (int32_t i = 0; i < st.puncture_count; ++i) {
+        const RodPuncture& p = st.punctures[size_t(i)];
+        if (&f.rods[size_t(p.rod)] != &r) continue;
+        py::dict q;
+        q["body"] = f.bodies[size_t(p.body)].name;
+        q["sigma"] = p.sigma;
+        py::array_t<double> pt(3);
+        double* o = pt.mutable_data();
+        for (int c = 0; c < 3; ++c) {
+          o[c] = 0;
+          for (int a = 0; a < 4; ++a) o[c] += p.w[a] * x[3 * static_cast<size_t>(p.node[a]) + c];
+        }
+        q["point"] = pt;
+        punctures.append(q);
+      }
+      d["punctures"] = punctures;
       out.append(d);
     }
     return out;

@@ -41,6 +41,7 @@ StateFrame frame_for(const Model& m) {
   size_t track = 0;
   for (const RigidBodyModel& b : m.rigid_bodies) track += static_cast<size_t>(b.track_capacity);
   f.track.resize(track);
+  f.punctures.resize(size_t(m.puncture_capacity));
   return f;
 }
 
@@ -164,6 +165,9 @@ void PhysicsLoop::publish_state_frame(const TickReport& r, const State& tissue, 
       b.friction_force = o.friction_force;
     }
   }
+  // The threads' punctures (the frame is sized for their capacity).
+  f.puncture_count = std::clamp<int32_t>(tissue.puncture_count, 0, static_cast<int32_t>(f.punctures.size()));
+  std::copy_n(tissue.punctures.begin(), f.puncture_count, f.punctures.begin());
   state_out.publish();
   outputs_published.fetch_add(1, std::memory_order_release);
   outputs_published.notify_one();

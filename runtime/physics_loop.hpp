@@ -95,6 +95,8 @@ struct StateFrame {
   std::array<ToolSnapshot, kMaxTools> tools{};
   std::vector<RigidSnapshot> rigid;  ///< one per Model::rigid_bodies
   std::vector<TrackPoint> track;     ///< the needles' track points (capacity: Σ track_capacity)
+  std::vector<RodPuncture> punctures;  ///< the threads' punctures (capacity: Model::puncture_capacity)
+  int32_t puncture_count = 0;
 };
 
 /// What a cut made, as the physics thread reports it when a cut model is swapped in (or a

@@ -182,7 +182,7 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
                       const InputCounters& in, std::atomic<uint64_t>& status_sent, uint64_t session,
                       const std::string& solver) {
   const Model& m = loop.model();
-  std::vector<float> capsules, track, thread_positions;
+  std::vector<float> capsules, track, thread_positions, thread_punctures;
   capsules.reserve(7 * kMaxCapsules);
   uint64_t seen = 0;
   while (!loop.finished.load()) {
@@ -216,7 +216,8 @@ void publisher_thread(PhysicsLoop& loop, const Endpoints& ep, SurfaceExtractor& 
         dds_write(ep.rigid_state_writer, &msg);
       }
       for (size_t k = 0; k < m.fem.rods.size(); ++k) {
-        const stroma_ThreadState msg = thread_state_message(m, static_cast<int>(k), f, session, thread_positions);
+        const stroma_ThreadState msg = thread_state_message(m, static_cast<int>(k), f, session, thread_positions,
+                                                                thread_punctures);
         dds_write(ep.thread_state_writer, &msg);
       }
     }

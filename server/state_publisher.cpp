@@ -314,7 +314,7 @@ stroma_RigidBody rigid_body_message(const Model& m, int k, uint64_t session, std
 }
 
 stroma_ThreadState thread_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
-                                        std::vector<float>& positions) {
+                                        std::vector<float>& positions, std::vector<float>& punctures) {
   const RodRange& r = m.fem.rods[size_t(k)];
   stroma_ThreadState msg{};
   std::snprintf(msg.thread, sizeof(msg.thread), "%s", r.name.c_str());
@@ -336,6 +336,19 @@ stroma_ThreadState thread_state_message(const Model& m, int k, const StateFrame&
     }
   }
   set_sequence(msg.positions, positions.data(), positions.size());
+  punctures.clear();
+  for (int32_t i = 0; i < f.puncture_count; ++i) {
+    const RodPuncture& p = f.punctures[size_t(i)];
+    if (p.rod != k) continue;
+    float q[4] = {0, 0, 0, static_cast<float>(p.sigma)};
+    for (int a = 0; a < 4; ++a) {
+      const size_t n = static_cast<size_t>(p.node[a]);
+      if (n >= f.dofs) continue;  // (a frame of another model: never, cutting refuses threads)
+      for (int c = 0; c < 3; ++c) q[c] += static_cast<float>(p.w[a] * f.x[3 * n + size_t(c)]);
+    }
+    punctures.insert(punctures.end(), q, q + 4);
+  }
+  set_sequence(msg.punctures, punctures.data(), punctures.size());
   return msg;
 }
 

@@ -80,9 +80,9 @@ stroma_RigidBody rigid_body_message(const Model& m, int k, uint64_t session, std
 /// tool holding it, contacts and a needle's insertion (its track's material points evaluated on
 /// f's positions, written into `track`).
 /// The ThreadState sample of thread (rod) k at frame f: its nodes' positions (into `positions`,
-/// which the message borrows), length and largest tension.
+/// which the message borrows), length, largest tension, and its punctures (into `punctures`).
 stroma_ThreadState thread_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
-                                        std::vector<float>& positions);
+                                        std::vector<float>& positions, std::vector<float>& punctures);
 
 stroma_RigidBodyState rigid_body_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
                                                std::vector<float>& track);

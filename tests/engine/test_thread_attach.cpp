@@ -360,44 +360,7 @@ TEST(ThreadPuncture, APulledThreadPassesItsTensionThroughAPunctureLessItsFrictio
 // at the end each puncture's point of the thread is at its material point, at the arc length
 // from the tail the needle has travelled past it.
 TEST(ThreadPuncture, ANeedleDrawsItsThreadThroughTheTissue) {
-  const std::string yaml = R"(name: draw_through
-time_step: 0.001
-gravity: [0, 0, 0]
-solver: {integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-8}
-bodies:
-  - name: block
-    mesh: )" + kSrc + R"(/scenarios/meshes/cube_tet4_h8p333mm.msh
-    material:
-      young_modulus: 3.0e4
-      poisson_ratio: 0.45
-      density: 1000
-      rayleigh_mass: 20
-      needle: {puncture_force: 0.3, cutting_force: 0.15, friction: {static: 5, kinetic: 3}}
-    fixed:
-      - box: {min: [-1, -1.0e-9, -1], max: [1, 1.0e-9, 1]}
-tools:
-  - name: driver
-    shape: {type: grasper, radius: 0.002, length: 0.01}
-    grasp: {close: 0.05, open: 0.1, stiffness: 1.0e5}
-  - name: puller
-    shape: {type: grasper, radius: 0.002, length: 0.01}
-    grasp: {close: 0.05, open: 0.1, stiffness: 1.0e5}
-rigid_bodies:
-  - name: needle
-    shape: {type: needle, wire_radius: 0.0004, length: 0.08}
-    density: 7800
-    pose: {position: [-0.0805, 0.03, 0.025], orientation: [0.7071067811865476, 0, 0.7071067811865476, 0]}
-threads:
-  - name: suture
-    length: 0.1
-    segments: 50
-    diameter: 2.0e-4
-    young_modulus: 5.0e9
-    density: 1100
-    damping: {rayleigh_mass: 5}
-    attach: [{end: first, needle: needle}]
-)";
-  const auto m = compile_model(parse_scenario(yaml, "draw.yaml", kSrc));
+  const auto m = compile_model(load_scenario(kSrc + "/tests/data/thread_draw_through.yaml"));
   State s = State::initial(*m);
   TickWorkspace w(*m);
   const RodRange& r = m->fem.rods[0];

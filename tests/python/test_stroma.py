@@ -318,6 +318,34 @@ def test_a_thread_is_read_as_its_nodes_and_swings_as_in_stroma_run(tmp_path):
     np.testing.assert_array_equal(final_state(tmp_path)[first:end], x)
 
 
+def test_a_thread_drawn_through_the_tissue_lists_its_punctures():
+    """docs/THREAD.md, "Through the tissue": a needle with a suture tied to its tail, driven through
+    the 50 mm block by one grasper and pulled on by a second (tests/data/thread_draw_through.yaml,
+    scripted here through set_pose as the C++ test scripts it), leaves the thread through the
+    entry and the exit: `threads[0]["punctures"]` lists both, in the block, the thread's point at
+    each (sigma) at the material point, at the arc length the needle travelled past it."""
+    sim = stroma.Simulation(str(SOURCE / "tests" / "data" / "thread_draw_through.yaml"))
+    assert sim.threads[0]["punctures"] == []
+    along_x = [0.5 ** 0.5, 0, 0.5 ** 0.5, 0]
+
+    def ramp(t, t0, t1, a, b):
+        return a if t <= t0 else b if t >= t1 else a + (b - a) * (t - t0) / (t1 - t0)
+
+    for i in range(4000):
+        t = 0.001 * i
+        sim.set_pose(0, [ramp(t, 0.05, 1.675, -0.0825, -0.0175), 0.03, 0.025], along_x, 0.0 if t < 1.75 else 0.3)
+        sim.set_pose(1, [ramp(t, 1.8, 3.8, 0.054, 0.134), 0.03, 0.025], along_x, 0.3 if t < 1.7 else 0.0)
+        sim.step()
+    (thread,) = sim.threads
+    punctures = thread["punctures"]
+    assert len(punctures) == 2, "the entry and the exit"
+    tail_x = thread["positions"][0, 0]
+    for p, x in zip(punctures, [0.0, 0.05]):
+        assert p["body"] == "block"
+        assert p["point"][0] == pytest.approx(x, abs=0.003)
+        assert p["sigma"] * thread["segment_length"] == pytest.approx(tail_x - p["point"][0], abs=0.004)
+
+
 def json_as_yaml(scenario, base_dir):
     """The scenario as a YAML file elsewhere: JSON is YAML; the mesh path made absolute."""
     import copy

@@ -1227,6 +1227,7 @@ void thread_over_dds(int domain, bool crtk) {
   ASSERT_GT(reader, 0);
   struct Sample {
     double t = -1, length = 0, rest = 0, diameter = 0, tension = 0;
+    size_t punctures = 0;
     std::vector<float> x;
     std::string name;
   };
@@ -1244,6 +1245,7 @@ void thread_over_dds(int domain, bool crtk) {
           out->diameter = st->diameter;
           out->tension = st->max_tension;
           out->x.assign(st->positions._buffer, st->positions._buffer + st->positions._length);
+          out->punctures = st->punctures._length;
           out->name = st->thread;
           ok = true;
         }
@@ -1263,6 +1265,7 @@ void thread_over_dds(int domain, bool crtk) {
   EXPECT_DOUBLE_EQ(s.diameter, 2e-4);
   EXPECT_NEAR(s.length, 0.1, 1e-6);
   EXPECT_LT(s.tension, 1e-9) << "straight at its rest length: no tension but round-off";
+  EXPECT_EQ(s.punctures, 0u) << "it goes through no tissue";
   for (int i = 0; i <= 40; ++i) {
     EXPECT_NEAR(s.x[3 * i], -0.01 - 0.0025 * i, 1e-6) << i;
     EXPECT_NEAR(s.x[3 * i + 1], 0.1, 1e-6) << i;
