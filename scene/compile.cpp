@@ -536,6 +536,17 @@ void compile_needles(const ScenarioSpec& spec, Model& model) {
       b.track_capacity = static_cast<int32_t>(std::ceil((b.needle.length + b.needle.wire_radius) / spacing_min)) + 8;
 }
 
+/// A needle's wire and curve from its scenario entry (rigid/needle_shape.hpp).
+NeedleGeometry needle_geometry(const RigidBodySpec& r) {
+  NeedleGeometry g;
+  g.wire_radius = r.wire_radius;
+  g.curved = r.angle_deg > 0;
+  g.arc_radius = g.curved ? r.radius : 0.0;
+  g.angle = r.angle_deg * M_PI / 180.0;
+  g.length = g.curved ? g.arc_radius * g.angle : r.length;
+  return g;
+}
+
 /// `rigid_bodies:` → RigidBodyModel: mass properties from the shape (a mesh read, checked
 /// closed and scaled), the body frame moved to the centre of mass, the initial state.
 void compile_rigid_bodies(const ScenarioSpec& spec, Model& model) {
@@ -575,13 +586,8 @@ void compile_rigid_bodies(const ScenarioSpec& spec, Model& model) {
           break;
         case RigidShapeKind::Needle: {
           b.shape = RigidShape::Needle;
-          NeedleGeometry& g = b.needle;
-          g.wire_radius = r.wire_radius;
-          g.curved = r.angle_deg > 0;
-          g.arc_radius = g.curved ? r.radius : 0.0;
-          g.angle = r.angle_deg * M_PI / 180.0;
-          g.length = g.curved ? g.arc_radius * g.angle : r.length;
-          p = needle_mass_properties(g, r.density);
+          b.needle = needle_geometry(r);
+          p = needle_mass_properties(b.needle, r.density);
           break;
         }
         case RigidShapeKind::Mesh: {
@@ -750,14 +756,8 @@ void check_multirate(const ScenarioSpec& spec) {
 /// A needle's tail (its curve at s = 0, world) and the way a thread leaves it (the curve's
 /// tangent there, backwards), from the scenario's pose and shape.
 void needle_tail(const RigidBodySpec& r, Vec3& tail, Vec3& away) {
-  NeedleGeometry g;
-  g.wire_radius = r.wire_radius;
-  g.curved = r.angle_deg > 0;
-  g.arc_radius = g.curved ? r.radius : 0.0;
-  g.angle = r.angle_deg * M_PI / 180.0;
-  g.length = g.curved ? g.arc_radius * g.angle : r.length;
   double c[3], t[3], R[9];
-  needle_curve(g, 0.0, c, t);
+  needle_curve(needle_geometry(r), 0.0, c, t);
   quaternion_to_matrix(r.orientation, R);
   for (int k = 0; k < 3; ++k) {
     tail[k] = r.position[k] + R[3 * k] * c[0] + R[3 * k + 1] * c[1] + R[3 * k + 2] * c[2];

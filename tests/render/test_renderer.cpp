@@ -879,6 +879,14 @@ TEST(CapsuleMesh, AppendsAfterExistingVertices) {
 /// A quarter turn about y: shape z → world +x, shape x → world −z.
 constexpr double kQuarterY[4] = {0.7071067811865476, 0, 0.7071067811865476, 0};
 
+/// The camera 5 units up the z axis, looking at the origin.
+void look_at_origin_from_z(Renderer& r) {
+  Camera cam;
+  cam.position = {0, 0, 5};
+  cam.target = {0, 0, 0};
+  r.set_camera(cam);
+}
+
 TEST(RigidView, AStraightNeedleIsOneSteelTubeAlongItsPosedAxis) {
   RigidShapeDesc s;
   s.kind = RigidShapeDesc::Needle;
@@ -958,12 +966,8 @@ TEST(RigidView, AMeshSkipsTrianglesOutOfRange) {
 }
 
 TEST(RigidView, RigidBodiesAndTrackMarksAreDrawnWhereTheyAre) {
-  const Look look = plain_look();
-  Renderer r(160, 120, look);
-  Camera cam;
-  cam.position = {0, 0, 5};
-  cam.target = {0, 0, 0};
-  r.set_camera(cam);
+  Renderer r(160, 120, plain_look());
+  look_at_origin_from_z(r);
   const Image bg = render_once(r);
   // A needle across the middle, along x.
   RigidShapeDesc needle;
@@ -1040,12 +1044,8 @@ TEST(ThreadView, AThreadIsATubeAlongItsNodesInItsColour) {
   EXPECT_FLOAT_EQ(thin.capsules[1].b[1], -0.5f);
   const RigidView thick = make_thread_view(nodes, 3, 0.1);
   EXPECT_FLOAT_EQ(thick.capsules[0].r, 0.05f);
-  const Look look = plain_look();
-  Renderer r(160, 120, look);
-  Camera cam;
-  cam.position = {0, 0, 5};
-  cam.target = {0, 0, 0};
-  r.set_camera(cam);
+  Renderer r(160, 120, plain_look());
+  look_at_origin_from_z(r);
   const Image bg = render_once(r);
   r.set_rigid_bodies({thick});
   const Image drawn = render_once(r);
