@@ -52,7 +52,8 @@ struct CutStats {
 ///  - `tools` are resolved: a tool with a shape has contact_stiffness > 0, a grasping tool has
 ///    grasp_stiffness > 0; workspace_min ≤ workspace_max. Their order is the scenario's and the
 ///    index of a ToolInput.
-///  - `has_contact` ⇔ some tool has a shape, the scenario has `body_contact` or rigid bodies.
+///  - `has_contact` ⇔ some tool has a shape, the scenario has `body_contact`, rigid bodies or
+///    threads.
 ///  - `has_damage` ⇔ some body_damage[b] or region_damage[r] is enabled.
 ///  - `max_step_displacement` > 0: half the rest bounding-box diagonal of the whole scene (a cut
 ///    moves no rest position, so it is the cut models' too).
@@ -88,7 +89,8 @@ struct ModelConstants {
   /// follows which is the topology part's (ModelTopology::element_region_damage).
   std::vector<DamageModel> region_damage;
   bool has_damage = false;                ///< some body has a damage model: damage stage runs
-  /// Some tool has a shape, or the scenario has body contact: the collide stage and BVH exist.
+  /// Some tool has a shape, or the scenario has body contact, rigid bodies or threads: the
+  /// collide stage and BVH exist.
   bool has_contact = false;
   // Cutting (docs/CUTTING.md). A scenario with a cutting tool compiles its uncut model with
   // `cutting` set; each topology change compiles a new Model (engine/cut_compile.hpp) that the

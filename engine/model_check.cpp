@@ -66,8 +66,10 @@ bool model_invariants_hold(const Model& m, std::string* why) {
   for (const RodRange& r : f.rods) {
     c(r.node_begin == rod_next && r.nodes() >= 3 && static_cast<size_t>(r.node_end) <= n,
       "rod '" + r.name + "': three nodes or more, after the bodies' and the rods' before it");
-    c(r.segment_length > 0 && r.stretch_stiffness > 0 && r.bend_stiffness >= 0 && r.beta >= 0,
-      "rod '" + r.name + "': segment length and stretch stiffness > 0, bend stiffness and beta >= 0");
+    c(r.segment_length > 0 && r.stretch_stiffness > 0 && r.bend_stiffness >= 0 && r.beta >= 0 && r.contact_stiffness >= 0 &&
+          r.diameter >= 0 && r.friction >= 0,
+      "rod '" + r.name + "': segment length and stretch stiffness > 0, bend and contact stiffness, beta, diameter and "
+      "friction >= 0");
     c(r.slot_begin == static_cast<int32_t>(rod_slots), "rod '" + r.name + "': its slots follow the rods' before it");
     rod_slots += static_cast<size_t>(3 * r.segments() + 6 * (r.nodes() - 2));
     rod_next = r.node_end;
@@ -102,8 +104,8 @@ bool model_invariants_hold(const Model& m, std::string* why) {
     c(!t.can_grasp || t.grasp_stiffness > 0, "a grasping tool's grasp stiffness is resolved (> 0)");
     for (int k = 0; k < 3; ++k) c(t.workspace_min[k] <= t.workspace_max[k], "tool workspace min <= max");
   }
-  c(m.has_contact == (shaped || m.body_contact.has_value() || !m.rigid_bodies.empty()),
-    "has_contact <=> a shaped tool, body contact or rigid bodies");
+  c(m.has_contact == (shaped || m.body_contact.has_value() || !m.rigid_bodies.empty() || !m.fem.rods.empty()),
+    "has_contact <=> a shaped tool, body contact, rigid bodies or threads");
   const size_t tris = m.collision_triangles.size();
   c(m.collision_dofs.size() == tris && m.collision_edge.size() == tris && m.collision_face_elem.size() == tris,
     "the collision arrays are parallel");

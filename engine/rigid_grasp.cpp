@@ -26,12 +26,12 @@ void update_rigid_grasps(const Model& m, State& s) {
     const ToolSpec& spec = m.tools[t];
     ToolState& ts = s.tools[t];
     if (!spec.can_grasp) continue;
-    if (!ts.active || ts.last_command_time < 0) {
-      ts.grasped_body = -1;
-      continue;
-    }
     const bool closed_now = ts.pose.jaw < spec.grasp_close, open_now = ts.pose.jaw > spec.grasp_open;
-    if (open_now) {
+    if (!ts.active || ts.last_command_time < 0 || open_now) {
+      // Letting go of a needle with a thread tied to it: the thread at its tail is still
+      // between the jaws (engine/thread_contact.hpp, ToolState::released_segment).
+      for (const Model::ThreadTie& tie : m.thread_ties)
+        if (ts.grasped_body >= 0 && tie.body == ts.grasped_body) ts.released_segment = tie.node;
       ts.grasped_body = -1;  // (tool_contact resets jaw_closed and any tissue grasp)
       continue;
     }

@@ -12,10 +12,11 @@ namespace {
 
 constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
 /// 2: the solver's history (SolverHistory) after the step counter.
-constexpr uint32_t kVersion = 8;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body; 6: needles;
+constexpr uint32_t kVersion = 9;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body; 6: needles;
                                   // 7: refresh ids as presence flags (one encoding per state); track
                                   // points name their body (needles through two bites); 8: a tool's
-                                  // grasp of a thread; threads' punctures
+                                  // grasp of a thread; threads' punctures; 9: the thread segment
+                                  // a tool let go of
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");

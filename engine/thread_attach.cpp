@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "engine/rigid_grasp.hpp"
+#include "engine/thread_contact.hpp"
 #include "haptics/tool_shape.hpp"
 
 namespace stroma {
@@ -31,6 +32,7 @@ void update_thread_grasps(const Model& m, State& s) {
     if (!spec.can_grasp) continue;
     const bool closed_now = ts.pose.jaw < spec.grasp_close, open_now = ts.pose.jaw > spec.grasp_open;
     if (!ts.active || ts.last_command_time < 0 || open_now) {
+      if (ts.grasped_segment >= 0) ts.released_segment = ts.grasped_segment;  // clear of its jaws yet?
       ts.grasped_segment = -1;  // (tool_contact resets jaw_closed)
       continue;
     }
@@ -189,16 +191,9 @@ int thread_puncture_spring(const FemModel& fem, const RodPuncture& p, const doub
   double T[3], t[3], len, P[3];
   puncture_geometry(fem, p, x, rp, T, t, &len, P);
   ContactSpring sp;
-  sp.n = 6;
   const int32_t nodes[6] = {rp.j, rp.j + 1, p.node[0], p.node[1], p.node[2], p.node[3]};
   const double w[6] = {1 - rp.u, rp.u, -p.w[0], -p.w[1], -p.w[2], -p.w[3]};
-  for (int a = 0; a < 6; ++a) sp.node[a] = nodes[a], sp.w[a] = w[a];
-  for (int a = 0; a < 6; ++a)
-    for (int b = 0; b < 6; ++b) {
-      const int32_t sl = fem.pattern.find_upper(nodes[a], nodes[b]);
-      sp.slot[spring_slot(a, b)] = sl < 0 ? kSlotMatrixFree : (nodes[a] <= nodes[b] ? sl : -1);
-      if (sl < 0) sp.matrix_free = 1;
-    }
+  set_spring_nodes(fem.pattern, nodes, w, 6, sp);  // its cross pairs matrix-free
   // A zero-length spring k·I (the last step's slip relaxed its axial part to the friction limit;
   // a sliding puncture's σ already moved on by that slip again: thread_punctures_before_step).
   const double k = p.stiffness;

@@ -11,6 +11,7 @@
 #include "engine/needle_mesh.hpp"
 #include "engine/rigid_grasp.hpp"
 #include "engine/thread_attach.hpp"
+#include "engine/thread_contact.hpp"
 #include "engine/stage_timer.hpp"
 #include "engine/step_with_recovery.hpp"
 #include "haptics/contact.hpp"
@@ -84,8 +85,6 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     row_force.assign(6 * nb, 0.0);
     row_du.assign(6 * nb, 0.0);
     backup_rigid.resize(nb);
-    rigid_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
-    rigid_pairs.clear();
     hold_begin.assign(m.tools.size(), 0);
     hold_end.assign(m.tools.size(), 0);
     rigid_in.mass = row_mass.data();
@@ -101,6 +100,10 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     for (const RigidBodyModel& b : m.rigid_bodies) slip_capacity += size_t(b.track_capacity) + 1;
     needle_slips.reserve(slip_capacity);
     stepper_.reserve_rigid_rows(static_cast<int32_t>(nb));
+  }
+  if (!m.rigid_bodies.empty() || !m.fem.rods.empty()) {  // speculative contacts of bodies and threads
+    rigid_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
+    rigid_pairs.clear();
   }
   if (m.body_contact) {
     body_boxes.resize(6 * m.fem.bodies.size());
@@ -194,7 +197,6 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
     w.row_body[size_t(rows++)] = k;
   };
   for (RigidContactOutput& o : w.report.rigid_contact) o = RigidContactOutput{};
-  w.rigid_pairs.clear();
   w.needle_slips.clear();
   for (int32_t k = 0; k < nb; ++k) {
     const RigidBodyModel& b = m.rigid_bodies[size_t(k)];
@@ -221,6 +223,9 @@ void rigid_contacts(const Model& m, State& s, TickWorkspace& w, const ContactSur
     if (needle && ns.phase != NeedlePhase::Outside)
       needle_track_springs(b, s.rigid[size_t(k)], tentative(k, 0), ns, m.needle_tissue, m.fem,
                            x, m.fem_step, w.springs, w.rigid_pairs, w.needle_slips);
+    if (!m.fem.rods.empty())  // threads against it (engine/thread_contact.hpp)
+      thread_rigid_contact(m, k, s.rigid[size_t(k)], tentative(k, 0), x, v, w.springs, w.rigid_pairs,
+                           w.report.rigid_contact[size_t(k)], w.report.thread_contact);
     if (w.springs.size() > before) commit(k);
   }
   for (int32_t i = 0; i < nb; ++i)
@@ -275,6 +280,8 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   }
   w.bvh.refit(px);
   w.springs.clear();  // keeps its capacity: no allocation
+  w.rigid_pairs.clear();
+  w.report.thread_contact = ThreadContactOutput{};
   update_rigid_grasps(m, s);  // before the tools' own grasps: a jaw closing on a body holds it
   update_thread_grasps(m, s);  // then on a thread
   const ContactSurface surf{m.collision_triangles, m.collision_dofs, m.collision_edge,
@@ -283,13 +290,19 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   for (size_t k = 0; k < m.tools.size(); ++k) {
     tool_contact(m.tools[k], s.tools[k], w.report.tools[k], surf, w.bvh, px, v, m.fem_step, w.springs);
     thread_grasp_springs(m, m.tools[k], s.tools[k], x, w.report.tools[k], w.springs);
+    thread_tool_contact(m, m.tools[k], s.tools[k], x, v, w.report.tools[k], w.springs, w.report.thread_contact);
   }
   if (m.body_contact)
     body_contact(*m.body_contact, surf, w.bvh, px, pv, m.fem_step, m.fem.gravity.data(), w.body_boxes.data(),
                  w.springs, w.body_pairs, w.report.body_contact);
   if (!m.rigid_bodies.empty()) rigid_contacts(m, s, w, surf, x, px, v);
-  // Threads through the tissue, last: the springs with matrix-free pairs close the list.
+  // Threads through the tissue and against it and themselves, last: the springs with matrix-free
+  // pairs close the list.
   thread_punctures_before_step(m, s);
+  if (!m.fem.rods.empty()) {
+    thread_tissue_contact(m, s, surf, w.bvh, px, v, w.springs, w.rigid_pairs, w.report.thread_contact);
+    thread_self_contact(m, x, v, w.springs, w.rigid_pairs, w.report.thread_contact);
+  }
   for (int32_t i = 0; i < s.puncture_count; ++i) thread_puncture_spring(m.fem, s.punctures[size_t(i)], x, w.springs);
 }
 

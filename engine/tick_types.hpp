@@ -16,6 +16,7 @@
 #include "engine/damage.hpp"
 #include "engine/model.hpp"
 #include "engine/state.hpp"
+#include "engine/thread_contact.hpp"
 #include "haptics/tool.hpp"
 #include "rigid/rigid_contact.hpp"
 #include "tissue/clock.hpp"
@@ -115,6 +116,7 @@ struct TickReport {
   /// Threads through the tissue (engine/thread_attach.hpp): punctures made this tick, and
   /// those a full State::punctures could not take (should stay 0).
   int32_t punctures_made = 0, punctures_dropped = 0;
+  ThreadContactOutput thread_contact;  ///< the threads' contacts this tick (engine/thread_contact.hpp)
   int damage_events = 0;            ///< elements reaching a new damage level this tick
   /// Edges of the uncut mesh the blades cut this tick (in s.edge_cut; the topology follows when
   /// the runner swaps in the cut model).
@@ -157,7 +159,8 @@ class TickWorkspace {
   RigidRowsInput rigid_in;
   /// The rigid bodies at the start of the tick, for rollback.
   std::vector<RigidState> backup_rigid;
-  /// This tick's speculative rigid contacts (capacity fixed at load; rigid_contact.hpp).
+  /// This tick's speculative contacts of rigid bodies and threads (capacity fixed at load;
+  /// rigid/rigid_contact.hpp, engine/thread_contact.hpp): released if they end the step pulling.
   std::vector<RigidContactPair> rigid_pairs;
   /// Per tool, its hold on a rigid body this tick: the springs [hold_begin, hold_end).
   std::vector<int32_t> hold_begin, hold_end;

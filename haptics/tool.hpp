@@ -178,6 +178,11 @@ struct ToolState {
   // tool's frame (about the tool centre) at the moment of grasping. Invariant:
   // grasped_segment ≥ 0 only while jaw_closed, and then grasped = 0 and grasped_body = −1.
   int32_t grasped_segment = -1;
+  /// The thread segment (a global node) it last let go of — the one it held, or the end tied to
+  /// the needle it held (−1: none): its jaws do not touch the segments within their reach of it
+  /// until those are clear of them (the opened jaws' capsules still hold the thread they held;
+  /// pushing it out from inside would fling it). engine/thread_contact.hpp.
+  int32_t released_segment = -1;
   double grasp_segment_s = 0;
   Vec3 grasp_segment_offset{0, 0, 0};
   // Cutting: the blade's edge at the end of the last tick (the swept surface starts there) and

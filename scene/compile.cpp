@@ -791,6 +791,11 @@ std::vector<FemRodInput> thread_inputs(const ScenarioSpec& spec, const std::vect
     r.rayleigh_mass = t.rayleigh_mass;
     r.rayleigh_stiffness = t.rayleigh_stiffness;
     r.friction = t.friction;
+    {  // 10·E_max per metre of thread (engine/thread_contact.hpp says why not the rigid bodies' 100)
+      double e_max = 0;
+      for (const BodySpec& b : spec.bodies) e_max = std::max(e_max, b.material.young_modulus);
+      r.contact_stiffness = t.contact_stiffness > 0 ? t.contact_stiffness : 10.0 * e_max / t.diameter;
+    }
     size_t leg = 0;       // the path's segment the next node is on
     double leg_start = 0;  // arc length at the start of that leg
     for (int i = 0; i <= t.segments; ++i) {
@@ -1034,7 +1039,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
   compile_tools(spec, *model, out.tool_scripts);
   compile_rigid_bodies(spec, *model);
   compile_thread_ties(spec, *model);
-  if (spec.body_contact) model->has_contact = true;
+  if (spec.body_contact || !spec.threads.empty()) model->has_contact = true;  // threads touch (thread_contact.hpp)
   if (model->has_contact) compile_collision_faces(*model);
   if (model->has_needles) compile_needle_mesh(*model);  // the needles' walks (engine/needle_mesh.hpp)
   if (spec.body_contact) compile_body_contact(*spec.body_contact, spec, *model);

@@ -928,6 +928,9 @@ ThreadSpec parse_thread(const MapReader& m, const Context& ctx) {
     dm.read("rayleigh_stiffness", t.rayleigh_stiffness, physical_range(0, 10, "s"));
   }
   m.read("friction", t.friction, physical_range(0, 2, "Coulomb coefficient of the thread on tissue: ~0.1..0.4"));
+  m.read("contact_stiffness", t.contact_stiffness,
+         physical_range(1e-3, 1e15, "Pa/m: pressure on the tissue per metre of the thread's penetration (automatic: "
+                                    "10*E_max/diameter)"));
   if (auto f = m.opt("fixed"))
     for (const Field& e : f->list()) {
       const std::string which = e.string();
@@ -1024,7 +1027,7 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   std::map<std::string, int> thread_names;
   for (const auto& item : m.list("threads")) {
     const MapReader tm = item.map({"name", "length", "segments", "diameter", "young_modulus", "density", "start",
-                                   "direction", "path", "damping", "fixed", "attach", "friction"});
+                                   "direction", "path", "damping", "fixed", "attach", "friction", "contact_stiffness"});
     s.threads.push_back(parse_thread(tm, ctx));
     const std::string& name = s.threads.back().name;
     check_unique_name(thread_names, name, tm.req("name"), "thread");

@@ -371,7 +371,9 @@ struct ThreadSpec {
   Vec3 direction{1, 0, 0};   ///< unit: straight from start along it (when no path)
   std::vector<Vec3> path;    ///< ≥ 2 points, its length = `length`; empty: straight
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
-  double friction = 0.2;     ///< Coulomb coefficient where it slides through tissue (punctures)
+  double friction = 0.2;     ///< Coulomb coefficient on tissue (punctures, contact) and other bodies
+  /// Pa/m: pressure on the tissue per metre of penetration (0: automatic, 10·E_max/diameter).
+  double contact_stiffness = 0;
   bool fix_first = false, fix_last = false;  ///< `fixed: [first, last]`: those nodes do not move
   /// `attach:` entries: an end tied to a needle's tail (it follows the needle) or to the tissue
   /// body it lies in or on (an anchor knot). Invariants after load: each end at most once, never

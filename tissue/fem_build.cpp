@@ -119,6 +119,7 @@ void add_rod(FemModel& m, const FemRodInput& rod, const Vec3& gravity, int32_t n
   r.beta = rod.rayleigh_stiffness;
   r.diameter = rod.diameter;
   r.friction = rod.friction;
+  r.contact_stiffness = rod.contact_stiffness;
   const double pi = 3.14159265358979323846;
   const double half = rod.density * pi * rod.diameter * rod.diameter / 4.0 * rod.segment_length / 2.0;
   for (size_t i = 0; i < rod.nodes.size(); ++i) {

@@ -54,7 +54,8 @@ struct FemRodInput {
   double segment_length = 0;            ///< rest length of every segment (m)
   double young_modulus = 0, diameter = 0, density = 0;
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
-  double friction = 0;  ///< Coulomb coefficient at punctures
+  double friction = 0;  ///< Coulomb coefficient at punctures and in contact
+  double contact_stiffness = 0;  ///< Pa/m against the tissue (engine/thread_contact.hpp)
   /// Fixed DOFs: local node index (0 = the first) and axis mask (7 = all).
   std::vector<std::pair<int32_t, uint8_t>> fixed;
   std::vector<std::pair<int32_t, Vec3>> nodal_forces;  ///< local node, force (N)

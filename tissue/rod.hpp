@@ -39,7 +39,10 @@ struct RodRange {
   double bend_stiffness = 0;             ///< k_b = E·I/ℓ³ (N/m)
   double beta = 0;                       ///< Rayleigh stiffness damping (s)
   double diameter = 0;                   ///< m (for output: the stiffnesses carry it)
-  double friction = 0;                   ///< Coulomb coefficient where it passes through tissue (punctures)
+  double friction = 0;                   ///< Coulomb coefficient where it passes through tissue (punctures) and in contact
+  /// Pa/m: the pressure its contact with the tissue's surface makes per metre of penetration
+  /// (engine/thread_contact.hpp; on the projected area diameter × arc length). ≥ 0 (0: none).
+  double contact_stiffness = 0;
   /// Its pattern slots in FemModel::rod_slots from here: per segment (i, i+1) the blocks
   /// (i, i), (i, i+1), (i+1, i+1); then per interior node i the blocks of (i−1, i, i+1):
   /// (i−1, i−1), (i−1, i), (i−1, i+1), (i, i), (i, i+1), (i+1, i+1).

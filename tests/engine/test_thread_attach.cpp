@@ -55,9 +55,10 @@ const TickReport& tick_tool(const Model& m, State& s, TickWorkspace& w, const Ve
 
 }  // namespace
 
-// A thread anchored by its first end in the side of a tissue block (bonded at its base) hangs
-// from the anchor: at rest the anchor carries the whole thread's weight (statics: nothing else
-// holds it), the end sits at its material point within that weight over the anchor's
+// A thread anchored by its first end in the side of a tissue block (bonded at its base), 2 mm
+// above its bottom edge, hangs from the anchor clear of the block (higher up, it would lie on
+// the block's face, and friction there take part of its weight): at rest the anchor carries the
+// whole thread's weight (statics: nothing else holds it), the end sits at its material point within that weight over the anchor's
 // stiffness. The anchor's forces and tangent are the element
 // pass's: a checked model, and an unbudgeted step that converges.
 TEST(ThreadAttach, AThreadAnchoredInTissueCarriesItsWeightThere) {
@@ -71,7 +72,7 @@ bodies:
     material: {young_modulus: 3.0e3, poisson_ratio: 0.45, density: 1000, rayleigh_mass: 10}
     fixed:
       - box: {min: [-1, -1, -1], max: [1, 0.001, 1]}
-)" + thread_entry("    start: [0.05, 0.04, 0.025]\n    direction: [1, 0, 0]\n    attach: [{end: first, tissue: block}]\n",
+)" + thread_entry("    start: [0.05, 0.002, 0.025]\n    direction: [1, 0, 0]\n    attach: [{end: first, tissue: block}]\n",
                   0.04, 20, 20.0);
   const auto m = compile_model(parse_scenario(yaml, "anchor.yaml", kSrc));
   std::string why;
@@ -265,7 +266,9 @@ struct PulleyResult {
   double pull = 0, weight = 0, slid = 0;
 };
 PulleyResult pulley(double mu) {
-  const double px = 0.002, py = 0.002, pz = 0.025;  // P, inside the 50 mm block's lower left edge
+  // P, on the 50 mm block's lower left edge: the thread leaves the tissue there (inside it, it
+  // would cross the block's faces where it has no puncture, and its contact would push it out).
+  const double px = 0.0, py = 0.0, pz = 0.025;
   const std::string yaml = R"(name: pulley
 time_step: 0.001
 gravity: [0, -9.81, 0]
@@ -277,7 +280,7 @@ bodies:
     fixed:
       - box: {min: [-1, -1, -1], max: [1, 1, 1]}
 probes:
-  - {name: p, body: block, point: [0.002, 0.002, 0.025]}
+  - {name: p, body: block, point: [0, 0, 0.025]}
 tools:
   - name: grasper
     shape: {type: grasper, radius: 0.002, length: 0.01}
@@ -287,7 +290,7 @@ rigid_bodies:
   - name: weight
     shape: {type: needle, wire_radius: 0.001, length: 0.05}
     density: 7800
-    pose: {position: [0.002, -0.028, 0.025], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
+    pose: {position: [0, -0.03, 0.025], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
 threads:
   - name: suture
     length: 0.06
@@ -295,7 +298,7 @@ threads:
     diameter: 2.0e-4
     young_modulus: 1.0e8
     density: 1100
-    path: [[-0.028, 0.002, 0.025], [0.002, 0.002, 0.025], [0.002, -0.028, 0.025]]
+    path: [[-0.03, 0, 0.025], [0, 0, 0.025], [0, -0.03, 0.025]]
     friction: )" + std::to_string(mu) + R"(
     attach: [{end: last, needle: weight}]
 )";
@@ -318,7 +321,7 @@ threads:
   int n = 0;
   for (int i = 0; i < 2500; ++i) {  // 0.5 s to settle, then 2 s of pulling at 5 mm/s along −x
     const double t = 0.001 * i;
-    const double x = -0.028 - 0.005 * std::max(0.0, t - 0.5);
+    const double x = -0.03 - 0.005 * std::max(0.0, t - 0.5);
     const TickReport& rep = tick_tool(*m, s, w, {x, py + 0.005, pz}, 0.0);
     EXPECT_TRUE(rep.status == TickStatus::Ok) << i;
     if (rep.status != TickStatus::Ok) return out;

@@ -1,0 +1,562 @@
+#include "engine/thread_contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "haptics/tool_shape.hpp"
+#include "rigid/rigid_motion.hpp"
+#include "tissue/bsr_matrix.hpp"
+#include "tissue/triangle_closest_point.hpp"
+
+namespace stroma {
+
+namespace {
+
+inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline double norm3(const double* a) { return std::sqrt(dot3(a, a)); }
+
+/// Samples per segment of rod r (thread_contact.hpp): every kThreadSampleDiameters diameters.
+int segment_samples(const RodRange& r) {
+  if (!(r.diameter > 0)) return 1;
+  return std::clamp(static_cast<int>(std::ceil(r.segment_length / (kThreadSampleDiameters * r.diameter))), 1,
+                    kThreadSamplesPerSegment);
+}
+
+/// The larger speed of segment (i, i + 1)'s nodes.
+double segment_speed(const double* v, int32_t i) { return std::max(norm3(v + 3 * i), norm3(v + 3 * i + 3)); }
+
+/// A speculative contact (gap ≥ 0) is made only if this step can close it: by the approach at the
+/// start of the step (rel·n < 0) and the positive side's fall relative to the other's (`fall` =
+/// h²·g·n times that), to within `margin` (what the step's own accelerations may add). Not
+/// rigid/rigid_contact.hpp's "any motion up to the body's speed": a thread's end swings at metres
+/// per second along surfaces it never nears, and a speculative spring pulls by its gap until
+/// the step is redone without it — a redo the time budget may skip (measured: a 10 cm suture
+/// swinging past a block pulled the block's corner 5 cm out, served).
+bool out_of_reach(double gap, double approach, double fall, double h, double margin) {
+  return gap >= 0 && gap + h * std::min(approach, 0.0) + fall >= margin;
+}
+
+/// A thread segment's point: nodes (i, i + 1) with weights (1 − u, u), the pattern's slots.
+void segment_spring(const BsrPattern& pattern, int32_t i, double u, ContactSpring& sp) {
+  const int32_t nodes[2] = {i, i + 1};
+  const double w[2] = {1.0 - u, u};
+  set_spring_nodes(pattern, nodes, w, 2, sp);
+}
+
+/// A whole rod is tied to rigid body k (its end to the needle's tail).
+bool rod_tied_to(const Model& m, const RodRange& r, int32_t k) {
+  for (const Model::ThreadTie& t : m.thread_ties)
+    if (t.body == k && t.node >= r.node_begin && t.node < r.node_end) return true;
+  return false;
+}
+
+/// Segment (i, i + 1) is within two segments of a node tied to rigid body k.
+bool near_tie(const Model& m, int32_t k, int32_t i) {
+  for (const Model::ThreadTie& t : m.thread_ties)
+    if (t.body == k && i >= t.node - 2 && i <= t.node + 1) return true;
+  return false;
+}
+
+/// Where the thread is inside the tissue between its punctures: intervals of σ (node units).
+/// Pairing the punctures from the end not tied to a needle (it is outside), the arc between
+/// each pair is in the tissue; an odd one left pairs with the tied end (the needle's tail is in
+/// the tissue: the thread follows it in).
+struct InsideArcs {
+  double lo[kThreadPunctures], hi[kThreadPunctures];
+  int n = 0;
+  bool contains(double sigma) const {
+    for (int k = 0; k < n; ++k)
+      if (sigma > lo[k] && sigma < hi[k]) return true;
+    return false;
+  }
+};
+
+InsideArcs inside_arcs(const Model& m, const State& s, int32_t rod) {
+  InsideArcs a;
+  const RodRange& r = m.fem.rods[size_t(rod)];
+  double sig[kThreadPunctures];
+  int n = 0;
+  for (int32_t i = 0; i < s.puncture_count && n < kThreadPunctures; ++i)
+    if (s.punctures[size_t(i)].rod == rod) sig[n++] = s.punctures[size_t(i)].sigma;
+  if (n == 0) return a;
+  std::sort(sig, sig + n);
+  bool tied_first = false, tied_last = false;
+  for (const Model::ThreadTie& t : m.thread_ties) {
+    tied_first = tied_first || t.node == r.node_begin;
+    tied_last = tied_last || t.node == r.node_end - 1;
+  }
+  const double segs = static_cast<double>(r.segments());
+  if (tied_first && !tied_last) {  // from the last end, outside, downwards
+    int k = n - 1;
+    for (; k >= 1; k -= 2) a.lo[a.n] = sig[k - 1], a.hi[a.n++] = sig[k];
+    if (k == 0) a.lo[a.n] = -1.0, a.hi[a.n++] = sig[0];
+  } else {  // from the first end upwards
+    int k = 0;
+    for (; k + 1 < n; k += 2) a.lo[a.n] = sig[k], a.hi[a.n++] = sig[k + 1];
+    if (k == n - 1 && tied_last) a.lo[a.n] = sig[k], a.hi[a.n++] = segs + 1.0;
+  }
+  return a;
+}
+
+/// The holes the thread–tissue contact skips around: its punctures' material points and the
+/// needles' entries and exits, each with its radius.
+struct Holes {
+  double p[3 * kMaxThreadHoles];
+  double r2[kMaxThreadHoles];
+  int n = 0;
+  void add(const double* w, const int32_t* node, const double* x, double radius) {
+    if (n == kMaxThreadHoles) return;
+    for (int k = 0; k < 3; ++k) {
+      double q = 0;
+      for (int a = 0; a < 4; ++a) q += w[a] * x[3 * node[a] + k];
+      p[3 * n + k] = q;
+    }
+    r2[n++] = radius * radius;
+  }
+  bool near(const double* q) const {
+    for (int j = 0; j < n; ++j) {
+      const double d[3] = {q[0] - p[3 * j], q[1] - p[3 * j + 1], q[2] - p[3 * j + 2]};
+      if (dot3(d, d) < r2[j]) return true;
+    }
+    return false;
+  }
+};
+
+Holes thread_holes(const Model& m, const State& s, const double* x) {
+  Holes h;
+  double d_max = 0;
+  for (const RodRange& r : m.fem.rods) d_max = std::max(d_max, r.diameter);
+  for (int32_t i = 0; i < s.puncture_count; ++i) {
+    const RodPuncture& p = s.punctures[size_t(i)];
+    double radius = 2.0 * d_max;
+    if (size_t(p.body) < m.needle_tissue.size()) radius = std::max(radius, m.needle_tissue[size_t(p.body)].track_spacing);
+    h.add(p.w, p.node, x, radius);
+  }
+  for (const RodAnchor& an : m.fem.rod_anchors) {  // an anchor knot: its segments end in the tissue
+    double len = 0;
+    for (const RodRange& r : m.fem.rods)
+      if (an.node >= r.node_begin && an.node < r.node_end) len = r.segment_length;
+    h.add(an.w, an.tissue, x, std::max(2.0 * d_max, 1.5 * len));
+  }
+  for (size_t k = 0; k < m.rigid_bodies.size() && k < s.needles.size(); ++k) {
+    const RigidBodyModel& b = m.rigid_bodies[k];
+    const NeedleState& ns = s.needles[k];
+    if (b.shape != RigidShape::Needle || ns.tissue_body < 0) continue;
+    const double radius = std::max({2.0 * d_max, 4.0 * b.needle.wire_radius,
+                                    m.needle_tissue[size_t(ns.tissue_body)].track_spacing});
+    for (int32_t i = 0; i < ns.count; ++i)
+      if (ns.track[size_t(i)].surface) h.add(ns.track[size_t(i)].w, ns.track[size_t(i)].node.data(), x, radius);
+  }
+  return h;
+}
+
+}  // namespace
+
+double segment_closest_points(const double* p0, const double* p1, const double* q0, const double* q1, double* s,
+                              double* t) {
+  const double d1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+  const double d2[3] = {q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]};
+  const double r[3] = {p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]};
+  const double a = dot3(d1, d1), e = dot3(d2, d2), f = dot3(d2, r);
+  double ss = 0, tt = 0;
+  if (a <= 1e-300 && e <= 1e-300) {
+    ss = tt = 0;
+  } else if (a <= 1e-300) {
+    tt = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = dot3(d1, r);
+    if (e <= 1e-300) {
+      ss = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = dot3(d1, d2), denom = a * e - b * b;
+      ss = denom > 1e-14 * a * e ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;  // parallel: any s
+      tt = (b * ss + f) / e;
+      if (tt < 0) {
+        tt = 0;
+        ss = std::clamp(-c / a, 0.0, 1.0);
+      } else if (tt > 1) {
+        tt = 1;
+        ss = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  *s = ss;
+  *t = tt;
+  double d2s = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double q = p0[k] + ss * d1[k] - q0[k] - tt * d2[k];
+    d2s += q * q;
+  }
+  return d2s;
+}
+
+void set_spring_nodes(const BsrPattern& pattern, const int32_t* nodes, const double* w, int n, ContactSpring& sp) {
+  sp.n = n;
+  sp.matrix_free = 0;
+  for (int a = 0; a < n; ++a) sp.node[a] = nodes[a], sp.w[a] = w[a];
+  // Pairs across the two sides (weights of opposite signs) are always applied matrix-free, even
+  // where the pattern has their block (a thread's segment and the next-but-one's share bending
+  // blocks; an anchored end's tetrahedron): assembling some cross blocks but not others leaves
+  // an assembled part that need not be positive definite (CHOLMOD refused it, measured), while
+  // each side's own blocks are a PSD w wᵀ ⊗ K.
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b) {
+      const bool cross = (w[a] < 0) != (w[b] < 0);
+      const int32_t sl = cross ? -1 : pattern.find_upper(nodes[a], nodes[b]);
+      sp.slot[spring_slot(a, b)] = sl < 0 ? kSlotMatrixFree : (nodes[a] <= nodes[b] ? sl : -1);
+      if (sl < 0) sp.matrix_free = 1;
+    }
+}
+
+void thread_tissue_contact(const Model& m, const State& s, const ContactSurface& surf, const TriangleBvh& bvh,
+                           const double* px, const double* v, std::vector<ContactSpring>& springs,
+                           std::vector<RigidContactPair>& pairs, ThreadContactOutput& out) {
+  if (m.fem.rods.empty() || surf.triangles.empty()) return;
+  const double* x = s.tissue.x.data();
+  const double h = m.fem_step;
+  const double* g = m.fem.gravity.data();
+  const double gn = norm3(g);
+  const Holes holes = thread_holes(m, s, x);
+  constexpr int kMax = kThreadSamplesPerSegment + 1;
+  for (size_t ri = 0; ri < m.fem.rods.size(); ++ri) {
+    const RodRange& r = m.fem.rods[ri];
+    if (!(r.contact_stiffness > 0)) continue;
+    const double rad = 0.5 * r.diameter;
+    const int K = segment_samples(r);
+    const InsideArcs inside = inside_arcs(m, s, static_cast<int32_t>(ri));
+    const double v_stick = 0.01 * r.diameter;
+    for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i) {
+      const double* a = x + 3 * i;
+      const double* b = a + 3;
+      const int ns = i + 2 == r.node_end ? K + 1 : K;
+      const double speed = segment_speed(v, i);
+      const double cap = rad + 2.0 * h * speed + h * h * gn + 0.25 * rad;  // the step's reach in front
+      const double keep = std::max(cap, 10.0 * r.diameter);                // and how deep a point is kept
+      double c[kMax][3], u[kMax], best_d2[kMax], best_w[kMax][3];
+      int32_t best_tri[kMax];
+      double mid[3], half2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        mid[k] = 0.5 * (a[k] + b[k]);
+        half2 += 0.25 * (b[k] - a[k]) * (b[k] - a[k]);
+      }
+      int live = 0;
+      for (int j = 0; j < ns; ++j) {
+        u[j] = static_cast<double>(j) / K;
+        for (int k = 0; k < 3; ++k) c[j][k] = a[k] + u[j] * (b[k] - a[k]);
+        best_d2[j] = keep * keep;
+        best_tri[j] = -1;
+        const double sigma = static_cast<double>(i - r.node_begin) + u[j];
+        if (inside.contains(sigma) || holes.near(c[j])) best_d2[j] = 0;  // none: in the tissue, or at a hole
+        else ++live;
+      }
+      if (live == 0) continue;
+      bvh.query_sphere(mid, std::sqrt(half2) + keep, px, [&](int32_t t) {
+        if (surf.active && !surf.active[t]) return;
+        const auto& tri = surf.triangles[size_t(t)];
+        const double* A = px + 3 * tri[0];
+        const double* B = px + 3 * tri[1];
+        const double* C = px + 3 * tri[2];
+        double nrm[3];
+        triangle_normal(A, B, C, nrm);
+        const double len = norm3(nrm);
+        if (!(len > 0)) return;
+        for (double& k : nrm) k /= len;
+        const Vec3 va{A[0], A[1], A[2]}, vb{B[0], B[1], B[2]}, vc{C[0], C[1], C[2]};
+        for (int j = 0; j < ns; ++j) {
+          const double ap[3] = {c[j][0] - A[0], c[j][1] - A[1], c[j][2] - A[2]};
+          const double hgt = dot3(ap, nrm);
+          if (hgt * hgt >= best_d2[j]) continue;
+          const std::array<double, 3> w = closest_on_triangle(Vec3{c[j][0], c[j][1], c[j][2]}, va, vb, vc);
+          double d2 = 0;
+          for (int k = 0; k < 3; ++k) {
+            const double q = w[0] * A[k] + w[1] * B[k] + w[2] * C[k] - c[j][k];
+            d2 += q * q;
+          }
+          if (d2 >= best_d2[j]) continue;
+          best_d2[j] = d2;
+          best_tri[j] = t;
+          for (int k = 0; k < 3; ++k) best_w[j][k] = w[size_t(k)];
+        }
+      });
+      for (int j = 0; j < ns; ++j) {
+        const int32_t t = best_tri[j];
+        if (t < 0) continue;
+        const auto& tri = surf.triangles[size_t(t)];
+        const double* A = px + 3 * tri[0];
+        const double* B = px + 3 * tri[1];
+        const double* C = px + 3 * tri[2];
+        double q[3], qc[3], face[3];
+        for (int k = 0; k < 3; ++k) {
+          q[k] = best_w[j][0] * A[k] + best_w[j][1] * B[k] + best_w[j][2] * C[k];
+          qc[k] = c[j][k] - q[k];
+        }
+        triangle_normal(A, B, C, face);
+        const double flen = norm3(face);
+        const double sgn = surf.active && surf.active[t] == 2 ? -1.0 : 1.0;  // a face turned round
+        for (double& k : face) k *= sgn / flen;
+        const double dist = std::sqrt(best_d2[j]);
+        const bool under = dot3(qc, face) < 0;
+        const double sigma = under ? -dist : dist;  // the centreline's signed distance to the surface
+        if (sigma >= cap) continue;
+        // From the tissue to the thread: outside along c − q, under the surface towards it.
+        double n[3];
+        if (dist > 1e-6 * rad)
+          for (int k = 0; k < 3; ++k) n[k] = (under ? -qc[k] : qc[k]) / dist;
+        else
+          for (int k = 0; k < 3; ++k) n[k] = face[k];
+        ContactSpring tri_sp;
+        set_spring_point(surf.dofs[size_t(t)], best_w[j][0], best_w[j][1], best_w[j][2], tri_sp);
+        int32_t nodes[kSpringMaxNodes];
+        double w[kSpringMaxNodes];
+        nodes[0] = i, nodes[1] = i + 1, w[0] = 1.0 - u[j], w[1] = u[j];
+        for (int d = 0; d < tri_sp.n; ++d) nodes[2 + d] = tri_sp.node[d], w[2 + d] = -tri_sp.w[d];
+        ContactSpring sp;
+        set_spring_nodes(m.fem.pattern, nodes, w, 2 + tri_sp.n, sp);
+        double rel[3];
+        spring_point(sp, v, rel);  // the thread's point's velocity less the tissue's
+        const double gap = sigma - rad;
+        if (out_of_reach(gap, dot3(rel, n), h * h * dot3(g, n), h, 0.25 * rad)) continue;
+        const bool speculative = gap >= 0;
+        if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
+          ++out.dropped;
+          continue;
+        }
+        if (speculative) {
+          RigidContactPair pr;
+          pr.spring = static_cast<int32_t>(springs.size());
+          for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
+          pr.depth0 = -gap;
+          pairs.push_back(pr);
+        }
+        const double share = r.segment_length / K * ((i == r.node_begin && j == 0) || j == K ? 0.5 : 1.0);
+        RigidContactOutput counts;
+        fill_contact_spring(sp, n, -gap, speculative, r.contact_stiffness * r.diameter * share, 0.0, r.friction, rel,
+                            v_stick, counts);
+        springs.push_back(sp);
+        ++out.tissue;
+        out.max_depth = std::max(out.max_depth, counts.max_depth);
+      }
+    }
+  }
+}
+
+void thread_self_contact(const Model& m, const double* x, const double* v, std::vector<ContactSpring>& springs,
+                         std::vector<RigidContactPair>& pairs, ThreadContactOutput& out) {
+  const std::vector<RodRange>& rods = m.fem.rods;
+  const double h = m.fem_step;
+  for (size_t ra = 0; ra < rods.size(); ++ra)
+    for (size_t rb = ra; rb < rods.size(); ++rb) {
+      const RodRange &A = rods[ra], &B = rods[rb];
+      const double rad = 0.5 * (A.diameter + B.diameter);  // the two radii's sum
+      if (!(rad > 0)) continue;
+      const double k_c = std::max(A.stretch_stiffness, B.stretch_stiffness);
+      const double mu = std::min(A.friction, B.friction);
+      const double v_stick = 0.01 * std::min(A.diameter, B.diameter);
+      for (int32_t i = A.node_begin; i + 1 < A.node_end; ++i) {
+        const double* a0 = x + 3 * i;
+        const double* a1 = a0 + 3;
+        const double sa = segment_speed(v, i);
+        double ma[3], la2 = 0;
+        for (int k = 0; k < 3; ++k) ma[k] = 0.5 * (a0[k] + a1[k]), la2 += (a1[k] - a0[k]) * (a1[k] - a0[k]);
+        const double la = std::sqrt(la2);
+        for (int32_t j = ra == rb ? i + 2 : B.node_begin; j + 1 < B.node_end; ++j) {
+          const double* b0 = x + 3 * j;
+          const double* b1 = b0 + 3;
+          const double sb = segment_speed(v, j);
+          const double cap = rad + 2.0 * h * (sa + sb) + 0.25 * rad;
+          double dm2 = 0, lb2 = 0;
+          for (int k = 0; k < 3; ++k) {
+            const double dk = 0.5 * (b0[k] + b1[k]) - ma[k];
+            dm2 += dk * dk;
+            lb2 += (b1[k] - b0[k]) * (b1[k] - b0[k]);
+          }
+          const double reach = 0.5 * (la + std::sqrt(lb2)) + cap;
+          if (dm2 >= reach * reach) continue;  // their bounding spheres apart
+          double s, t;
+          const double d2 = segment_closest_points(a0, a1, b0, b1, &s, &t);
+          if (d2 >= cap * cap) continue;
+          const double d = std::sqrt(d2);
+          double n[3];
+          if (d > 1e-9 * rad) {
+            for (int k = 0; k < 3; ++k) n[k] = (a0[k] + s * (a1[k] - a0[k]) - b0[k] - t * (b1[k] - b0[k])) / d;
+          } else {  // crossing exactly: across both
+            const double ea[3] = {a1[0] - a0[0], a1[1] - a0[1], a1[2] - a0[2]}, eb[3] = {b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]};
+            const double cr[3] = {ea[1] * eb[2] - ea[2] * eb[1], ea[2] * eb[0] - ea[0] * eb[2], ea[0] * eb[1] - ea[1] * eb[0]};
+            const double cl = norm3(cr);
+            if (!(cl > 0)) continue;
+            for (int k = 0; k < 3; ++k) n[k] = cr[k] / cl;
+          }
+          const int32_t nodes[4] = {i, i + 1, j, j + 1};
+          const double w[4] = {1.0 - s, s, -(1.0 - t), -t};
+          ContactSpring sp;
+          set_spring_nodes(m.fem.pattern, nodes, w, 4, sp);
+          double rel[3];
+          spring_point(sp, v, rel);
+          const double gap = d - rad;
+          if (out_of_reach(gap, dot3(rel, n), 0.0, h, 0.125 * rad)) continue;
+          const bool speculative = gap >= 0;
+          if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
+            ++out.dropped;
+            continue;
+          }
+          if (speculative) {
+            RigidContactPair pr;
+            pr.spring = static_cast<int32_t>(springs.size());
+            for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
+            pr.depth0 = -gap;
+            pairs.push_back(pr);
+          }
+          RigidContactOutput counts;
+          fill_contact_spring(sp, n, -gap, speculative, k_c, 0.0, mu, rel, v_stick, counts);
+          springs.push_back(sp);
+          ++out.self;
+          out.max_depth = std::max(out.max_depth, counts.max_depth);
+        }
+      }
+    }
+}
+
+int thread_tool_contact(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, const double* v,
+                        ToolOutput& out, std::vector<ContactSpring>& springs, ThreadContactOutput& tout) {
+  (void)v;
+  if (m.fem.rods.empty() || spec.shape == ToolShape::None || !ts.active || ts.last_command_time < 0) return 0;
+  Capsule cap[kMaxCapsules];
+  const int nc = tool_capsules(spec, ts.pose, tool_center(spec, ts).data(), cap);
+  int made = 0;
+  bool released_clear = true;  // the segments it let go of are out of its capsules
+  for (const RodRange& r : m.fem.rods) {
+    if (ts.grasped_body >= 0 && rod_tied_to(m, r, ts.grasped_body)) continue;  // the thread of the needle it holds
+    const double rad = 0.5 * r.diameter;
+    const double k = r.stretch_stiffness;
+    // The segments the jaws may still hold once they let go: as far as they reach, and two more.
+    const int32_t window = static_cast<int32_t>(std::ceil((spec.shaft_length + 2.0 * spec.radius) / r.segment_length)) + 2;
+    for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i) {
+      if (ts.grasped_segment >= 0 && std::abs(ts.grasped_segment - i) <= 2) continue;  // in its jaws
+      const bool released = ts.released_segment >= 0 && std::abs(ts.released_segment - i) <= window;
+      const double* a = x + 3 * i;
+      const double* b = a + 3;
+      for (int c = 0; c < nc; ++c) {
+        const double reach = cap[c].r + rad;
+        double s, t;
+        const double d2 = segment_closest_points(a, b, cap[c].a, cap[c].b, &s, &t);
+        if (d2 >= reach * reach) continue;
+        if (released) {  // still between the jaws that let it go
+          released_clear = false;
+          continue;
+        }
+        const double d = std::sqrt(d2);
+        double n[3];  // from the tool's axis to the thread
+        for (int q = 0; q < 3; ++q) n[q] = a[q] + s * (b[q] - a[q]) - cap[c].a[q] - t * (cap[c].b[q] - cap[c].a[q]);
+        if (d > 1e-12) {
+          for (double& q : n) q /= d;
+        } else {
+          continue;  // on the axis: no direction to push it out along
+        }
+        if (springs.size() == springs.capacity()) {
+          ++out.contacts_dropped;
+          ++tout.dropped;
+          continue;
+        }
+        ContactSpring sp;
+        segment_spring(m.fem.pattern, i, s, sp);
+        const double depth = reach - d;
+        for (int p = 0; p < 3; ++p) {
+          sp.force[p] = k * depth * n[p];
+          for (int q = 0; q < 3; ++q) {
+            sp.K[3 * p + q] = k * n[p] * n[q];
+            out.stiffness[size_t(3 * p + q)] -= k * n[p] * n[q];
+          }
+        }
+        out.contact_energy += 0.5 * k * depth * depth;
+        springs.push_back(sp);
+        ++out.contacts;
+        ++tout.tools;
+        tout.max_depth = std::max(tout.max_depth, depth);
+        ++made;
+      }
+    }
+  }
+  if (released_clear) ts.released_segment = -1;
+  if (made > 0) out.spring_end = static_cast<int32_t>(springs.size());
+  return made;
+}
+
+int thread_rigid_contact(const Model& m, int32_t k, const RigidState& bs, int32_t row, const double* x,
+                         const double* v, std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                         RigidContactOutput& bout, ThreadContactOutput& out) {
+  const RigidBodyModel& b = m.rigid_bodies[size_t(k)];
+  const double h = m.fem_step;
+  const double* g = m.fem.gravity.data();
+  const double gn = norm3(g);
+  const std::array<double, 9> R = rotation_of(bs.q);
+  const double bspeed = norm3(bs.v.data()) + norm3(bs.w.data()) * b.bounding_radius;
+  const double fall_side = row >= 0 ? 0.0 : 1.0;  // the thread falls; a free body with it
+  int made = 0;
+  for (const RodRange& r : m.fem.rods) {
+    if (rod_tied_to(m, r, k)) continue;
+    const double rad = 0.5 * r.diameter;
+    const int K = segment_samples(r);
+    const double mu = std::min(r.friction, b.friction);
+    const double v_stick = 0.01 * std::min(r.diameter, b.feature);
+    for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i) {
+      const double* a = x + 3 * i;
+      const double* e = a + 3;
+      const double speed = segment_speed(v, i) + bspeed;
+      const double cap = rad + 2.0 * h * speed + h * h * gn + 0.25 * rad;
+      double dm2 = 0, l2 = 0;
+      for (int q = 0; q < 3; ++q) {
+        const double dq = 0.5 * (a[q] + e[q]) - bs.x[size_t(q)];
+        dm2 += dq * dq;
+        l2 += (e[q] - a[q]) * (e[q] - a[q]);
+      }
+      const double reach = b.bounding_radius + 0.5 * std::sqrt(l2) + cap;
+      if (dm2 >= reach * reach) continue;
+      const int ns = i + 2 == r.node_end ? K + 1 : K;
+      for (int j = 0; j < ns; ++j) {
+        const double u = static_cast<double>(j) / K;
+        double p[3], rp[3], pb[3], nb[3], n[3];
+        for (int q = 0; q < 3; ++q) {
+          p[q] = a[q] + u * (e[q] - a[q]);
+          rp[q] = p[q] - bs.x[size_t(q)];
+        }
+        for (int q = 0; q < 3; ++q) pb[q] = R[size_t(q)] * rp[0] + R[size_t(3 + q)] * rp[1] + R[size_t(6 + q)] * rp[2];
+        const double d = shape_distance(b, pb, nb);
+        const double gap = d - rad;
+        if (gap >= cap) continue;
+        for (int q = 0; q < 3; ++q) n[q] = R[size_t(3 * q)] * nb[0] + R[size_t(3 * q + 1)] * nb[1] + R[size_t(3 * q + 2)] * nb[2];
+        double arm[3], vb[3], rel[3];
+        for (int q = 0; q < 3; ++q) arm[q] = rp[q] - d * n[q];  // the body's surface point
+        body_point_velocity(bs, arm, vb);
+        for (int q = 0; q < 3; ++q) rel[q] = v[3 * i + q] * (1.0 - u) + v[3 * i + 3 + q] * u - vb[q];
+        if (out_of_reach(gap, dot3(rel, n), fall_side * h * h * dot3(g, n), h, 0.25 * rad)) continue;
+        const bool speculative = gap >= 0;
+        if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
+          ++out.dropped;
+          ++bout.dropped;
+          continue;
+        }
+        if (speculative) {
+          RigidContactPair pr;
+          pr.spring = static_cast<int32_t>(springs.size());
+          for (int q = 0; q < 3; ++q) pr.n[q] = n[q];
+          pr.depth0 = -gap;
+          pairs.push_back(pr);
+        }
+        ContactSpring sp;
+        segment_spring(m.fem.pattern, i, u, sp);
+        const double share = (i == r.node_begin && j == 0) || j == K ? 0.5 / K : 1.0 / K;
+        fill_contact_spring(sp, n, -gap, speculative, r.stretch_stiffness * share, 0.0, mu, rel, v_stick, bout);
+        sp.row_n = row;
+        if (row >= 0)
+          for (int q = 0; q < 3; ++q) sp.arm_n[q] = arm[q];
+        springs.push_back(sp);
+        ++out.rigid;
+        if (!speculative) out.max_depth = std::max(out.max_depth, -gap);
+        ++made;
+      }
+    }
+  }
+  return made;
+}
+
+}  // namespace stroma

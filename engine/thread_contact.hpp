@@ -1,0 +1,109 @@
+#pragma once
+/// \file thread_contact.hpp
+/// A thread's contacts (issue 43; docs/THREAD.md, "Contact"): with the tissue's surface, the
+/// tools, the rigid bodies and itself (and other threads), as penalty springs of the collide
+/// stage solved in the one implicit step with everything else.
+///
+/// The thread is a tube of radius r = diameter/2 around its centreline.
+///  - Tissue: each segment is sampled at K = clamp(⌈ℓ/(4·diameter)⌉, 1, 8) points (its start,
+///    then every ℓ/K; the rod's last node too). Each point takes the closest point q of the
+///    nearby active surface triangles (one BVH query per segment; one triangle per point, so a
+///    point over an edge is not counted twice); its signed distance σ (negative under the face)
+///    gives the depth r − σ along the direction from the tissue to the thread. The spring joins
+///    the thread's point (two rod nodes) and the triangle's point (its DOFs): a spring across
+///    parts, its rod–tissue pairs applied matrix-free (ContactSpring::matrix_free), so the
+///    thread presses on the tissue and the tissue on the thread in the same solve. Stiffness: the
+///    thread's contact_stiffness (Pa/m; by default 10·E_max/diameter) over the point's projected
+///    area diameter × its share of the arc length — per metre of thread 10·E_max, ten times the
+///    tissue's own stiffness under a line load (~E), so the penalty's part of an indentation is
+///    ~10 % of the tissue's. Not the rigid bodies' 100·E_max/feature: the pairs across the parts
+///    are not in the preconditioner, and on the swinging suture that touches a block
+///    (tests/data/server/thread.yaml) that stiffness took CG from ~7 to > 40 iterations, past
+///    the served budget tick after tick; at 10·E_max it stays at ~7. Skipped: points deeper
+///    than 10 diameters (the closest face is then no longer the one it came through: a thread
+///    pressed that deep — a line load of 100·E_max·diameter — is lost); points within a hole
+///    radius of a puncture or a needle's entry or exit (max(4·r, the body's track spacing, 4 needle
+///    wire radii)) or of an anchored end's material point (1.5 segments); and the thread between the punctures it is inside of — pairing them from
+///    the end not tied to a needle (that end is outside), the arc between each pair is in the
+///    tissue.
+///  - Itself and other threads: every pair of segments not sharing a node (|i − k| ≥ 2 on one
+///    rod), closest points (s, t) on the two centrelines at distance d: a spring between the
+///    two points (four rod nodes, matrix-free where the pattern lacks the pair), depth 2r − d
+///    along the line joining them, stiff as the stiffer rod's segment axial spring k_s = E·A/ℓ
+///    (a tension T presses two crossing threads T/k_s into each other: 1 N on a 5 GPa,
+///    0.2 mm suture of 2 mm segments is 13 µm, an eighth of its radius).
+///  - Tools: each shaped tool's capsules against each segment (closest points of the two
+///    segments), penetrating only (tools are prescribed: a spring in front could only pull),
+///    k_s; felt by the tool as its other springs. A tool holding a thread skips the two
+///    segments either side of its grasp, one holding a needle the thread tied to it (a needle
+///    holder's jaws hold the swaged end) — and, once it lets go of either, the segments within
+///    its jaws' reach (their length and two radii, and two segments more) of where it held
+///    until they are clear of its capsules (ToolState::released_segment). Frictionless: a tool's velocity
+///    is not the step's to know.
+///  - Rigid bodies: each segment's sample points against the body's shape (its signed distance,
+///    rigid_contact.hpp shape_distance), k_s × the point's share of the segment; a thread skips
+///    the needle it is tied to.
+/// Speculative springs (points in front) are made when the approach at the start of the step
+/// (and the fall under gravity) closes the gap to within a quarter radius, and released and the
+/// step redone if they end it pulling (RigidContactPair, release_pulling_rigid_contacts). Friction: the thread's `friction`
+/// (with another thread, the smaller), regularised Coulomb as rigid contact's (fill_contact_spring).
+/// No allocation: per-segment buffers on the stack.
+
+#include <vector>
+
+#include "collision/contact_surface.hpp"
+#include "collision/triangle_bvh.hpp"
+#include "engine/model.hpp"
+#include "engine/state.hpp"
+#include "rigid/rigid_contact.hpp"
+
+namespace stroma {
+
+/// Most sample points per segment (thread–tissue, thread–rigid).
+inline constexpr int kThreadSamplesPerSegment = 8;
+/// Sample spacing, in diameters.
+inline constexpr double kThreadSampleDiameters = 4.0;
+/// Most holes (punctures, needles' entries and exits) the thread–tissue contact skips around.
+inline constexpr int kMaxThreadHoles = 64;
+
+/// What the threads' contacts did in one tick (TickReport::thread_contact).
+struct ThreadContactOutput {
+  int32_t tissue = 0, self = 0, tools = 0, rigid = 0;  ///< springs made (speculative ones included)
+  int32_t dropped = 0;     ///< beyond the springs' capacity (not applied)
+  double max_depth = 0;    ///< m: the deepest penetration of a thread's surface found
+};
+
+/// Sets sp's DOFs: nodes[0..n) with weights w (signed: a spring across parts), each pair's
+/// slot from the pattern — kSlotMatrixFree (and matrix_free set) where it has no block, and for
+/// every pair across the sides (weights of opposite signs), so the assembled part is PSD.
+void set_spring_nodes(const BsrPattern& pattern, const int32_t* nodes, const double* w, int n, ContactSpring& sp);
+
+/// Every thread against the tissue's surface (surface points px, DOF velocities v; BVH
+/// refitted), after the punctures' before-step update. Appends springs (and the speculative
+/// ones' pairs).
+void thread_tissue_contact(const Model& m, const State& s, const ContactSurface& surf, const TriangleBvh& bvh,
+                           const double* px, const double* v, std::vector<ContactSpring>& springs,
+                           std::vector<RigidContactPair>& pairs, ThreadContactOutput& out);
+
+/// Every thread against itself and the other threads.
+void thread_self_contact(const Model& m, const double* x, const double* v, std::vector<ContactSpring>& springs,
+                         std::vector<RigidContactPair>& pairs, ThreadContactOutput& out);
+
+/// Tool `spec` (state ts) against every thread: springs appended to the tool's range
+/// (out.spring_end moves; out.contacts and out.stiffness count them); clears
+/// ts.released_segment once the thread it let go of is clear. Returns how many.
+int thread_tool_contact(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, const double* v,
+                        ToolOutput& out, std::vector<ContactSpring>& springs, ThreadContactOutput& tout);
+
+/// Rigid body k (state bs, step row `row`, −1: none) against every thread not tied to it.
+/// Returns how many springs.
+int thread_rigid_contact(const Model& m, int32_t k, const RigidState& bs, int32_t row, const double* x,
+                         const double* v, std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                         RigidContactOutput& bout, ThreadContactOutput& out);
+
+/// Closest points of segments p0–p1 and q0–q1: parameters s, t in [0, 1] (Ericson, Real-Time
+/// Collision Detection §5.1.9); returns the squared distance.
+double segment_closest_points(const double* p0, const double* p1, const double* q0, const double* q1, double* s,
+                              double* t);
+
+}  // namespace stroma

@@ -1,0 +1,331 @@
+// A thread's contacts (issue 43; engine/thread_contact.hpp, docs/THREAD.md "Contact"): on a
+// tissue's surface (resting, and sliding under Coulomb friction on a slope — the inclined-plane
+// law), on a rigid body, on another thread, under a tool, and with itself: 10,000 seeded random
+// motions of a coiled thread never let two segments pass through each other, checked by an
+// independent continuous test of every segment pair over every tick.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+
+#include "engine/model_check.hpp"
+#include "engine/state.hpp"
+#include "engine/thread_contact.hpp"
+#include "engine/tick.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "scene/scenario_spec.hpp"
+#include "tests/test_labels.hpp"
+#include "tests/test_scenarios.hpp"
+
+using namespace stroma;
+
+namespace {
+
+const std::string kSrc = STROMA_SOURCE_DIR;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kD = 2.0e-4;  // the suture's diameter (USP 3-0)
+
+/// A 50 mm block [0, 0.05]³, every node fixed (its surface a still table), E 30 kPa, under
+/// gravity `g`; then `rest` (YAML from `rigid_bodies:` / `tools:` on).
+std::string table_scene(const std::string& name, const std::string& g, const std::string& rest) {
+  return "name: " + name + "\ntime_step: 0.001\ngravity: " + g + R"(
+solver: {integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-10}
+bodies:
+  - name: block
+    mesh: )" + kSrc + R"(/scenarios/meshes/cube_tet4_h8p333mm.msh
+    material: {young_modulus: 3.0e4, poisson_ratio: 0.45, density: 1000}
+    fixed:
+      - box: {min: [-1, -1, -1], max: [1, 1, 1]}
+)" + rest;
+}
+
+/// A thread entry: 0.2 mm, E 5 GPa, 1100 kg/m³, straight from `start` along `dir`.
+std::string thread(const std::string& name, double length, int segments, const std::string& start,
+                   const std::string& dir, const std::string& extra = "") {
+  return "  - name: " + name + "\n    length: " + std::to_string(length) + "\n    segments: " + std::to_string(segments) +
+         "\n    diameter: 2.0e-4\n    young_modulus: 5.0e9\n    density: 1100\n    start: " + start +
+         "\n    direction: " + dir + "\n" + extra;
+}
+
+double com(const Model& m, const State& s, int axis, bool velocity) {
+  const RodRange& r = m.fem.rods[0];
+  double sum = 0, mass = 0;
+  for (int32_t i = r.node_begin; i < r.node_end; ++i) {
+    sum += m.fem.mass[i] * (velocity ? s.tissue.v : s.tissue.x)[size_t(3 * i + axis)];
+    mass += m.fem.mass[i];
+  }
+  return sum / mass;
+}
+
+}  // namespace
+
+// Dropped from 2 mm onto the table, a thread comes to rest on it: every node one radius above the
+// surface (its penalty's sag, w/(100·E) per metre, is 1e-10 m here), still, and it never rises
+// above where it fell from (no energy gained at impact).
+TEST(ThreadContact, AThreadDroppedOnTissueRestsOnItsSurface) {
+  const std::string yaml = table_scene("drop", "[0, -9.81, 0]",
+                                       "threads:\n" + thread("suture", 0.03, 15, "[0.01, 0.052, 0.025]", "[1, 0, 0.3]",
+                                                             "    damping: {rayleigh_mass: 5}\n"));
+  const auto m = compile_model(parse_scenario(yaml, "drop.yaml", kSrc));
+  std::string why;
+  ASSERT_TRUE(model_invariants_hold(*m, &why)) << why;
+  ASSERT_TRUE(m->has_contact);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const RodRange& r = m->fem.rods[0];
+  double top = 0;
+  for (int i = 0; i < 1000; ++i) {
+    const TickReport& rep = tick(*m, s, w, nullptr, 0);
+    ASSERT_TRUE(rep.status == TickStatus::Ok) << i;
+    for (int32_t n = r.node_begin; n < r.node_end; ++n) top = std::max(top, s.tissue.x[size_t(3 * n + 1)]);
+    EXPECT_EQ(rep.thread_contact.dropped, 0);
+  }
+  EXPECT_LE(top, 0.052 + 1e-9) << "never above where it fell from";
+  EXPECT_GT(w.report.thread_contact.tissue, 0);
+  for (int32_t n = r.node_begin; n < r.node_end; ++n) {
+    EXPECT_NEAR(s.tissue.x[size_t(3 * n + 1)], 0.05 + 0.5 * kD, 1e-6) << "node " << n - r.node_begin;
+    EXPECT_LT(std::abs(s.tissue.v[size_t(3 * n + 1)]), 1e-4);
+  }
+}
+
+// On the table tilted by α (gravity turned): below the friction angle (tan α < μ = 0.2) the thread
+// stays; above it, it slides down with the inclined plane's a = g·(sin α − μ·cos α), within 3 %
+// — measured between 0.1 s and 0.2 s: the regularised friction is a damper set from the
+// velocity at the start of each step, so while the thread speeds up it lags by the step's gain
+// (over the first 0.2 s from rest that is ~4 % of v; from 0.1 s on, ~2 % of a).
+TEST(ThreadContact, OnASlopeAThreadSticksBelowTheFrictionAngleAndSlidesAbove) {
+  auto run = [&](double alpha_deg) {
+    const double a = alpha_deg * kPi / 180;
+    const std::string g = "[" + std::to_string(9.81 * std::sin(a)) + ", " + std::to_string(-9.81 * std::cos(a)) + ", 0]";
+    const std::string yaml = table_scene("slope", g, "threads:\n" + thread("suture", 0.02, 10, "[0.005, 0.0501, 0.025]", "[1, 0, 0]"));
+    const auto m = compile_model(parse_scenario(yaml, "slope.yaml", kSrc));
+    State s = State::initial(*m);
+    TickWorkspace w(*m);
+    const double x0 = com(*m, s, 0, false);
+    double v1 = 0;
+    for (int i = 0; i < 200; ++i) {
+      EXPECT_TRUE(tick(*m, s, w, nullptr, 0).status == TickStatus::Ok) << i;
+      if (i == 99) v1 = com(*m, s, 0, true);
+    }
+    return std::array<double, 3>{com(*m, s, 0, false) - x0, v1, com(*m, s, 0, true)};
+  };
+  const auto still = run(8.0);  // tan 8° = 0.14 < 0.2
+  EXPECT_LT(std::abs(still[0]), 1e-5) << "it sticks";
+  const double a = 15.0 * kPi / 180;
+  const double expect = 9.81 * (std::sin(a) - 0.2 * std::cos(a));  // 0.644 m/s²
+  const auto slid = run(15.0);
+  EXPECT_NEAR((slid[2] - slid[1]) / 0.1, expect, 0.03 * expect) << "sliding at the inclined plane's acceleration";
+  EXPECT_NEAR(slid[0], 0.5 * expect * 0.04, 0.06 * 0.5 * expect * 0.04) << "and as far (the start's lag: 6 %)";
+}
+
+// On a rigid box, on another thread, under a tool: each holds it by contact.
+TEST(ThreadContact, AThreadRestsOnARigidBoxAndOnAnotherThread) {
+  const std::string yaml = test_scenarios::rigid_scene_head("box") + R"(rigid_bodies:
+  - name: box
+    shape: {type: box, size: [0.04, 0.01, 0.04]}
+    density: 1000
+    fixed: true
+    pose: {position: [0, -0.005, 0]}
+threads:
+)" + thread("under", 0.03, 15, "[-0.015, 0.0001, 0.0]", "[1, 0, 0]", "    fixed: [first, last]\n") +
+                           thread("over", 0.02, 10, "[0.0, 0.0004, -0.01]", "[0, 0, 1]", "    damping: {rayleigh_mass: 5}\n");
+  const auto m = compile_model(parse_scenario(yaml, "box.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  for (int i = 0; i < 1500; ++i) ASSERT_TRUE(tick(*m, s, w, nullptr, 0).status == TickStatus::Ok) << i;
+  const RodRange &under = m->fem.rods[0], &over = m->fem.rods[1];
+  // "under" lies on the box (its ends fixed one radius above the top face).
+  for (int32_t n = under.node_begin; n < under.node_end; ++n)
+    EXPECT_NEAR(s.tissue.x[size_t(3 * n + 1)], 0.5 * kD, 2e-6) << "under, node " << n - under.node_begin;
+  // "over" crosses it at its middle and rests there, one diameter higher (a 5 GPa suture is a
+  // beam: its 10 mm halves droop by w·L⁴/(8·E·I) = 1 µm, so its ends stay in the air), still and
+  // nowhere below the box's top.
+  const int32_t mid = over.node_begin + 5;
+  EXPECT_NEAR(s.tissue.x[size_t(3 * mid + 1)], 1.5 * kD, 5e-6) << "over rests on under";
+  for (int32_t n = over.node_begin; n < over.node_end; ++n) {
+    EXPECT_GT(s.tissue.x[size_t(3 * n + 1)], 0.5 * kD - 2e-6) << "over, node " << n - over.node_begin;
+    EXPECT_LT(std::abs(s.tissue.v[size_t(3 * n + 1)]), 1e-4);
+  }
+  EXPECT_GT(w.report.thread_contact.self, 0);
+  EXPECT_GT(w.report.thread_contact.rigid, 0);
+}
+
+TEST(ThreadContact, AToolPushesAThreadAndFeelsIt) {
+  const std::string yaml = test_scenarios::rigid_scene_head("push") + R"(tools:
+  - name: probe
+    shape: {type: sphere, radius: 0.002}
+    max_speed: 1.0
+    pose: {position: [0, 0.005, 0]}
+threads:
+)" + thread("line", 0.04, 20, "[-0.02, 0, 0]", "[1, 0, 0]", "    fixed: [first, last]\n    damping: {rayleigh_mass: 20}\n");
+  const auto m = compile_model(parse_scenario(yaml, "push.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const RodRange& r = m->fem.rods[0];
+  double y = 0.005;
+  for (int i = 0; i < 1500; ++i) {
+    y = std::max(-0.003, 0.005 - 0.01 * 0.001 * i);  // down at 10 mm/s to 3 mm below the line
+    ToolInput in;
+    in.tool = 0;
+    in.seq = uint64_t(i + 1);
+    in.pose.position = {0, y, 0};
+    ASSERT_TRUE(tick(*m, s, w, &in, 1).status == TickStatus::Ok) << i;
+  }
+  const double* mid = s.tissue.x.data() + 3 * (r.node_begin + 10);
+  // The line wraps the sphere's bottom: its middle one radius below the sphere (the penalty's
+  // give at this tension within 2 % of the radius sum).
+  EXPECT_NEAR(mid[1], y - 0.002 - 0.5 * kD, 0.02 * (0.002 + 0.5 * kD));
+  EXPECT_GT(w.report.tools[0].force[1], 0) << "the thread pushes the probe back up";
+  // Its tension T: the two straight halves from (±20 mm, 0) to the sphere pull it down by 2·T·sinθ.
+  EXPECT_GT(w.report.thread_contact.tools, 0);
+}
+
+namespace {
+
+/// Whether segments a and b (end points at the start, a0/a1/b0/b1, and at the end of a tick,
+/// A0/A1/B0/B1, moving linearly between) pass through each other during the tick: where the four
+/// points are coplanar (the triple product's sign changes, bisected over 64 sub-intervals), the
+/// two segments intersect in that plane (each one's end points on opposite sides of the other).
+bool segments_pass(const double* a0, const double* a1, const double* b0, const double* b1, const double* A0,
+                   const double* A1, const double* B0, const double* B1) {
+  auto at = [](const double* p, const double* P, double t, double* q) {
+    for (int k = 0; k < 3; ++k) q[k] = p[k] + t * (P[k] - p[k]);
+  };
+  auto sub = [](const double* p, const double* q, double* r) {
+    for (int k = 0; k < 3; ++k) r[k] = p[k] - q[k];
+  };
+  auto cross = [](const double* u, const double* v, double* c) {
+    c[0] = u[1] * v[2] - u[2] * v[1];
+    c[1] = u[2] * v[0] - u[0] * v[2];
+    c[2] = u[0] * v[1] - u[1] * v[0];
+  };
+  auto dot = [](const double* u, const double* v) { return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]; };
+  auto triple = [&](double t) {
+    double p0[3], p1[3], q0[3], q1[3], u[3], v[3], z[3], c[3];
+    at(a0, A0, t, p0), at(a1, A1, t, p1), at(b0, B0, t, q0), at(b1, B1, t, q1);
+    sub(p1, p0, u), sub(q0, p0, v), sub(q1, p0, z);
+    cross(u, v, c);
+    return dot(c, z);
+  };
+  auto intersect = [&](double t) {
+    double p0[3], p1[3], q0[3], q1[3], u[3], v[3], n[3], d[3], c[3];
+    at(a0, A0, t, p0), at(a1, A1, t, p1), at(b0, B0, t, q0), at(b1, B1, t, q1);
+    sub(p1, p0, u), sub(q1, q0, v);
+    cross(u, v, n);
+    if (dot(n, n) < 1e-30) return false;  // parallel: no crossing to speak of
+    auto side = [&](const double* e, const double* o, const double* p) {
+      sub(p, o, d);
+      cross(e, d, c);
+      return dot(c, n);
+    };
+    return side(u, p0, q0) * side(u, p0, q1) <= 0 && side(v, q0, p0) * side(v, q0, p1) <= 0;
+  };
+  constexpr int kSub = 64;
+  double f0 = triple(0);
+  for (int i = 1; i <= kSub; ++i) {
+    const double t1 = double(i) / kSub;
+    const double f1 = triple(t1);
+    if (f0 == 0 || (f0 < 0) != (f1 < 0)) {
+      double lo = double(i - 1) / kSub, hi = t1, flo = f0;
+      for (int it = 0; it < 50; ++it) {
+        const double mid = 0.5 * (lo + hi), fm = triple(mid);
+        if ((fm < 0) == (flo < 0) && fm != 0) lo = mid, flo = fm;
+        else hi = mid;
+      }
+      if (intersect(0.5 * (lo + hi))) return true;
+    }
+    f0 = f1;
+  }
+  return false;
+}
+
+}  // namespace
+
+// The checker itself: two segments swapping sides pass; two sliding by each other's ends do not.
+TEST(ThreadContact, TheCrossingCheckSeesAPassThrough) {
+  const double a0[3] = {-1, 0, 0}, a1[3] = {1, 0, 0};
+  const double b0[3] = {0, 1, -1}, b1[3] = {0, 1, 1}, B0[3] = {0, -1, -1}, B1[3] = {0, -1, 1};
+  EXPECT_TRUE(segments_pass(a0, a1, b0, b1, a0, a1, B0, B1));
+  const double c0[3] = {3, 1, -1}, c1[3] = {3, 1, 1}, C0[3] = {3, -1, -1}, C1[3] = {3, -1, 1};
+  EXPECT_FALSE(segments_pass(a0, a1, c0, c1, a0, a1, C0, C1));
+}
+
+// A loop of thread (64 mm, its ends fixed 4 mm apart; E 1 MPa, an elastic thread: its contact —
+// as stiff as its segments' axial springs, 15 N/m — is soft, the harder case), no gravity:
+// 10,000 seeded random motions, each throwing two random stretches of the loop (five nodes
+// each, at least four segments apart) at each other at 0.15..0.3 m/s (up to 1.5 diameters a
+// tick each: three between them) with a random spread of 0.05 m/s per node, then 3 ticks. The
+// loop crumples and folds on itself; no two segments that share no node ever pass through each
+// other over any tick (an independent continuous check of every pair).
+TEST(ThreadContact, TenThousandRandomMotionsNeverPassAThreadThroughItself) {
+  STROMA_LONG_TEST();
+  const int segs = 32;
+  const double len = 0.064, gap = 0.004, R = (len + gap) / (2 * kPi);  // a circle with a 4 mm gap
+  std::string path = "[";
+  const int pts = 320;
+  double total = 0, prev[3] = {0, 0, 0};
+  const double phi0 = 0.5 * gap / R;
+  for (int i = 0; i <= pts; ++i) {
+    const double phi = phi0 + (2 * kPi - 2 * phi0) * i / pts;
+    const double p[3] = {R * std::sin(phi), 0.1, R * (1 - std::cos(phi))};
+    if (i > 0) total += std::sqrt(std::pow(p[0] - prev[0], 2) + std::pow(p[1] - prev[1], 2) + std::pow(p[2] - prev[2], 2));
+    std::copy(p, p + 3, prev);
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "%s[%.12g, %.12g, %.12g]", i ? ", " : "", p[0], p[1], p[2]);
+    path += buf;
+  }
+  path += "]";
+  char lenbuf[64];
+  std::snprintf(lenbuf, sizeof lenbuf, "%.12g", total);
+  const std::string yaml = table_scene("loop", "[0, 0, 0]", R"(threads:
+  - name: loop
+    length: )" + std::string(lenbuf) + "\n    segments: " + std::to_string(segs) + R"(
+    diameter: 2.0e-4
+    young_modulus: 1.0e6
+    density: 1100
+    damping: {rayleigh_mass: 20}
+    fixed: [first, last]
+    path: )" + path + "\n");
+  const auto m = compile_model(parse_scenario(yaml, "loop.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const RodRange& r = m->fem.rods[0];
+  std::mt19937 rng(20261207);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  std::uniform_int_distribution<int32_t> node(r.node_begin + 2, r.node_end - 3);
+  std::vector<double> x0(s.tissue.x.size());
+  int passes = 0, self_springs = 0, ticks = 0, not_ok = 0, touching = 0;
+  for (int motion = 0; motion < 10000; ++motion) {
+    int32_t a = node(rng), b = node(rng);
+    while (std::abs(a - b) < 4) b = node(rng);
+    double dir[3], n2 = 0;
+    for (int k = 0; k < 3; ++k) dir[k] = s.tissue.x[size_t(3 * b + k)] - s.tissue.x[size_t(3 * a + k)], n2 += dir[k] * dir[k];
+    const double speed = 0.225 + 0.075 * U(rng), inv = n2 > 0 ? 1 / std::sqrt(n2) : 0;
+    for (int32_t c = -2; c <= 2; ++c)
+      for (int k = 0; k < 3; ++k) {
+        if (!m->fem.constrained[size_t(a + c)]) s.tissue.v[size_t(3 * (a + c) + k)] = speed * dir[k] * inv + 0.05 * U(rng);
+        if (!m->fem.constrained[size_t(b + c)]) s.tissue.v[size_t(3 * (b + c) + k)] = -speed * dir[k] * inv + 0.05 * U(rng);
+      }
+    for (int t = 0; t < 3; ++t) {
+      std::copy(s.tissue.x.begin(), s.tissue.x.end(), x0.begin());
+      const TickReport& rep = tick(*m, s, w, nullptr, 0);
+      ++ticks;
+      if (rep.status != TickStatus::Ok && rep.status != TickStatus::SolverNotConverged) ++not_ok;
+      self_springs += rep.thread_contact.self;
+      touching += rep.thread_contact.self > 0;
+      const double* x = s.tissue.x.data();
+      for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i)
+        for (int32_t j = i + 2; j + 1 < r.node_end; ++j)
+          if (segments_pass(&x0[size_t(3 * i)], &x0[size_t(3 * i + 3)], &x0[size_t(3 * j)], &x0[size_t(3 * j + 3)],
+                            x + 3 * i, x + 3 * i + 3, x + 3 * j, x + 3 * j + 3))
+            ++passes;
+    }
+  }
+  std::printf("  %d ticks (%d with segments touching), %d self-contact springs, %d ticks not ok, %d pass-throughs\n",
+              ticks, touching, self_springs, not_ok, passes);
+  EXPECT_GT(touching, ticks / 4) << "the loop folded on itself";
+  EXPECT_EQ(passes, 0);
+  EXPECT_EQ(not_ok, 0);
+}
