@@ -261,22 +261,7 @@ void thread_tissue_contact(const Model& m, const State& s, const ContactSurface&
         const double len = norm3(nrm);
         if (!(len > 0)) return;
         for (double& k : nrm) k /= len;
-        const Vec3 va{A[0], A[1], A[2]}, vb{B[0], B[1], B[2]}, vc{C[0], C[1], C[2]};
-        for (int j = 0; j < ns; ++j) {
-          const double ap[3] = {c[j][0] - A[0], c[j][1] - A[1], c[j][2] - A[2]};
-          const double hgt = dot3(ap, nrm);
-          if (hgt * hgt >= best_d2[j]) continue;
-          const std::array<double, 3> w = closest_on_triangle(Vec3{c[j][0], c[j][1], c[j][2]}, va, vb, vc);
-          double d2 = 0;
-          for (int k = 0; k < 3; ++k) {
-            const double q = w[0] * A[k] + w[1] * B[k] + w[2] * C[k] - c[j][k];
-            d2 += q * q;
-          }
-          if (d2 >= best_d2[j]) continue;
-          best_d2[j] = d2;
-          best_tri[j] = t;
-          for (int k = 0; k < 3; ++k) best_w[j][k] = w[size_t(k)];
-        }
+        for (int j = 0; j < ns; ++j) keep_closer_on_triangle(c[j], A, B, C, nrm, t, best_d2[j], best_tri[j], best_w[j]);
       });
       for (int j = 0; j < ns; ++j) {
         const int32_t t = best_tri[j];
@@ -317,16 +302,9 @@ void thread_tissue_contact(const Model& m, const State& s, const ContactSurface&
         const double gap = sigma - rad;
         if (out_of_reach(gap, dot3(rel, n), h * h * dot3(g, n), h, 0.25 * rad)) continue;
         const bool speculative = gap >= 0;
-        if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
+        if (!reserve_contact(springs, pairs, gap, n)) {
           ++out.dropped;
           continue;
-        }
-        if (speculative) {
-          RigidContactPair pr;
-          pr.spring = static_cast<int32_t>(springs.size());
-          for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
-          pr.depth0 = -gap;
-          pairs.push_back(pr);
         }
         const double share = r.segment_length / K * ((i == r.node_begin && j == 0) || j == K ? 0.5 : 1.0);
         RigidContactOutput counts;
@@ -395,16 +373,9 @@ void thread_self_contact(const Model& m, const double* x, const double* v, std::
           const double gap = d - rad;
           if (out_of_reach(gap, dot3(rel, n), 0.0, h, 0.125 * rad)) continue;
           const bool speculative = gap >= 0;
-          if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
+          if (!reserve_contact(springs, pairs, gap, n)) {
             ++out.dropped;
             continue;
-          }
-          if (speculative) {
-            RigidContactPair pr;
-            pr.spring = static_cast<int32_t>(springs.size());
-            for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
-            pr.depth0 = -gap;
-            pairs.push_back(pr);
           }
           RigidContactOutput counts;
           fill_contact_spring(sp, n, -gap, speculative, k_c, 0.0, mu, rel, v_stick, counts);
@@ -530,17 +501,10 @@ int thread_rigid_contact(const Model& m, int32_t k, const RigidState& bs, int32_
         for (int q = 0; q < 3; ++q) rel[q] = v[3 * i + q] * (1.0 - u) + v[3 * i + 3 + q] * u - vb[q];
         if (out_of_reach(gap, dot3(rel, n), fall_side * h * h * dot3(g, n), h, 0.25 * rad)) continue;
         const bool speculative = gap >= 0;
-        if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
+        if (!reserve_contact(springs, pairs, gap, n)) {
           ++out.dropped;
           ++bout.dropped;
           continue;
-        }
-        if (speculative) {
-          RigidContactPair pr;
-          pr.spring = static_cast<int32_t>(springs.size());
-          for (int q = 0; q < 3; ++q) pr.n[q] = n[q];
-          pr.depth0 = -gap;
-          pairs.push_back(pr);
         }
         ContactSpring sp;
         segment_spring(m.fem.pattern, i, u, sp);

@@ -120,16 +120,9 @@ bool add_tissue_body_spring(const SurfaceTriangleDofs& td, double b0, double b1,
   const bool speculative = gap >= 0;
   if (speculative && gap + h * std::min(dot3(rel, n), 0.0) - h * h * dot3(g.data(), n) * (row >= 0 ? 1.0 : 0.0) >= h * speed)
     return false;
-  if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) {
+  if (!reserve_contact(springs, pairs, gap, n)) {
     ++out.dropped;
     return false;
-  }
-  if (speculative) {
-    RigidContactPair pr;
-    pr.spring = static_cast<int32_t>(springs.size());
-    for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
-    pr.depth0 = -gap;
-    pairs.push_back(pr);
   }
   fill_contact_spring(sp, n, -gap, speculative, kc, cc, mu, rel, v_stick, out);
   sp.row_n = row;

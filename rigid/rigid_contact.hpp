@@ -98,6 +98,23 @@ struct ContactExclusion {
 /// Whether the world point q is within ex.hole_radius of one of ex's holes.
 bool near_a_hole(const ContactExclusion& ex, const double* q);
 
+/// Room for one more contact spring — and, for a speculative one (gap ≥ 0), its pair, recorded
+/// for the spring about to be appended (along n, depth0 = −gap): false (nothing recorded) when
+/// either list is full.
+inline bool reserve_contact(const std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                            double gap, const double* n) {
+  const bool speculative = gap >= 0;
+  if (springs.size() == springs.capacity() || (speculative && pairs.size() == pairs.capacity())) return false;
+  if (speculative) {
+    RigidContactPair pr;
+    pr.spring = static_cast<int32_t>(springs.size());
+    for (int k = 0; k < 3; ++k) pr.n[k] = n[k];
+    pr.depth0 = -gap;
+    pairs.push_back(pr);
+  }
+  return true;
+}
+
 /// Appends the contact spring between the tissue's surface point (barycentric b0, b1, b2 on the
 /// triangle with DOFs td) and the point of body state s at `arm` (world, from its centre of
 /// mass; `row` its row, −1 anchored), along the unit n from the body to the tissue, `gap` apart

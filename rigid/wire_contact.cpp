@@ -71,22 +71,7 @@ void wire_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t r
     const double len = std::sqrt(dot3(nrm, nrm));
     if (!(len > 0)) return;
     for (double& k : nrm) k /= len;
-    const Vec3 a{A[0], A[1], A[2]}, bb{B[0], B[1], B[2]}, cc{C[0], C[1], C[2]};
-    for (int j = 0; j < n; ++j) {
-      const double ap[3] = {c[j][0] - A[0], c[j][1] - A[1], c[j][2] - A[2]};
-      const double hgt = dot3(ap, nrm);  // the closest point is at least this far
-      if (hgt * hgt >= best_d2[j]) continue;
-      const std::array<double, 3> w = closest_on_triangle(Vec3{c[j][0], c[j][1], c[j][2]}, a, bb, cc);
-      double d2 = 0;
-      for (int k = 0; k < 3; ++k) {
-        const double q = w[0] * A[k] + w[1] * B[k] + w[2] * C[k] - c[j][k];
-        d2 += q * q;
-      }
-      if (d2 >= best_d2[j]) continue;
-      best_d2[j] = d2;
-      best_tri[j] = t;
-      for (int k = 0; k < 3; ++k) best_w[j][k] = w[size_t(k)];
-    }
+    for (int j = 0; j < n; ++j) keep_closer_on_triangle(c[j], A, B, C, nrm, t, best_d2[j], best_tri[j], best_w[j]);
   });
   const double v_stick = 0.01 * b.feature;
   double tip_dir[3] = {0, 0, 0};  // the tip's direction, world

@@ -54,4 +54,25 @@ inline std::array<double, 3> closest_on_triangle(const Vec3& p, const Vec3& a, c
   return {1 - v - w, v, w};
 }
 
+/// Point c against triangle t (corners A, B, C; unit normal nrm): if the triangle's closest point
+/// is nearer than best_d2 (squared), it becomes the best — best_d2, best_tri and its barycentric
+/// weights best_w[3] updated. The distance to the plane rules most triangles out before the
+/// closest point is computed. (Samples against the surface: a needle's wire, a thread.)
+inline void keep_closer_on_triangle(const double* c, const double* A, const double* B, const double* C,
+                                    const double* nrm, int32_t t, double& best_d2, int32_t& best_tri, double* best_w) {
+  const double hgt = (c[0] - A[0]) * nrm[0] + (c[1] - A[1]) * nrm[1] + (c[2] - A[2]) * nrm[2];
+  if (hgt * hgt >= best_d2) return;
+  const std::array<double, 3> w = closest_on_triangle(Vec3{c[0], c[1], c[2]}, Vec3{A[0], A[1], A[2]},
+                                                      Vec3{B[0], B[1], B[2]}, Vec3{C[0], C[1], C[2]});
+  double d2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double q = w[0] * A[k] + w[1] * B[k] + w[2] * C[k] - c[k];
+    d2 += q * q;
+  }
+  if (d2 >= best_d2) return;
+  best_d2 = d2;
+  best_tri = t;
+  for (int k = 0; k < 3; ++k) best_w[k] = w[size_t(k)];
+}
+
 }  // namespace stroma
