@@ -233,7 +233,11 @@ int thread_punctures_after_step(const Model& m, State& s, const double* x, const
         for (int q = 0; q < 4; ++q) vp += p.w[q] * v[3 * p.node[q] + k];
         va += (vt - vp) * t[k];
       }
-      if (va * way > 0) p.slip = -va * m.fem_step / len;
+      // At most half a segment a step (1 m/s for 2 mm segments at 1 kHz): a solve cut short by
+      // the budget can leave a velocity no thread has, and a prediction from it can fling σ past
+      // the thread's end (the puncture dropped: scenarios/liver_stitch_thread.yaml under its
+      // 0.8 ms budget lost its entry puncture in some runs; clamped, both stay, 2 of 2 runs).
+      if (va * way > 0) p.slip = std::clamp(-va * m.fem_step / len, -kMaxPunctureSlip, kMaxPunctureSlip);
     }
     // A free end that slides out leaves the puncture; an end tied to a needle cannot (the needle
     // is there: σ stays at it — as right after the puncture is made, where the tissue's point,

@@ -46,6 +46,9 @@ int thread_grasp_springs(const Model& m, const ToolSpec& spec, const ToolState& 
 int thread_tie_spring(const Model::ThreadTie& tie, const RigidState& body, int32_t row, const double* x,
                       const BsrPattern& pattern, std::vector<ContactSpring>& springs);
 
+/// Most a sliding puncture's σ is predicted to move in one step (segments).
+inline constexpr double kMaxPunctureSlip = 0.5;
+
 /// The rod's point at σ and the segment it is on: x = (1 − u)·x_j + u·x_{j+1}.
 struct RodPoint {
   int32_t j = 0;  ///< global node of the segment's start

@@ -1280,8 +1280,82 @@ void thread_over_dds(int domain, bool crtk) {
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(15), 0);
 }
+
+// Served end to end: tests/data/thread_draw_through.yaml under `stroma serve`, its graspers driven
+// by two `stroma tool` clients one after the other — the driver takes the needle 65 mm into the
+// block and lets go, the puller takes its tip beyond the far face and draws it 80 mm on. A client
+// written from the IDL reads stroma_ThreadState: the thread goes through the block at the entry
+// (x = 0) and the exit (x = 50 mm), each puncture its tissue point and σ (segments from the
+// tied end), the thread's point at σ on it, and σ's arc length what the needle travelled past it.
+void thread_draw_through_over_dds(int domain, bool crtk) {
+  STROMA_LONG_TEST();  // ~6 s served
+  const std::string data = std::string(STROMA_SOURCE_DIR) + "/tests/data/";
+  std::vector<std::string> args = {STROMA_BINARY, "serve", data + "thread_draw_through.yaml", "--domain",
+                                   std::to_string(domain), "--realtime", "off", "--duration", "60"};
+  if (crtk) args.push_back("--crtk");
+  Process server(args);
+  Client client(domain);
+  const dds_entity_t pp = client.participant();
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t reader =
+      dds_create_reader(pp, dds_create_topic(pp, &stroma_ThreadState_desc, "stroma_ThreadState", nullptr, nullptr), q, nullptr);
+  dds_delete_qos(q);
+  ASSERT_GT(reader, 0);
+  ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
+  auto tool = [&](const char* name, const std::string& script) {
+    std::vector<std::string> a = {STROMA_BINARY, "tool", "--name", name, "--script", data + "server/" + script,
+                                  "--domain", std::to_string(domain), "--no-realtime"};
+    if (crtk) a.push_back("--crtk");
+    return a;
+  };
+  {
+    Process driver(tool("driver", "thread_draw_driver.yaml"));
+    EXPECT_EQ(driver.wait_exit(30), 0);
+  }
+  {
+    Process puller(tool("puller", "thread_draw_puller.yaml"));
+    EXPECT_EQ(puller.wait_exit(30), 0);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::vector<float> x, punctures;
+  for (const auto end = Clock::now() + std::chrono::seconds(10); Clock::now() < end && punctures.empty();) {
+    void* sm[1] = {nullptr};
+    dds_sample_info_t info;
+    if (dds_take(reader, sm, &info, 1, 1) > 0) {
+      const auto* st = static_cast<const stroma_ThreadState*>(sm[0]);
+      if (info.valid_data) {
+        x.assign(st->positions._buffer, st->positions._buffer + st->positions._length);
+        punctures.assign(st->punctures._buffer, st->punctures._buffer + st->punctures._length);
+      }
+      dds_return_loan(reader, sm, 1);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(15), 0);
+  ASSERT_EQ(punctures.size(), 8u) << "two punctures, 4 floats each (point, sigma)";
+  ASSERT_EQ(x.size(), 3u * 51u);
+  const double seg = 0.1 / 50, tail_x = x[0];
+  EXPECT_GT(tail_x, 0.05) << "the needle's tail, and the thread's end with it, is out of the far face";
+  const double expect_x[2] = {0.0, 0.05};
+  for (int k = 0; k < 2; ++k) {
+    const float* p = punctures.data() + 4 * k;
+    EXPECT_NEAR(p[0], expect_x[k], 0.003) << "puncture " << k << (k ? ": the exit" : ": the entry");
+    const double sigma = p[3];
+    const int j = std::min(49, static_cast<int>(sigma));
+    const double u = sigma - j;
+    double d2 = 0;
+    for (int c = 0; c < 3; ++c) d2 += std::pow((1 - u) * x[3 * j + c] + u * x[3 * j + 3 + c] - p[c], 2);
+    EXPECT_LT(std::sqrt(d2), 5e-4) << "puncture " << k << ": the thread passes through its point";
+    EXPECT_NEAR(sigma * seg, tail_x - p[0], 0.005) << "puncture " << k << ": slid through by the travel";
+  }
+}
 }  // namespace
 
+TEST(Serve, AThreadDrawnThroughTheTissueIsPublishedWithItsPunctures) { thread_draw_through_over_dds(198, false); }
+TEST(Serve, AThreadDrawnThroughTheTissueIsPublishedWithItsPuncturesWithCrtk) { thread_draw_through_over_dds(199, true); }
 TEST(Serve, AThreadsNodesArePublished) { thread_over_dds(194, false); }
 TEST(Serve, AThreadsNodesArePublishedWithCrtk) { thread_over_dds(195, true); }
 TEST(Serve, APrestretchedBodyIsPublishedAsItsMeshFromTheFirstFrame) { prestretch_over_dds(192, false); }
