@@ -1214,16 +1214,22 @@ namespace {
 /// client written from the IDL reads them — the paused first frame is the thread as the
 /// scenario lays it out (straight along −x from its start, its rest length), and while running
 /// its free end swings down while its held end stays and it stretches < 1 %.
-void thread_over_dds(int domain, bool crtk) {
-  Process server(paused_serve_args("/tests/data/server/thread.yaml", domain, crtk));
-  Client client(domain);
-  const dds_entity_t pp = client.participant();
+/// A best-effort, keep-last reader of stroma_ThreadState (as a client written from the IDL makes).
+dds_entity_t thread_state_reader(dds_entity_t pp) {
   dds_qos_t* q = dds_create_qos();
   dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
   const dds_entity_t reader =
       dds_create_reader(pp, dds_create_topic(pp, &stroma_ThreadState_desc, "stroma_ThreadState", nullptr, nullptr), q, nullptr);
   dds_delete_qos(q);
+  return reader;
+}
+
+void thread_over_dds(int domain, bool crtk) {
+  Process server(paused_serve_args("/tests/data/server/thread.yaml", domain, crtk));
+  Client client(domain);
+  const dds_entity_t pp = client.participant();
+  const dds_entity_t reader = thread_state_reader(pp);
   ASSERT_GT(reader, 0);
   struct Sample {
     double t = -1, length = 0, rest = 0, diameter = 0, tension = 0;
@@ -1296,12 +1302,7 @@ void thread_draw_through_over_dds(int domain, bool crtk) {
   Process server(args);
   Client client(domain);
   const dds_entity_t pp = client.participant();
-  dds_qos_t* q = dds_create_qos();
-  dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
-  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
-  const dds_entity_t reader =
-      dds_create_reader(pp, dds_create_topic(pp, &stroma_ThreadState_desc, "stroma_ThreadState", nullptr, nullptr), q, nullptr);
-  dds_delete_qos(q);
+  const dds_entity_t reader = thread_state_reader(pp);
   ASSERT_GT(reader, 0);
   ASSERT_TRUE(client.wait_status(15, [](const stroma_SimStatus& st) { return st.ticks > 100; }));
   auto tool = [&](const char* name, const std::string& script) {
