@@ -257,10 +257,7 @@ void thread_tissue_contact(const Model& m, const State& s, const ContactSurface&
         const double* B = px + 3 * tri[1];
         const double* C = px + 3 * tri[2];
         double nrm[3];
-        triangle_normal(A, B, C, nrm);
-        const double len = norm3(nrm);
-        if (!(len > 0)) return;
-        for (double& k : nrm) k /= len;
+        if (!triangle_unit_normal(A, B, C, nrm)) return;
         for (int j = 0; j < ns; ++j) keep_closer_on_triangle(c[j], A, B, C, nrm, t, best_d2[j], best_tri[j], best_w[j]);
       });
       for (int j = 0; j < ns; ++j) {
@@ -387,9 +384,8 @@ void thread_self_contact(const Model& m, const double* x, const double* v, std::
     }
 }
 
-int thread_tool_contact(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, const double* v,
-                        ToolOutput& out, std::vector<ContactSpring>& springs, ThreadContactOutput& tout) {
-  (void)v;
+int thread_tool_contact(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, ToolOutput& out,
+                        std::vector<ContactSpring>& springs, ThreadContactOutput& tout) {
   if (m.fem.rods.empty() || spec.shape == ToolShape::None || !ts.active || ts.last_command_time < 0) return 0;
   Capsule cap[kMaxCapsules];
   const int nc = tool_capsules(spec, ts.pose, tool_center(spec, ts).data(), cap);
@@ -401,9 +397,12 @@ int thread_tool_contact(const Model& m, const ToolSpec& spec, ToolState& ts, con
     const double k = r.stretch_stiffness;
     // The segments the jaws may still hold once they let go: as far as they reach, and two more.
     const int32_t window = static_cast<int32_t>(std::ceil((spec.shaft_length + 2.0 * spec.radius) / r.segment_length)) + 2;
+    // The segment it holds or let go of, if on this rod (node indices of another rod may be near).
+    const auto on_rod = [&](int32_t node) { return node >= r.node_begin && node < r.node_end; };
+    const bool holds = on_rod(ts.grasped_segment), let_go = on_rod(ts.released_segment);
     for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i) {
-      if (ts.grasped_segment >= 0 && std::abs(ts.grasped_segment - i) <= 2) continue;  // in its jaws
-      const bool released = ts.released_segment >= 0 && std::abs(ts.released_segment - i) <= window;
+      if (holds && std::abs(ts.grasped_segment - i) <= 2) continue;  // in its jaws
+      const bool released = let_go && std::abs(ts.released_segment - i) <= window;
       const double* a = x + 3 * i;
       const double* b = a + 3;
       for (int c = 0; c < nc; ++c) {

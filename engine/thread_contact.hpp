@@ -92,8 +92,8 @@ void thread_self_contact(const Model& m, const double* x, const double* v, std::
 /// Tool `spec` (state ts) against every thread: springs appended to the tool's range
 /// (out.spring_end moves; out.contacts and out.stiffness count them); clears
 /// ts.released_segment once the thread it let go of is clear. Returns how many.
-int thread_tool_contact(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, const double* v,
-                        ToolOutput& out, std::vector<ContactSpring>& springs, ThreadContactOutput& tout);
+int thread_tool_contact(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, ToolOutput& out,
+                        std::vector<ContactSpring>& springs, ThreadContactOutput& tout);
 
 /// Rigid body k (state bs, step row `row`, −1: none) against every thread not tied to it.
 /// Returns how many springs.

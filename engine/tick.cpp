@@ -290,7 +290,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   for (size_t k = 0; k < m.tools.size(); ++k) {
     tool_contact(m.tools[k], s.tools[k], w.report.tools[k], surf, w.bvh, px, v, m.fem_step, w.springs);
     thread_grasp_springs(m, m.tools[k], s.tools[k], x, w.report.tools[k], w.springs);
-    thread_tool_contact(m, m.tools[k], s.tools[k], x, v, w.report.tools[k], w.springs, w.report.thread_contact);
+    thread_tool_contact(m, m.tools[k], s.tools[k], x, w.report.tools[k], w.springs, w.report.thread_contact);
   }
   if (m.body_contact)
     body_contact(*m.body_contact, surf, w.bvh, px, pv, m.fem_step, m.fem.gravity.data(), w.body_boxes.data(),

@@ -67,10 +67,7 @@ void wire_tissue_contact(const RigidBodyModel& b, const RigidState& s, int32_t r
     const double* B = x + 3 * tri[1];
     const double* C = x + 3 * tri[2];
     double nrm[3];
-    triangle_normal(A, B, C, nrm);
-    const double len = std::sqrt(dot3(nrm, nrm));
-    if (!(len > 0)) return;
-    for (double& k : nrm) k /= len;
+    if (!triangle_unit_normal(A, B, C, nrm)) return;
     for (int j = 0; j < n; ++j) keep_closer_on_triangle(c[j], A, B, C, nrm, t, best_d2[j], best_tri[j], best_w[j]);
   });
   const double v_stick = 0.01 * b.feature;

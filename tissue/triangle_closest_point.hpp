@@ -5,6 +5,7 @@
 /// face) and a needle's contacts (rigid/).
 
 #include <array>
+#include <cmath>
 
 #include "tissue/tet_mesh.hpp"
 
@@ -17,6 +18,15 @@ inline void triangle_normal(const double* A, const double* B, const double* C, d
   n[0] = e1[1] * e2[2] - e1[2] * e2[1];
   n[1] = e1[2] * e2[0] - e1[0] * e2[2];
   n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+}
+
+/// The unit normal of triangle (A, B, C) into n; false (n unusable) for a degenerate triangle.
+inline bool triangle_unit_normal(const double* A, const double* B, const double* C, double* n) {
+  triangle_normal(A, B, C, n);
+  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  if (!(len > 0)) return false;
+  for (int k = 0; k < 3; ++k) n[k] /= len;
+  return true;
 }
 
 /// Closest point of triangle (a, b, c) to p, as weights of a, b, c: the Voronoi-region walk of

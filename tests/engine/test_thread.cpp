@@ -116,6 +116,8 @@ TEST(Thread, BadInputIsRefusedWithFileLineAndField) {
   e = edited("    start: [0, 0.1, 0]\n    direction: [1, 0, 0]\n", "    path: [[0, 0, 0], [0.05, 0, 0]]\n");
   EXPECT_NE(e.find("threads[0].path"), std::string::npos) << e;
   EXPECT_NE(e.find("0.05 m long, the thread 0.1 m"), std::string::npos) << e;
+  e = edited("fixed: [first]", "fixed: [first]\n    contact_stiffness: -1");
+  EXPECT_NE(e.find("threads[0].contact_stiffness"), std::string::npos) << e;
   e = edited("fixed: [first]", "fixed: [middle]");
   EXPECT_NE(e.find("expected first or last"), std::string::npos) << e;
   e = message_of([&] {

@@ -655,3 +655,22 @@ def test_a_needle_through_an_incisions_lips_and_its_snapshot():
     np.testing.assert_array_equal(sim.rigid_bodies[0]["needle"]["track"], track)
     sim.step(200)
     np.testing.assert_array_equal(sim.rigid_bodies[0]["needle"]["track"], after)
+
+
+def test_a_bad_thread_contact_stiffness_raises_with_file_line_and_field(tmp_path):
+    """The thread's `contact_stiffness` (docs/THREAD.md, "Contact") is checked by the one loader:
+    from Python the same file:line:field error as from `stroma run`."""
+    mesh = SCENARIOS / "meshes" / "cube_tet4_h8p333mm.msh"
+    bad = tmp_path / "bad_thread.yaml"
+    bad.write_text("name: bad\nbodies:\n  - name: block\n    mesh: %s\n"
+                   "    material: {young_modulus: 3.0e4, poisson_ratio: 0.45, density: 1000}\n"
+                   "threads:\n  - name: suture\n    length: 0.04\n    segments: 20\n    diameter: 2.0e-4\n"
+                   "    young_modulus: 5.0e9\n    density: 1100\n    start: [0, 0.1, 0]\n"
+                   "    contact_stiffness: -1\n" % mesh)
+    with pytest.raises(ValueError) as e:
+        stroma.Simulation(str(bad))
+    assert "bad_thread.yaml:14: threads[0].contact_stiffness" in str(e.value)
+    cli = subprocess.run([str(BUILD / "stroma"), "run", str(bad), "--out", str(tmp_path / "out"), "--quiet"],
+                         capture_output=True, text=True)
+    assert cli.returncode == 2
+    assert "bad_thread.yaml:14: threads[0].contact_stiffness" in cli.stderr
