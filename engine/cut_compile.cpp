@@ -1,6 +1,7 @@
 #include "engine/cut_compile.hpp"
 #include "engine/model_check.hpp"
 #include "engine/needle_mesh.hpp"
+#include "engine/thread_cut.hpp"
 #include "tissue/demand.hpp"
 
 #include <algorithm>
@@ -203,7 +204,9 @@ std::shared_ptr<Model> compile_cut_model(const Model& current, std::shared_ptr<c
   static std::atomic<uint64_t> serial{0};
   m->cut_serial = serial.fetch_add(1, std::memory_order_relaxed) + 1;
   // The cut FEM system and what hangs off its elements.
-  m->fem = build_cut_fem_model(cs.uncut, *topo);
+  m->fem = build_cut_fem_model(cs.uncut, *topo, cut_rod_anchors(cs, *topo, edge_cut));  // threads ride along
+  m->thread_ties = cut_thread_ties(current, *topo);
+  m->puncture_capacity = current.puncture_capacity;
   if (!cs.element_region_damage.empty()) {  // each copy follows its tetrahedron's region
     m->element_region_damage.resize(topo->copies.size());
     for (size_t c = 0; c < topo->copies.size(); ++c) m->element_region_damage[c] = cs.element_region_damage[topo->copies[c].tet];

@@ -7,6 +7,7 @@
 #include "engine/cut_compile.hpp"
 #include "engine/damage.hpp"
 #include "engine/needle_mesh.hpp"
+#include "engine/thread_cut.hpp"
 #include "tissue/triangle_closest_point.hpp"
 
 namespace stroma {
@@ -116,6 +117,7 @@ bool apply_cut(CutBuild& b, std::shared_ptr<const Model>& m, std::unique_ptr<Tic
   transfer_visco_state(m->fem, s.tissue, nm.fem, b.from_element, ns.tissue);  // visco-elastic
   if (nm.has_damage) transfer_damage(s, b.from_dof, b.from_element, nm, ns);  // damage, masses, faces
   transfer_tools(*m, s, nm, *b.workspace, ns);                          // tools, grasps re-attached
+  if (!nm.fem.rods.empty()) transfer_threads(*m, s, nm, ns);            // threads' punctures and grasps
   std::copy(s.edge_cut.begin(), s.edge_cut.end(), ns.edge_cut.begin());
   std::copy(s.rigid.begin(), s.rigid.end(), ns.rigid.begin());          // rigid bodies: no topology
   if (nm.has_needles) transfer_needles(*m, s.needles, nm, ns.needles);  // track points to their copies

@@ -56,25 +56,29 @@ void compile_cut_needle_mesh(Model& m, const CutTopology& topo, const CutBase& b
       m.element_next_twin[size_t(c)] = c + 1 < topo.tet_copy_begin[t + 1] ? c + 1 : topo.tet_copy_begin[t];
 }
 
+int32_t carried_copy(const CutTopology& old_topo, int32_t old_copy, const CutTopology& topo, const WalkMesh& walk,
+                     const double* w) {
+  const ElementCopy& src = old_topo.copies[size_t(old_copy)];
+  // The new copies of its tetrahedron that refine its old copy (their material within its),
+  // the one whose material the point lies deepest in.
+  int32_t best = -1;
+  double best_depth = -std::numeric_limits<double>::infinity();
+  for (int32_t c = topo.tet_copy_begin[size_t(src.tet)]; c < topo.tet_copy_begin[size_t(src.tet) + 1]; ++c) {
+    if ((topo.copies[size_t(c)].material & src.material) != topo.copies[size_t(c)].material) continue;
+    const double depth = walk.material_depth(c, w);
+    if (best < 0 || depth > best_depth) best = c, best_depth = depth;
+  }
+  return best < 0 ? topo.tet_copy_begin[size_t(src.tet)] : best;  // (never on a refinement: keep one)
+}
+
 void transfer_needles(const Model& old_m, const std::vector<NeedleState>& from, const Model& m,
                       std::vector<NeedleState>& to) {
   const CutTopology& old_topo = *old_m.topology;
   const CutTopology& topo = *m.topology;
   const WalkMesh walk = needle_walk_mesh(m);
   auto carry = [&](TrackPoint& tp) {
-    const ElementCopy& src = old_topo.copies[size_t(tp.tet)];
-    // The new copies of its tetrahedron that refine its old copy (their material within its),
-    // the one whose material the point lies deepest in.
-    int32_t best = -1;
-    double best_depth = -std::numeric_limits<double>::infinity();
-    for (int32_t c = topo.tet_copy_begin[size_t(src.tet)]; c < topo.tet_copy_begin[size_t(src.tet) + 1]; ++c) {
-      if ((topo.copies[size_t(c)].material & src.material) != topo.copies[size_t(c)].material) continue;
-      const double depth = walk.material_depth(c, tp.w);
-      if (best < 0 || depth > best_depth) best = c, best_depth = depth;
-    }
-    if (best < 0) best = topo.tet_copy_begin[size_t(src.tet)];  // (never on a refinement: keep one)
-    tp.tet = best;
-    tp.node = topo.copies[size_t(best)].dof;
+    tp.tet = carried_copy(old_topo, tp.tet, topo, walk, tp.w);
+    tp.node = topo.copies[size_t(tp.tet)].dof;
   };
   for (size_t k = 0; k < from.size(); ++k) {
     NeedleState& ns = to[k];

@@ -39,6 +39,12 @@ inline WalkMesh needle_walk_mesh(const Model& m) {
   return w;
 }
 
+/// The copy of `m`'s topology `topo` holding the material point of weights w (4) of copy
+/// `old_copy` of `old_topo`, which `topo` refines: among its tetrahedron's new copies within the
+/// old one's material, the one whose material planes (`walk`: m's) it lies deepest inside.
+int32_t carried_copy(const CutTopology& old_topo, int32_t old_copy, const CutTopology& topo, const WalkMesh& walk,
+                     const double* w);
+
 /// Carries the needles' insertion over a cut swap: each track point and front, a material point
 /// of an element copy of `old_m`, goes to the copy of `m` holding the same material point (same
 /// tetrahedron, same weights; among a newly split tetrahedron's copies the one whose material

@@ -921,11 +921,6 @@ void check_cutting(const ScenarioSpec& spec) {
       throw InputError(t.where.file, t.where.line, field,
                        fmt::format("cutting with solver.fem_every {} is not supported yet (use fem_every 1)",
                                    spec.solver.fem_every));
-    if (!spec.threads.empty())
-      throw InputError(t.where.file, t.where.line, field,
-                       fmt::format("cutting in a scenario with threads is not supported yet (threads[0] '{}'): a cut "
-                                   "model is rebuilt from the tetrahedra alone",
-                                   spec.threads[0].name));
   }
 }
 

@@ -4,8 +4,9 @@
 # server, off-screen renderer and a scripted tool over DDS on loopback (scripts/demo.sh).
 # Frames, video and timing statistics go to out/demo/. Then, without arguments, the second demo:
 # a scalpel incises the liver and the video shows the wound (scripts/demo_incision.sh,
-# out/incision/), and the third: a grasper turns a suture needle through the liver and out
-# (scripts/demo_needle.sh, out/needle/).
+# out/incision/), the third: a grasper turns a suture needle through the liver and out
+# (scripts/demo_needle.sh, out/needle/), and the fourth: the same stitch with its thread, pulled
+# tight until the incision closes (scripts/demo_suture.sh, out/suture/).
 # Usage: scripts/run.sh [SCENARIO [TRAJECTORY]]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,4 +17,6 @@ scripts/demo.sh
 echo
 scripts/demo_incision.sh
 echo
-exec scripts/demo_needle.sh
+scripts/demo_needle.sh
+echo
+exec scripts/demo_suture.sh

@@ -11,7 +11,11 @@ world -x (so turning it by psi about its centre drives the tip along its own arc
 under the centre), the tail at angle psi and the tip at psi + 180 degrees. The grasper's axis is
 the shape frame's z too; its jaws' centre is 5 mm along it from its position.
 
-Usage: scripts/suture_trajectories.py   (rewrites both files; no arguments)
+The suture demo with its thread (scenarios/liver_suture_thread.yaml) has its own grasper script
+(liver_suture_thread_grasper.yaml): the same stitch, then the needle pulled on to draw the thread
+tight, and held.
+
+Usage: scripts/suture_trajectories.py   (rewrites the three files; no arguments)
 """
 import math
 import os
@@ -85,6 +89,21 @@ def grasper():
     return keys
 
 
+def thread_grasper():
+    """The grasper of the suture demo with its thread (scenarios/liver_suture_thread.yaml): the
+    stitch above, then the needle pulled on up and towards the far side at 10 mm/s, 38 mm, drawing
+    the thread tight (about 2 N: WoundClosure.OneStitchPulledToItsTensionClosesTheIncisionAndHoldsIt
+    reaches it at 36 mm), and held there while the lips stay closed."""
+    keys = grasper()
+    t, p, q, jaw = keys[-1]
+    n = math.hypot(1.0, 0.5)
+    d = (0.0, 1.0 / n, 0.5 / n)
+    pull = 0.038
+    keys.append((t + pull / 0.01, tuple(p[k] + d[k] * pull for k in range(3)), q, jaw))
+    keys.append((t + pull / 0.01 + 2.0, tuple(p[k] + d[k] * pull for k in range(3)), q, jaw))
+    return keys
+
+
 def scalpel():
     q = (0.5, 0.5, 0.5, 0.5)  # edge down (world -y... as in liver_incision.yaml), normal along z
     return [(0.0, (-0.045, 0.185, ZC), q, 0.0), (0.6, (-0.045, 0.185, ZC), q, 0.0),
@@ -99,13 +118,20 @@ HEADER = {
 # centre through both lips and out (3.2 s), lets go, regrasps it near the tip where it came out,
 # turns it on through until its tail is out (3.2 s) and lifts it away.
 """,
+    "thread_grasper": """# The grasper of the suture demo with its thread (scenarios/liver_suture_thread.yaml,
+# scripts/demo_suture.sh); written by scripts/suture_trajectories.py, which says how. The needle
+# demo's grasper (liver_suture_grasper.yaml: the needle through both lips and out, lifted away by
+# 13 s), then the needle pulled on 38 mm up and towards the far side at 10 mm/s, drawing the thread
+# tight through its four punctures, and held there 2 s: the lips close at the stitch.
+""",
     "scalpel": """# The suture demo's scalpel (scenarios/liver_suture.yaml, scripts/demo_needle.sh); written by
 # scripts/suture_trajectories.py. Still 0.6 s, then the incision of trajectories/liver_incision.yaml
 # (down at x = -45 mm, drawn 60 mm along +x at z = 12.5 mm), lifted out and put aside.
 """,
 }
 
-for name, keys in (("grasper", grasper()), ("scalpel", scalpel())):
+for name, keys in (("grasper", grasper()), ("thread_grasper", thread_grasper()),
+                   ("scalpel", scalpel())):
     with open(os.path.join(ROOT, "liver_suture_%s.yaml" % name), "w") as f:
         f.write(HEADER[name])
         f.write("keyframes:\n")

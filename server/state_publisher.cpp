@@ -325,10 +325,14 @@ stroma_ThreadState thread_state_message(const Model& m, int k, const StateFrame&
   msg.diameter = r.diameter;
   msg.rest_length = r.segment_length * r.segments();
   positions.clear();
-  if (static_cast<size_t>(r.node_end) <= f.dofs) {  // (a frame of another model: never, cutting refuses threads)
-    for (int32_t i = r.node_begin; i < r.node_end; ++i)
+  // m is the scenario's model; f may be of a cut one, whose tissue has more DOFs — the rods'
+  // nodes are the last DOFs of every model of a scenario, in the same order (engine/thread_cut.hpp).
+  const int64_t shift = static_cast<int64_t>(f.dofs) - m.fem.num_nodes;
+  if (shift >= 0) {
+    const int32_t begin = r.node_begin + static_cast<int32_t>(shift), end = r.node_end + static_cast<int32_t>(shift);
+    for (int32_t i = begin; i < end; ++i)
       for (int c = 0; c < 3; ++c) positions.push_back(static_cast<float>(f.x[3 * size_t(i) + size_t(c)]));
-    for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i) {
+    for (int32_t i = begin; i + 1 < end; ++i) {
       const double* a = f.x.data() + 3 * i;
       const double len = std::sqrt((a[3] - a[0]) * (a[3] - a[0]) + (a[4] - a[1]) * (a[4] - a[1]) + (a[5] - a[2]) * (a[5] - a[2]));
       msg.length += len;
@@ -343,7 +347,7 @@ stroma_ThreadState thread_state_message(const Model& m, int k, const StateFrame&
     float q[4] = {0, 0, 0, static_cast<float>(p.sigma)};
     for (int a = 0; a < 4; ++a) {
       const size_t n = static_cast<size_t>(p.node[a]);
-      if (n >= f.dofs) continue;  // (a frame of another model: never, cutting refuses threads)
+      if (n >= f.dofs) continue;  // (its nodes are the frame's model's: never)
       for (int c = 0; c < 3; ++c) q[c] += static_cast<float>(p.w[a] * f.x[3 * n + size_t(c)]);
     }
     punctures.insert(punctures.end(), q, q + 4);

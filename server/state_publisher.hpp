@@ -79,8 +79,10 @@ stroma_RigidBody rigid_body_message(const Model& m, int k, uint64_t session, std
 /// The RigidBodyState sample of rigid body k at frame f: the shape frame's pose, velocities, the
 /// tool holding it, contacts and a needle's insertion (its track's material points evaluated on
 /// f's positions, written into `track`).
-/// The ThreadState sample of thread (rod) k at frame f: its nodes' positions (into `positions`,
-/// which the message borrows), length, largest tension, and its punctures (into `punctures`).
+/// The ThreadState sample of thread (rod) k of the scenario's model m at frame f (of m or of a
+/// cut model of it: the rods' nodes are the last DOFs of both): its nodes' positions (into
+/// `positions`, which the message borrows), length, largest tension, and its punctures (into
+/// `punctures`).
 stroma_ThreadState thread_state_message(const Model& m, int k, const StateFrame& f, uint64_t session,
                                         std::vector<float>& positions, std::vector<float>& punctures);
 

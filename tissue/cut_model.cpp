@@ -16,6 +16,7 @@ CutBase make_cut_base(const FemModel& uncut) {
   for (const ElementParams& e : uncut.elements) b.tets.push_back(e.node);
   b.adj = build_tet_adjacency(b.tets, uncut.num_nodes);
   for (const BodyRange& r : uncut.bodies) b.node_ranges.push_back(r.node_begin);
+  if (!uncut.rods.empty()) b.node_ranges.push_back(uncut.rods.front().node_begin);  // the rods' range
   b.node_ranges.push_back(uncut.num_nodes);
   // Each edge's clamp, from its body's shortest edge (the edges of a body are its nodes').
   auto length = [&](const std::array<int32_t, 2>& e) {
@@ -41,10 +42,14 @@ CutBase make_cut_base(const FemModel& uncut) {
   return b;
 }
 
-FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
-  if (topo.tet_copy_begin.size() != u.elements.size() + 1 || topo.range_dof_begin.size() != u.bodies.size() + 1 ||
+FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo, const std::vector<RodAnchor>& cut_anchors) {
+  const size_t ranges = u.bodies.size() + (u.rods.empty() ? 0 : 1);
+  if (topo.tet_copy_begin.size() != u.elements.size() + 1 || topo.range_dof_begin.size() != ranges + 1 ||
       topo.node_dof.size() != static_cast<size_t>(u.num_nodes))
     throw std::invalid_argument("cut model: the topology is not one of this model's mesh");
+  if (cut_anchors.size() != u.rod_anchors.size())
+    throw std::invalid_argument("cut model: " + std::to_string(cut_anchors.size()) + " anchors given for the rods' " +
+                                std::to_string(u.rod_anchors.size()));
   FemModel m;
   const int32_t nd = topo.num_dofs;
   // A fully fixed body (an obstacle) stays fixed in all its DOFs; elsewhere a clamp holds the
@@ -128,6 +133,20 @@ FemModel build_cut_fem_model(const FemModel& u, const CutTopology& topo) {
     }
     m.bodies.push_back(std::move(br));
   }
+  // Rods: their range's DOFs are their nodes in order (no copy has them: no extra DOFs), with
+  // the masses the uncut model lumped on them.
+  for (const RodRange& r : u.rods) {
+    RodRange c = r;
+    c.node_begin = topo.node_dof[r.node_begin];
+    c.node_end = c.node_begin + r.nodes();
+    for (int32_t g = r.node_begin; g < r.node_end; ++g) {
+      if (topo.node_dof[g] != c.node_begin + (g - r.node_begin))
+        throw std::invalid_argument("cut model: rod '" + r.name + "' is not one range of DOFs");
+      m.mass[topo.node_dof[g]] = u.mass[g];
+    }
+    m.rods.push_back(std::move(c));
+  }
+  m.rod_anchors = cut_anchors;
   for (int32_t d = 0; d < nd; ++d) {
     const int32_t g = topo.dof_node[d];
     const bool primary = topo.node_dof[g] == d;

@@ -22,7 +22,10 @@ namespace stroma {
 struct CutBase {
   std::vector<Tet> tets;
   TetAdjacency adj;
-  std::vector<int32_t> node_ranges;  ///< {bodies[0].node_begin, …, bodies.back().node_end}
+  /// {bodies[0].node_begin, …, bodies.back().node_end}, then the rods' nodes' end when there are
+  /// rods: the rods' nodes are a range of their own, which no cut touches (no tetrahedron has
+  /// them), so their DOFs are the rods' nodes in order after the cut tissue's.
+  std::vector<int32_t> node_ranges;
   /// Per edge, how close to its ends a cut point may lie (cut_edge_min_fraction: relative to
   /// its body's shortest edge).
   std::vector<double> min_fraction;
@@ -36,7 +39,13 @@ CutBase make_cut_base(const FemModel& uncut);
 /// material (CutTopology::dof_material) or its body is fully fixed. bodies[b].boundary is the
 /// uncut part of the surface with node corners; the whole surface is topo.triangles. Throws
 /// std::invalid_argument if `topo` is not a topology of this model's mesh.
-FemModel build_cut_fem_model(const FemModel& uncut, const CutTopology& topo);
+/// Rods (suture threads) come along whole after the cut tissue's DOFs: their nodes' rest
+/// positions, masses, loads and constraints as they were, their ranges renumbered;
+/// `cut_anchors` are the uncut model's rod_anchors on the cut one (the same order: their rod
+/// nodes and the DOFs of the copies holding their material points — the caller finds those,
+/// copy_containing); required when it has anchors.
+FemModel build_cut_fem_model(const FemModel& uncut, const CutTopology& topo,
+                             const std::vector<RodAnchor>& cut_anchors = {});
 
 /// For each DOF of `to`, the DOF of `from` it continues: `to` must refine `from` (its cuts a
 /// superset of from's), so every copy of `to` lies in one copy of `from` and every DOF of `to`

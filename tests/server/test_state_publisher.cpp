@@ -263,3 +263,49 @@ TEST(StatePublisher, AVisualSurfaceIsRemappedAcrossTheCut) {
   }
   EXPECT_EQ(wrong, 0) << "visual vertices that did not follow their side";
 }
+
+// A thread in a scenario that is cut (engine/thread_cut.hpp): the publisher is given the
+// scenario's model and frames of the cut one, whose tissue has more DOFs — the thread's
+// positions it publishes are its nodes in the frame (the last DOFs of every model of the
+// scenario), not the tissue's DOFs that now sit where the uncut model had the thread.
+TEST(StatePublisher, AThreadsNodesArePublishedFromAFrameOfACutModel) {
+  constexpr double kCutX = 0.0625;
+  ScenarioSpec spec = load_scenario(std::string(STROMA_SOURCE_DIR) + "/scenarios/cantilever_dynamic.yaml");
+  spec.bodies[0].material.young_modulus = 1e8;
+  spec.bodies[0].material.poisson_ratio = 0.45;
+  spec.solver.preconditioner = Preconditioner::BlockJacobi;
+  spec.solver.tolerance = 1e-9;
+  spec.solver.max_iterations = 2000;
+  spec.tools.push_back(scalpel(0.03));
+  spec.tools[0].spec.radius = 2e-5;
+  ThreadSpec th;
+  th.name = "suture";
+  th.length = 0.02;
+  th.segments = 10;
+  th.diameter = 2e-4;
+  th.young_modulus = 5e9;
+  th.density = 1100;
+  th.start = {0.09, 0.0, 0.005};
+  th.direction = {0, -1, 0};
+  ThreadSpec::Attach a;
+  a.target = "beam";
+  th.attach.push_back(a);
+  spec.threads.push_back(th);
+  CutSession run(spec);
+  for (int k = 0; k <= 20; ++k) {
+    const ToolInput in = blade(static_cast<uint64_t>(k + 1), kCutX, -0.01 + 0.002 * k, 0.005);
+    run.step(&in, 1);
+  }
+  ASSERT_GT(run.m->topology_version, 0) << "the blade cut nothing";
+  ASSERT_GT(run.m->fem.num_nodes, run.sc.model->fem.num_nodes);
+  StateFrame f = run.frame();
+  std::vector<float> positions, punctures;
+  const stroma_ThreadState msg = thread_state_message(*run.sc.model, 0, f, 1, positions, punctures);
+  const RodRange& r = run.m->fem.rods[0];
+  ASSERT_EQ(msg.positions._length, static_cast<uint32_t>(3 * r.nodes()));
+  for (int32_t i = 0; i < r.nodes(); ++i)
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(msg.positions._buffer[3 * i + k], static_cast<float>(run.s.tissue.x[3 * size_t(r.node_begin + i) + k]))
+          << "node " << i;
+  EXPECT_NEAR(msg.length, 0.02, 2e-4);
+}

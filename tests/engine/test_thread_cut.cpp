@@ -1,0 +1,193 @@
+// Threads across a cut (issue 43; engine/thread_cut.hpp, docs/THREAD.md "Threads and cutting"):
+// a cut model keeps the threads whole after the cut tissue's DOFs and carries what ties them to
+// the tissue to the copies holding the same material.
+//
+// The rig: the tests' 100 × 10 × 10 mm beam clamped at x = 0 (E 1 MPa, ρ 1000, gravity −y) and
+// a 40 mm suture anchored inside the beam at x = 64.5 mm — in the layer of tetrahedra between 60
+// and 65 mm that the blade, swept up through the plane x = 62.5 mm, splits — hanging down through
+// the bottom face, with a puncture at its node 1 (also in that layer). Asserted, against what the
+// cut must keep:
+//  - at every swap, the state carried over is the state before it: the thread's nodes bit for
+//    bit, the anchor's and the puncture's material points (their weights on the new copies'
+//    DOFs) where they were, within round-off; the total mass is the tissue's and the thread's;
+//  - the anchor and the puncture land in the piece cut off (the copies holding their material
+//    are on the free side of the cut, not the stub's): the piece falls, and the thread with it —
+//    its anchored end stays at the anchor's material point, its node 1 at the puncture's.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+
+#include "engine/cut_swap.hpp"
+#include "engine/model_check.hpp"
+#include "engine/state.hpp"
+#include "engine/thread_attach.hpp"
+#include "engine/tick.hpp"
+#include "scene/compiled_scenario.hpp"
+#include "tests/test_scenarios.hpp"
+
+using namespace stroma;
+
+namespace {
+
+constexpr double kCutX = 0.0625;
+constexpr double kThreadX = 0.0645;
+
+ScenarioSpec beam_with_thread_and_scalpel() {
+  ScenarioSpec s = test_scenarios::cantilever_dynamic();
+  s.bodies[0].material.young_modulus = 1e6;
+  s.bodies[0].material.poisson_ratio = 0.45;
+  s.bodies[0].material.rayleigh_mass = 5;
+  s.solver.preconditioner = Preconditioner::BlockJacobi;  // the rod's rows: its band's factor
+  s.solver.tolerance = 1e-9;
+  s.solver.max_iterations = 2000;
+  ToolEntry t;
+  t.spec.name = "scalpel";
+  t.spec.shape = ToolShape::Blade;
+  t.spec.radius = 0.0005;
+  t.spec.shaft_length = 0.03;
+  t.spec.timeout = 10;
+  t.spec.max_speed = 50;
+  t.spec.cuts = true;
+  t.spec.cut_toughness = 200;
+  s.tools.push_back(t);
+  ProbeSpec pr = s.probes[0];
+  pr.name = "node1";
+  pr.point = {kThreadX, 0.002, 0.005};
+  s.probes.push_back(pr);
+  ThreadSpec th;
+  th.name = "suture";
+  th.length = 0.04;
+  th.segments = 20;
+  th.diameter = 2e-4;
+  th.young_modulus = 5e9;
+  th.density = 1100;
+  th.rayleigh_mass = 5;
+  th.start = {kThreadX, 0.004, 0.005};
+  th.direction = {0, -1, 0};
+  ThreadSpec::Attach a;
+  a.target = "beam";
+  th.attach.push_back(a);
+  s.threads.push_back(th);
+  return s;
+}
+
+/// The blade's frame: edge along world z, normal along world x, back along world y.
+ToolPose blade_at(double y) {
+  ToolPose p;
+  p.position = {kCutX, y, 0.005};
+  p.orientation = {0.5, -0.5, -0.5, -0.5};
+  return p;
+}
+
+Vec3 material_point(const double* x, const int32_t* node, const double* w) {
+  Vec3 p{0, 0, 0};
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) p[k] += w[a] * x[3 * node[a] + k];
+  return p;
+}
+
+double distance(const Vec3& a, const double* b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }
+
+/// The DOFs connected (through shared elements) to the beam's free end (x = 0.1).
+std::vector<char> in_free_piece(const Model& m) {
+  const int32_t n = m.fem.num_nodes;
+  std::vector<int32_t> parent(static_cast<size_t>(n));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int32_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (const ElementParams& e : m.fem.elements)
+    for (int k = 1; k < 4; ++k) parent[find(e.node[k])] = find(e.node[0]);
+  int32_t tip = 0;
+  for (int32_t d = 0; d < m.fem.bodies[0].node_end; ++d)
+    if (m.fem.rest[3 * d] > m.fem.rest[3 * tip]) tip = d;
+  std::vector<char> out(static_cast<size_t>(n), 0);
+  for (int32_t d = 0; d < m.fem.bodies[0].node_end; ++d) out[d] = find(d) == find(tip);
+  return out;
+}
+
+}  // namespace
+
+TEST(ThreadCut, AThreadAnchoredAndPuncturedInThePieceCutOffFallsWithIt) {
+  std::shared_ptr<const Model> m = compile_model(beam_with_thread_and_scalpel());
+  auto w = std::make_unique<TickWorkspace>(*m);
+  State s = State::initial(*m);
+  ASSERT_EQ(m->fem.rod_anchors.size(), 1u);
+  const RodRange r0 = m->fem.rods[0];
+  // The puncture at node 1 (σ = 1), at that node's material point.
+  ASSERT_EQ(m->puncture_capacity, 0) << "(no needle: the test places its puncture by hand)";
+  auto mm = std::make_shared<Model>(*m);  // a model with room for one puncture
+  mm->puncture_capacity = 1;
+  m = mm;
+  w = std::make_unique<TickWorkspace>(*m);
+  s = State::initial(*m);
+  {
+    const BarycentricPoint& bp = m->probes[1].where;  // node 1's material point
+    RodPuncture& p = s.punctures[0];
+    for (int a = 0; a < 4; ++a) p.node[a] = bp.node[size_t(a)], p.w[a] = bp.w[size_t(a)];
+    p.sigma = 1;
+    p.stiffness = 1000;
+    s.puncture_count = 1;
+  }
+  const double uncut_mass = std::accumulate(m->fem.mass.begin(), m->fem.mass.end(), 0.0);
+  for (int i = 0; i < 50; ++i) ASSERT_NE(tick(*m, s, *w, nullptr, 0).status, TickStatus::NonFinite);
+  int swaps = 0;
+  for (int k = 0; k <= 20; ++k) {  // the blade up through the beam at 2 m/s
+    ToolInput in;
+    in.seq = static_cast<uint64_t>(k + 1);
+    in.pose = blade_at(-0.01 + 0.002 * k);
+    const TickReport& rep = tick(*m, s, *w, &in, 1);
+    ASSERT_NE(rep.status, TickStatus::NonFinite);
+    if (rep.cut_edges == 0) continue;
+    const std::vector<double> rod_x(s.tissue.x.begin() + 3 * m->fem.rods[0].node_begin,
+                                    s.tissue.x.begin() + 3 * m->fem.rods[0].node_end);
+    const RodAnchor a0 = m->fem.rod_anchors[0];
+    const Vec3 anchor_before = material_point(s.tissue.x.data(), a0.tissue, a0.w);
+    const RodPuncture p0 = s.punctures[0];
+    const Vec3 puncture_before = material_point(s.tissue.x.data(), p0.node, p0.w);
+    CutBuild b = build_cut(*m, s.edge_cut);
+    std::shared_ptr<const Model> before = m;
+    if (!apply_cut(b, m, w, s)) continue;
+    ++swaps;
+    std::string why;
+    ASSERT_TRUE(model_invariants_hold(*m, &why)) << why;
+    const RodRange& r = m->fem.rods[0];
+    ASSERT_EQ(r.nodes(), r0.nodes());
+    EXPECT_EQ(r.node_begin, m->fem.bodies[0].node_end) << "the thread after the cut tissue's DOFs";
+    EXPECT_EQ(std::vector<double>(s.tissue.x.begin() + 3 * r.node_begin, s.tissue.x.begin() + 3 * r.node_end), rod_x)
+        << "the thread's nodes carried bit for bit";
+    const RodAnchor& a = m->fem.rod_anchors[0];
+    EXPECT_EQ(a.node, r.node_begin);
+    EXPECT_LT(distance(anchor_before, material_point(s.tissue.x.data(), a.tissue, a.w).data()), 1e-12);
+    ASSERT_EQ(s.puncture_count, 1);
+    EXPECT_LT(distance(puncture_before, material_point(s.tissue.x.data(), s.punctures[0].node, s.punctures[0].w).data()),
+              1e-12);
+    const double thread_mass = std::accumulate(m->fem.mass.begin() + r.node_begin, m->fem.mass.begin() + r.node_end, 0.0);
+    EXPECT_NEAR(std::accumulate(m->fem.mass.begin(), m->fem.mass.end(), 0.0), uncut_mass, 1e-12 * uncut_mass);
+    EXPECT_GT(thread_mass, 0.9 * 1100 * 3.14159 * 1e-8 * 0.04);
+  }
+  ASSERT_GE(swaps, 1);
+  // Separated: the anchor and the puncture are held by the piece cut off.
+  const std::vector<char> free_dof = in_free_piece(*m);
+  const RodAnchor& a = m->fem.rod_anchors[0];
+  for (int q = 0; q < 4; ++q) {
+    if (a.w[q] > 1e-9) EXPECT_TRUE(free_dof[a.tissue[q]]) << "the anchor's corner " << q << " is the stub's";
+    if (s.punctures[0].w[q] > 1e-9) EXPECT_TRUE(free_dof[s.punctures[0].node[q]]) << "the puncture's corner " << q;
+  }
+  const Vec3 anchor_start = material_point(s.tissue.x.data(), a.tissue, a.w);
+  for (int i = 0; i < 80; ++i) ASSERT_NE(tick(*m, s, *w, nullptr, 0).status, TickStatus::NonFinite) << i;
+  const double* x = s.tissue.x.data();
+  const Vec3 anchor_end = material_point(x, a.tissue, a.w);
+  EXPECT_LT(anchor_end[1], anchor_start[1] - 0.02) << "the piece fell (½·g·t² = 31 mm in 80 ms)";
+  EXPECT_LT(distance(anchor_end, x + 3 * a.node), 2e-4) << "the thread's end went with it";
+  ASSERT_EQ(s.puncture_count, 1);
+  const RodPuncture& p = s.punctures[0];
+  const RodPoint rp = rod_point(m->fem.rods[0], p.sigma);
+  Vec3 T{0, 0, 0};
+  for (int k = 0; k < 3; ++k) T[k] = (1 - rp.u) * x[3 * rp.j + k] + rp.u * x[3 * rp.j + 3 + k];
+  EXPECT_LT(distance(material_point(x, p.node, p.w), T.data()), 5e-4) << "and passes through the puncture";
+  EXPECT_LT(material_point(x, p.node, p.w)[1], 0.002 - 0.02) << "which fell with the piece";
+}
