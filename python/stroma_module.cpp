@@ -83,6 +83,7 @@ class PySimulation {
     SimulationOptions o;
     o.hold = ToolHold::Repeat;  // a pose set from Python stays set
     sim_ = std::make_unique<Simulation>(sc_.model, o);
+    last_.reset();  // feedback() is of this run's ticks only
     refresh_views();
   }
 
@@ -134,13 +135,27 @@ class PySimulation {
     return d;
   }
 
+  /// Where tool `tool` is now (its state's pose: the last command applied, or its rest pose).
+  py::dict tool_pose(int tool) const {
+    check_tool(tool);
+    const ToolPose& p = sim_->state().tools[size_t(tool)].pose;
+    py::dict d;
+    d["position"] = std::array<double, 3>{p.position[0], p.position[1], p.position[2]};
+    d["orientation"] = p.orientation;
+    d["jaw"] = p.jaw;
+    return d;
+  }
+
   py::dict feedback(int tool) const {
     check_tool(tool);
     py::dict d;
     if (!last_ || static_cast<size_t>(tool) >= last_->tools.size()) {
-      d["force"] = std::array<double, 3>{0, 0, 0};
+      // No tick since the start, a reset or a restore: the state's own account of the last
+      // solved step (zero at the start; a snapshot's, restored — never a tick of another run).
+      const ToolState& ts = sim_->state().tools[size_t(tool)];
+      d["force"] = std::array<double, 3>{ts.force[0], ts.force[1], ts.force[2]};
       d["torque"] = std::array<double, 3>{0, 0, 0};
-      d["stiffness"] = std::array<double, 9>{};
+      d["stiffness"] = ts.stiffness;
       d["contacts"] = 0;
       return d;
     }
@@ -182,6 +197,7 @@ class PySimulation {
     std::string why;
     if (!state_fits_model(snap.state, *m, &why)) throw py::value_error("restore: the snapshot does not fit the model: " + why);
     sim_->restore(std::move(m), snap.state);
+    last_.reset();  // feedback() is the restored state's, not of the tick before the restore
     refresh_views();
   }
 
@@ -447,6 +463,8 @@ PYBIND11_MODULE(_stroma, mod) {
       .def_property_readonly("commands", &PySimulation::commands,
                              "Tool commands accepted, clamped and rejected so far, and the last reason")
       .def("feedback", &PySimulation::feedback, py::arg("tool"), "Force, torque, stiffness and contacts of the last tick")
+      .def("tool_pose", &PySimulation::tool_pose, py::arg("tool"),
+           "Where the tool is now: position (m), orientation (unit quaternion w, x, y, z), jaw (rad)")
       .def_property_readonly("metrics", &PySimulation::metrics, "Status, CG iterations and residual of the last tick")
       .def_property_readonly("solver", &PySimulation::solver,
                              "The linear solver, its preconditioner and cap policy, and who chose each (auto: the "

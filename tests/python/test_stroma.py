@@ -674,3 +674,76 @@ def test_a_bad_thread_contact_stiffness_raises_with_file_line_and_field(tmp_path
                          capture_output=True, text=True)
     assert cli.returncode == 2
     assert "bad_thread.yaml:14: threads[0].contact_stiffness" in cli.stderr
+
+
+@pytest.fixture(scope="module")
+def stitch_env():
+    """The stitch environment, made once for its tests (the scripted stitch runs ~15 s)."""
+    from stroma.stitch_env import StitchEnv
+    return StitchEnv()
+
+
+def test_the_stitch_environment_closes_the_wound_and_fails_on_too_much_tension(stitch_env):
+    env = stitch_env
+    obs, info = env.reset(seed=0)
+    assert obs.shape == (8,) and env.observation_space.contains(obs)
+    assert obs[6] > 1e-3, "the wound gapes at the start (the needle's points on the two cut faces)"
+    assert np.array_equal(obs[:3], np.zeros(3))
+    # Pulling the needle up and towards the far side draws the thread tight: the gap closes
+    # (reward = the fraction closed), then the tension passes max_tension and the stitch fails.
+    best_gap, rewards, terminated = obs[6], [], False
+    for _ in range(env.max_steps):
+        obs, reward, terminated, truncated, info = env.step([0.0, 1.0, 0.5])
+        rewards.append(reward)
+        best_gap = min(best_gap, obs[6])
+        if terminated or truncated:
+            break
+    assert best_gap < 0.5e-3, f"the pull closed the gap (to {best_gap * 1e3:.3f} mm)"
+    assert max(rewards) > 0.7
+    assert terminated and rewards[-1] < -9, "beyond max_tension the episode ends as a failure"
+    assert np.linalg.norm(obs[3:6]) > env.max_tension
+    # A reset is a snapshot restored: the same actions give the same episode, bit for bit.
+    first, _ = env.reset(seed=0)
+    a = [env.step([0.3, 0.8, -0.2])[0] for _ in range(5)]
+    again, _ = env.reset(seed=0)
+    b = [env.step([0.3, 0.8, -0.2])[0] for _ in range(5)]
+    assert np.array_equal(first, again) and all(np.array_equal(p, q) for p, q in zip(a, b))
+
+
+def test_the_stitch_environment_follows_gymnasium_s_rules_and_refuses_bad_actions(stitch_env):
+    env = stitch_env
+    check_env_rules(env)
+    obs, _ = env.reset(seed=3)
+    for bad in ([np.nan, 0, 0], [0, np.inf, 0], [[0.1, 0.2]]):
+        obs, reward, terminated, truncated, info = env.step(bad)
+        assert np.isfinite(obs).all() and np.isfinite(reward), f"a refused action {bad} poisoned the observation"
+    assert info["refused_actions"] == 3
+    assert np.array_equal(obs[:3], np.zeros(3)), "a refused action holds the grasper"
+    try:
+        from gymnasium.utils.env_checker import check_env
+    except ImportError:
+        return
+    check_env(env, skip_render_check=True)
+
+
+def test_the_stitch_environment_refuses_a_scenario_without_its_stitch(tmp_path):
+    from stroma.stitch_env import StitchEnv
+    with pytest.raises(ValueError, match="tool named 'grasper'"):
+        StitchEnv(scenario=str(SCENARIOS / "cantilever_dynamic.yaml"))
+
+
+def test_feedback_and_tool_pose_after_a_restore_are_the_restored_state_s():
+    sim = stroma.Simulation(str(SCENARIOS / "regression" / "liver_probe_press.yaml"))
+    sim.step(1200)  # the scripted probe presses the liver
+    f1, p1 = sim.feedback(0)["force"], sim.tool_pose(0)
+    assert np.linalg.norm(f1) > 0, "pressing"
+    snap = sim.snapshot()
+    sim.step(300)
+    assert sim.feedback(0)["force"] != f1
+    sim.restore(snap)
+    assert sim.feedback(0)["force"] == f1, "the force of the step the snapshot was taken after"
+    assert sim.tool_pose(0) == p1
+    sim.reset()
+    assert sim.feedback(0)["force"] == [0.0, 0.0, 0.0], "a reset run has no tick of the last one"
+    with pytest.raises(IndexError):
+        sim.tool_pose(5)
