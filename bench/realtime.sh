@@ -16,6 +16,8 @@
 # CRTK=1 serves with --crtk and, after Stroma's own client, runs the same script for the same time
 # through the CRTK topics (`stroma tool --crtk`, docs/CRTK.md), so both round trips come from
 # one server run, side by side.
+# SECOND_TOOL=NAME:SCRIPT drives a second tool of the scenario from its own client at the same
+# time (the suture scene's scalpel while TOOL_NAME=grasper holds the needle).
 # DDS_CONFIG=FILE passes --dds-config FILE to the server and the client (e.g.
 # dds/cyclonedds-loopback.xml: the loopback configuration without real-time receive threads,
 # for an A/B of that setting).
@@ -45,12 +47,18 @@ fi
 ./build/stroma serve "$scenario" "${dds[@]}" "${crtk[@]}" "${paused[@]}" --domain "$domain" --duration "$serve_for" \
   --stats "$out/stats.json" ${SERVE_ARGS:-} > "$out/serve.log" 2>&1 & srv=$!
 sleep 1
+second=""
+if [ -n "${SECOND_TOOL:-}" ]; then
+  ./build/stroma tool --name "${SECOND_TOOL%%:*}" --script "${SECOND_TOOL#*:}" "${dds[@]}" --rate 1000 \
+    --no-realtime --duration "$dur" --domain "$domain" --out "$out/tool_second.csv" > "$out/tool_second.log" 2>&1 & second=$!
+fi
 ./build/stroma tool --name "${TOOL_NAME:-probe}" --script "$script" "${dds[@]}" "${resume[@]}" ${TOOL_ARGS:-} --rate 1000 \
   --duration "$dur" --domain "$domain" --out "$out/tool.csv" 2> "$out/tool.log" | tee "$out/tool_summary.txt"
 if [ -n "${CRTK:-}" ]; then
   ./build/stroma tool --crtk --name "${TOOL_NAME:-probe}" --script "$script" "${dds[@]}" ${TOOL_ARGS:-} --rate 1000 \
     --duration "$dur" --domain "$domain" --out "$out/tool_crtk.csv" 2> "$out/tool_crtk.log" | tee -a "$out/tool_summary.txt"
 fi
+[ -n "$second" ] && wait $second
 wait $srv
 [ -n "$hog" ] && kill $hog 2>/dev/null || true
 python3 - "$out/stats.json" <<'PY'

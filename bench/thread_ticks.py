@@ -1,17 +1,26 @@
 #!/usr/bin/env python3
 """Tick cost of a thread (issue 43; docs/PERFORMANCE.md, "Threads").
 
-Runs scenarios/liver_stitch_thread.yaml (the fine 16 cm liver, its half-circle needle turned
-through it, a 100-segment suture tied to the needle) and the same scene without the thread,
-alternating, `--runs` times each with `stroma run`, and prints each run's tick p50/p99, the
-collide/assemble/solve medians, the mean CG iterations and how many ticks the budget cut — over
-the ticks from 3 s on (the needle's approach, the turn, the regrasp, the pull).
+Runs a thread scene and the same scene without the thread, alternating, `--runs` times each
+with `stroma run`, and prints each run's tick p50/p99, the collide/assemble/solve medians, the
+mean CG iterations and how many ticks the budget cut — over the ticks from 3 s on.
 
-    python3 bench/thread_ticks.py --runs 3 [--stroma build/stroma]
+The default scene is the issue's: scenarios/liver_suture_thread.yaml — the fine 16 cm liver with
+the incision, the needle driven through both lips, the suture through its four punctures and
+pulled tight — with the thread in `--segments` segments (default 100; the scenario's own is 40).
+`--scene scenarios/liver_stitch_thread.yaml --segments 0` is the earlier figure's scene (the
+needle through the intact liver, a 100-segment thread through two punctures; 0: as written).
+
+    python3 bench/thread_ticks.py --runs 3 [--stroma build/stroma] [--scene S] [--segments N]
+
+`--served SECONDS [--no-thread]`: instead, the scene (with its segments, or without its thread) served at 1 kHz with the other
+core busy (bench/realtime.sh: the grasper's script from a client that resumes the paused server,
+the scalpel's from a second client), printing the server's tick and deadline statistics.
 """
 import argparse
 import csv
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -20,14 +29,25 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
+def absolute(text):
+    text = text.replace("mesh: meshes/", "mesh: " + os.path.join(ROOT, "scenarios", "meshes") + "/")
+    return text.replace("script: trajectories/", "script: " + os.path.join(ROOT, "scenarios", "trajectories") + "/")
+
+
+def with_segments(src, dst, segments):
+    """The scene with its (first) thread in `segments` segments (paths made absolute)."""
+    text = open(src).read()
+    a = text.index("threads:")
+    if segments > 0:
+        text = text[:a] + re.sub(r"segments: \d+", f"segments: {segments}", text[a:], count=1)
+    open(dst, "w").write(absolute(text))
+
+
 def without_thread(src, dst):
     """The scene without its `threads:` section (paths made absolute)."""
     text = open(src).read()
     a, b = text.index("threads:"), text.index("run: {duration")
-    text = text[:a] + text[b:]
-    text = text.replace("mesh: meshes/", "mesh: " + os.path.join(ROOT, "scenarios", "meshes") + "/")
-    text = text.replace("script: trajectories/", "script: " + os.path.join(ROOT, "scenarios", "trajectories") + "/")
-    open(dst, "w").write(text)
+    open(dst, "w").write(absolute(text[:a] + text[b:]))
 
 
 def run(stroma, scene, out, skip):
@@ -52,11 +72,28 @@ def main():
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--stroma", default=os.path.join(ROOT, "build", "stroma"))
     ap.add_argument("--skip", type=int, default=3000, help="ticks left out at the start (default: 3 s)")
+    ap.add_argument("--scene", default=os.path.join(ROOT, "scenarios", "liver_suture_thread.yaml"))
+    ap.add_argument("--segments", type=int, default=100, help="the thread's segments (0: as the scene has it)")
+    ap.add_argument("--served", type=float, default=0, help="serve the scene this many seconds instead")
+    ap.add_argument("--no-thread", action="store_true", help="--served: the scene without its thread")
     a = ap.parse_args()
-    scene = os.path.join(ROOT, "scenarios", "liver_stitch_thread.yaml")
+    if a.served > 0:
+        with tempfile.TemporaryDirectory() as tmp:
+            scene = os.path.join(tmp, "thread.yaml")
+            if a.no_thread:
+                without_thread(a.scene, scene)
+            else:
+                with_segments(a.scene, scene, a.segments)
+            traj = os.path.join(ROOT, "scenarios", "trajectories")
+            env = dict(os.environ, PAUSED="1", TOOL_NAME="grasper",
+                       SECOND_TOOL="scalpel:" + os.path.join(traj, "liver_suture_scalpel.yaml"))
+            return subprocess.run(["bench/realtime.sh", str(int(a.served)), "--busy", scene,
+                                   os.path.join(traj, "liver_suture_thread_grasper.yaml")], cwd=ROOT, env=env).returncode
     with tempfile.TemporaryDirectory() as tmp:
-        bare = os.path.join(tmp, "liver_stitch_nothread.yaml")
-        without_thread(scene, bare)
+        scene = os.path.join(tmp, "thread.yaml")
+        with_segments(a.scene, scene, a.segments)
+        bare = os.path.join(tmp, "nothread.yaml")
+        without_thread(a.scene, bare)
         for k in range(a.runs):
             for name, path in (("thread", scene), ("none", bare)):
                 r = run(a.stroma, path, os.path.join(tmp, name), a.skip)

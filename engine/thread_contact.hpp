@@ -85,8 +85,21 @@ void thread_tissue_contact(const Model& m, const State& s, const ContactSurface&
                            const double* px, const double* v, std::vector<ContactSpring>& springs,
                            std::vector<RigidContactPair>& pairs, ThreadContactOutput& out);
 
-/// Every thread against itself and the other threads.
-void thread_self_contact(const Model& m, const double* x, const double* v, std::vector<ContactSpring>& springs,
+/// A rod segment's bounding sphere for the self-contact broad phase: its midpoint and its
+/// half-length plus its reach this step (2·h·speed + 1.25 × its radius), so two segments can touch
+/// in the step only if their spheres overlap (reach_a + reach_b ≥ the pair's cap).
+struct SegmentSphere {
+  double c[3] = {0, 0, 0};
+  double r = 0;
+  int32_t node = 0;  ///< the segment's first node (global)
+  int32_t rod = 0;
+};
+
+/// Every thread against itself and the other threads: a sweep along the axis the segments'
+/// midpoints spread most on (`spheres`, `order`: scratch sized to the rods' segments at load),
+/// then the pairs whose spheres overlap and that share no node, in a deterministic order.
+void thread_self_contact(const Model& m, const double* x, const double* v, std::vector<SegmentSphere>& spheres,
+                         std::vector<int32_t>& order, std::vector<ContactSpring>& springs,
                          std::vector<RigidContactPair>& pairs, ThreadContactOutput& out);
 
 /// Tool `spec` (state ts) against every thread: springs appended to the tool's range

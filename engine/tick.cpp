@@ -105,6 +105,13 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     rigid_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
     rigid_pairs.clear();
   }
+  if (!m.fem.rods.empty()) {  // the self-contact broad phase's scratch: one entry per segment
+    size_t segments = 0;
+    for (const RodRange& r : m.fem.rods) segments += size_t(r.segments());
+    segment_spheres.resize(segments);  // touched now
+    segment_spheres.clear();
+    segment_order.resize(segments);
+  }
   if (m.body_contact) {
     body_boxes.resize(6 * m.fem.bodies.size());
     body_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
@@ -301,7 +308,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   thread_punctures_before_step(m, s);
   if (!m.fem.rods.empty()) {
     thread_tissue_contact(m, s, surf, w.bvh, px, v, w.springs, w.rigid_pairs, w.report.thread_contact);
-    thread_self_contact(m, x, v, w.springs, w.rigid_pairs, w.report.thread_contact);
+    thread_self_contact(m, x, v, w.segment_spheres, w.segment_order, w.springs, w.rigid_pairs, w.report.thread_contact);
   }
   for (int32_t i = 0; i < s.puncture_count; ++i) thread_puncture_spring(m.fem, s.punctures[size_t(i)], x, w.springs);
 }

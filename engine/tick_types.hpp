@@ -162,6 +162,10 @@ class TickWorkspace {
   /// This tick's speculative contacts of rigid bodies and threads (capacity fixed at load;
   /// rigid/rigid_contact.hpp, engine/thread_contact.hpp): released if they end the step pulling.
   std::vector<RigidContactPair> rigid_pairs;
+  /// Threads' self-contact broad phase (engine/thread_contact.hpp): every rod segment's
+  /// bounding sphere and the segments sorted along the sweep axis (sized to the segments at load).
+  std::vector<SegmentSphere> segment_spheres;
+  std::vector<int32_t> segment_order;
   /// Per tool, its hold on a rigid body this tick: the springs [hold_begin, hold_end).
   std::vector<int32_t> hold_begin, hold_end;
   /// Per rigid body, a needle's tip contact spring this tick (−1: none; rigid/needle_track.hpp).
