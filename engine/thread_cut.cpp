@@ -58,13 +58,25 @@ void transfer_threads(const Model& old_m, const State& old_s, const Model& m, St
   s.puncture_count = old_s.puncture_count;
   if (old_s.puncture_count == 0) return;
   const WalkMesh walk = needle_walk_mesh(m);
+  const FemModel& f = old_m.fem;
   for (int32_t i = 0; i < old_s.puncture_count; ++i) {
     RodPuncture p = old_s.punctures[size_t(i)];
-    const int32_t old_copy = element_with_nodes(old_m.fem, p.node);
-    if (old_copy >= 0) {  // (always: a puncture's nodes are its copy's)
-      const int32_t c = carried_copy(*old_m.topology, old_copy, *m.topology, walk, p.w);
-      for (int k = 0; k < 4; ++k) p.node[k] = m.topology->copies[size_t(c)].dof[size_t(k)];
+    // Its copy: the element with exactly its four nodes — where a cut ends inside the tissue, two
+    // copies of one tetrahedron can have the same four DOFs (both glued to the uncut neighbours),
+    // so every such copy is a candidate, and the new copy is the one, among all their
+    // refinements, whose material the point lies deepest in.
+    int32_t best = -1;
+    double best_depth = 0;
+    for (int32_t j = f.node_element_ptr[size_t(p.node[0])]; j < f.node_element_ptr[size_t(p.node[0]) + 1]; ++j) {
+      const int32_t e = f.node_element[size_t(j)];
+      const Tet& t = f.elements[size_t(e)].node;
+      if (t[0] != p.node[0] || t[1] != p.node[1] || t[2] != p.node[2] || t[3] != p.node[3]) continue;
+      const int32_t c = carried_copy(*old_m.topology, e, *m.topology, walk, p.w);
+      const double depth = walk.material_depth(c, p.w);
+      if (best < 0 || depth > best_depth) best = c, best_depth = depth;
     }
+    if (best >= 0)  // (always: a puncture's nodes are its copy's)
+      for (int k = 0; k < 4; ++k) p.node[k] = m.topology->copies[size_t(best)].dof[size_t(k)];
     s.punctures[size_t(i)] = p;
   }
 }

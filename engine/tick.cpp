@@ -175,7 +175,12 @@ void cut_with_blades(const Model& m, State& s, TickWorkspace& w) {
       f_now = cut_resistance(n, cs.edges_per_area, spec.cut_toughness, st.travel, st.travel_len2);
     }
     const double alpha = std::min(1.0, m.fem_step / kCutForceTime);
-    for (int i = 0; i < 3; ++i) ts.cut_force[i] += alpha * (f_now[i] - ts.cut_force[i]);
+    for (int i = 0; i < 3; ++i) {
+      ts.cut_force[i] += alpha * (f_now[i] - ts.cut_force[i]);
+      // A resistance decayed below a piconewton is none (left alone the decay ends in
+      // subnormal numbers: stroma run reported a blade's force as −9.9e-324 N).
+      if (std::abs(ts.cut_force[i]) < 1e-12) ts.cut_force[i] = 0.0;
+    }
     ts.blade_a = a;
     ts.blade_b = b;
     ts.has_blade = true;

@@ -13,8 +13,8 @@ wound without tearing the tissue.
     action       float32[3] in [-1, 1]: the grasper's velocity along world x, y, z as a fraction of
                  `speed` (default 20 mm/s), held for `ticks_per_action` ticks (1 ms each)
     observation  float64[8]: the grasper's displacement from its start (3, m), the force on it
-                 (3, N), the gap at the stitch (m) and the largest element damage (0 without a
-                 damage model, as in the shipped scenario)
+                 (3, N), the gap at the stitch (m; as at the start once a puncture is lost) and
+                 the largest element damage (0 without a damage model, as in the shipped scenario)
     reward       (gap_start - gap) / gap_start per action (the gap closed, 0 at the start, 1 when
                  closed), minus `damage_weight` times the largest damage, minus 10 when the
                  stitch fails
@@ -101,7 +101,8 @@ class StitchEnv(_EnvBase):
         fb = self.sim.feedback(self.tool)
         d = self.sim.damage
         gap = self._gap()
-        return np.array([*(self.p - self.start), *fb["force"], gap if np.isfinite(gap) else 0.0,
+        # A stitch that lost a puncture closes nothing: its gap reads as at the start, never as 0.
+        return np.array([*(self.p - self.start), *fb["force"], gap if np.isfinite(gap) else self.gap_start,
                          float(d.max()) if d.size else 0.0], dtype=np.float64)
 
     def reset(self, *, seed=None, options=None):

@@ -70,6 +70,17 @@ ScenarioSpec beam_with_thread_and_scalpel() {
   a.target = "beam";
   th.attach.push_back(a);
   s.threads.push_back(th);
+  // A needle, fixed, away from the beam: a model with needles compiles where each cut copy's
+  // material lies (its planes), which carrying a puncture across a cut decides by.
+  RigidBodySpec needle;
+  needle.name = "needle";
+  needle.shape = RigidShapeKind::Needle;
+  needle.wire_radius = 4e-4;
+  needle.length = 0.02;
+  needle.density = 7800;
+  needle.position = {0.05, 0.05, 0.05};
+  needle.fixed = true;
+  s.rigid_bodies.push_back(needle);
   return s;
 }
 
@@ -116,6 +127,7 @@ TEST(ThreadCut, AThreadAnchoredAndPuncturedInThePieceCutOffFallsWithIt) {
   auto w = std::make_unique<TickWorkspace>(*m);
   State s = State::initial(*m);
   ASSERT_EQ(m->fem.rod_anchors.size(), 1u);
+  ASSERT_TRUE(m->has_needles);
   const RodRange r0 = m->fem.rods[0];
   // The puncture at node 1 (σ = 1), at that node's material point.
   ASSERT_EQ(m->puncture_capacity, 0) << "(no needle: the test places its puncture by hand)";
@@ -152,6 +164,7 @@ TEST(ThreadCut, AThreadAnchoredAndPuncturedInThePieceCutOffFallsWithIt) {
     std::shared_ptr<const Model> before = m;
     if (!apply_cut(b, m, w, s)) continue;
     ++swaps;
+    ASSERT_FALSE(m->element_plane_begin.empty()) << "the cut model knows where its copies' material lies";
     std::string why;
     ASSERT_TRUE(model_invariants_hold(*m, &why)) << why;
     const RodRange& r = m->fem.rods[0];
