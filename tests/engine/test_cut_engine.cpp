@@ -28,10 +28,12 @@
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "tissue/input_error.hpp"
+#include "tests/cut_pieces.hpp"
 #include "tests/test_scenarios.hpp"
 #include "tests/test_labels.hpp"
 
 using namespace stroma;
+using stroma::test_support::free_piece;
 
 namespace {
 
@@ -94,27 +96,6 @@ struct CutRun {
 };
 
 double total_mass(const Model& m) { return std::accumulate(m.fem.mass.begin(), m.fem.mass.end(), 0.0); }
-
-/// The DOFs of the piece beyond the cut: the connected part of the cut mesh (copies joined by
-/// shared DOFs) holding the beam's free end (x = 0.1).
-std::vector<int32_t> free_piece(const Model& m) {
-  const int32_t n = m.fem.num_nodes;
-  std::vector<int32_t> parent(static_cast<size_t>(n));
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](int32_t a) {
-    while (parent[a] != a) a = parent[a] = parent[parent[a]];
-    return a;
-  };
-  for (const ElementParams& e : m.fem.elements)
-    for (int k = 1; k < 4; ++k) parent[find(e.node[k])] = find(e.node[0]);
-  int32_t tip = 0;
-  for (int32_t d = 0; d < n; ++d)
-    if (m.fem.rest[3 * d] > m.fem.rest[3 * tip]) tip = d;
-  std::vector<int32_t> out;
-  for (int32_t d = 0; d < n; ++d)
-    if (find(d) == find(tip)) out.push_back(d);
-  return out;
-}
 
 /// Sweeps the blade up through the beam at 2 m/s (y from −10 to +30 mm in 20 ms), then holds it
 /// 20 ticks; returns the work the cutting resistance did against the blade, Σ |F_y| Δy (the

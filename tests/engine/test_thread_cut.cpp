@@ -27,6 +27,7 @@
 #include "engine/thread_attach.hpp"
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
+#include "tests/cut_pieces.hpp"
 #include "tests/test_scenarios.hpp"
 
 using namespace stroma;
@@ -112,22 +113,10 @@ Vec3 material_point(const double* x, const int32_t* node, const double* w) {
 
 double distance(const Vec3& a, const double* b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }
 
-/// The DOFs connected (through shared elements) to the beam's free end (x = 0.1).
+/// A mask of the DOFs in the piece holding the beam's free end (tests/cut_pieces.hpp).
 std::vector<char> in_free_piece(const Model& m) {
-  const int32_t n = m.fem.num_nodes;
-  std::vector<int32_t> parent(static_cast<size_t>(n));
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](int32_t a) {
-    while (parent[a] != a) a = parent[a] = parent[parent[a]];
-    return a;
-  };
-  for (const ElementParams& e : m.fem.elements)
-    for (int k = 1; k < 4; ++k) parent[find(e.node[k])] = find(e.node[0]);
-  int32_t tip = 0;
-  for (int32_t d = 0; d < m.fem.bodies[0].node_end; ++d)
-    if (m.fem.rest[3 * d] > m.fem.rest[3 * tip]) tip = d;
-  std::vector<char> out(static_cast<size_t>(n), 0);
-  for (int32_t d = 0; d < m.fem.bodies[0].node_end; ++d) out[d] = find(d) == find(tip);
+  std::vector<char> out(size_t(m.fem.num_nodes), 0);
+  for (int32_t d : test_support::free_piece(m)) out[size_t(d)] = 1;
   return out;
 }
 
