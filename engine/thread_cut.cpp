@@ -9,13 +9,14 @@ namespace stroma {
 
 namespace {
 
-/// The element of `f` whose nodes are exactly `node` in order (−1: none).
+bool same_nodes(const Tet& t, const int32_t* node) {
+  return t[0] == node[0] && t[1] == node[1] && t[2] == node[2] && t[3] == node[3];
+}
+
+/// The first element of `f` whose nodes are exactly `node` in order (−1: none).
 int32_t element_with_nodes(const FemModel& f, const int32_t* node) {
-  for (int32_t j = f.node_element_ptr[size_t(node[0])]; j < f.node_element_ptr[size_t(node[0]) + 1]; ++j) {
-    const int32_t e = f.node_element[size_t(j)];
-    const Tet& t = f.elements[size_t(e)].node;
-    if (t[0] == node[0] && t[1] == node[1] && t[2] == node[2] && t[3] == node[3]) return e;
-  }
+  for (int32_t j = f.node_element_ptr[size_t(node[0])]; j < f.node_element_ptr[size_t(node[0]) + 1]; ++j)
+    if (same_nodes(f.elements[size_t(f.node_element[size_t(j)])].node, node)) return f.node_element[size_t(j)];
   return -1;
 }
 
@@ -69,8 +70,7 @@ void transfer_threads(const Model& old_m, const State& old_s, const Model& m, St
     double best_depth = 0;
     for (int32_t j = f.node_element_ptr[size_t(p.node[0])]; j < f.node_element_ptr[size_t(p.node[0]) + 1]; ++j) {
       const int32_t e = f.node_element[size_t(j)];
-      const Tet& t = f.elements[size_t(e)].node;
-      if (t[0] != p.node[0] || t[1] != p.node[1] || t[2] != p.node[2] || t[3] != p.node[3]) continue;
+      if (!same_nodes(f.elements[size_t(e)].node, p.node)) continue;
       const int32_t c = carried_copy(*old_m.topology, e, *m.topology, walk, p.w);
       const double depth = walk.material_depth(c, p.w);
       if (best < 0 || depth > best_depth) best = c, best_depth = depth;

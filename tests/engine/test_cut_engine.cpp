@@ -28,7 +28,7 @@
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "tissue/input_error.hpp"
-#include "tests/cut_pieces.hpp"
+#include "tests/cut_rig.hpp"
 #include "tests/test_scenarios.hpp"
 #include "tests/test_labels.hpp"
 
@@ -52,14 +52,7 @@ ScenarioSpec beam_with_scalpel(bool gravity = true, double young = 1e6) {
   s.solver.preconditioner = Preconditioner::Jacobi;
   s.solver.tolerance = 1e-9;
   s.solver.max_iterations = 2000;
-  ToolEntry t;
-  t.spec.name = "scalpel";
-  t.spec.shape = ToolShape::Blade;
-  t.spec.radius = 0.0005;
-  t.spec.shaft_length = 0.03;
-  t.spec.timeout = 10;
-  t.spec.max_speed = 50;
-  t.spec.cuts = true;
+  ToolEntry t = test_support::scalpel(0.03);
   t.spec.cut_toughness = kToughness;
   s.tools.push_back(t);
   return s;

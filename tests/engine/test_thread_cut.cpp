@@ -27,7 +27,7 @@
 #include "engine/thread_attach.hpp"
 #include "engine/tick.hpp"
 #include "scene/compiled_scenario.hpp"
-#include "tests/cut_pieces.hpp"
+#include "tests/cut_rig.hpp"
 #include "tests/test_scenarios.hpp"
 
 using namespace stroma;
@@ -45,16 +45,7 @@ ScenarioSpec beam_with_thread_and_scalpel() {
   s.solver.preconditioner = Preconditioner::BlockJacobi;  // the rod's rows: its band's factor
   s.solver.tolerance = 1e-9;
   s.solver.max_iterations = 2000;
-  ToolEntry t;
-  t.spec.name = "scalpel";
-  t.spec.shape = ToolShape::Blade;
-  t.spec.radius = 0.0005;
-  t.spec.shaft_length = 0.03;
-  t.spec.timeout = 10;
-  t.spec.max_speed = 50;
-  t.spec.cuts = true;
-  t.spec.cut_toughness = 200;
-  s.tools.push_back(t);
+  s.tools.push_back(test_support::scalpel(0.03));
   ToolEntry h;  // a grasping tip holding the thread's free end
   h.spec.name = "holder";
   h.spec.shape = ToolShape::Sphere;
@@ -68,19 +59,8 @@ ScenarioSpec beam_with_thread_and_scalpel() {
   pr.name = "node1";
   pr.point = {kThreadX, 0.002, 0.005};
   s.probes.push_back(pr);
-  ThreadSpec th;
-  th.name = "suture";
-  th.length = 0.04;
-  th.segments = 20;
-  th.diameter = 2e-4;
-  th.young_modulus = 5e9;
-  th.density = 1100;
+  ThreadSpec th = test_support::anchored_suture("beam", 0.04, 20, {kThreadX, 0.004, 0.005}, {0, -1, 0});
   th.rayleigh_mass = 5;
-  th.start = {kThreadX, 0.004, 0.005};
-  th.direction = {0, -1, 0};
-  ThreadSpec::Attach a;
-  a.target = "beam";
-  th.attach.push_back(a);
   s.threads.push_back(th);
   // A needle, fixed, away from the beam: a model with needles compiles where each cut copy's
   // material lies (its planes), which carrying a puncture across a cut decides by.
@@ -113,7 +93,7 @@ Vec3 material_point(const double* x, const int32_t* node, const double* w) {
 
 double distance(const Vec3& a, const double* b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }
 
-/// A mask of the DOFs in the piece holding the beam's free end (tests/cut_pieces.hpp).
+/// A mask of the DOFs in the piece holding the beam's free end (tests/cut_rig.hpp).
 std::vector<char> in_free_piece(const Model& m) {
   std::vector<char> out(size_t(m.fem.num_nodes), 0);
   for (int32_t d : test_support::free_piece(m)) out[size_t(d)] = 1;

@@ -28,8 +28,10 @@
 #include "runtime/physics_loop.hpp"
 #include "scene/compiled_scenario.hpp"
 #include "server/state_publisher.hpp"
+#include "tests/cut_rig.hpp"
 
 using namespace stroma;
+using stroma::test_support::scalpel;
 
 namespace {
 
@@ -58,19 +60,6 @@ struct CutSession {
     return f;
   }
 };
-
-ToolEntry scalpel(double edge_length) {
-  ToolEntry t;
-  t.spec.name = "scalpel";
-  t.spec.shape = ToolShape::Blade;
-  t.spec.radius = 0.0005;
-  t.spec.shaft_length = edge_length;
-  t.spec.timeout = 10;
-  t.spec.max_speed = 50;
-  t.spec.cuts = true;
-  t.spec.cut_toughness = 200;
-  return t;
-}
 
 /// The blade with its edge along world z and its normal along world x, at (x, y, z): swept up
 /// (+y) it cuts the plane at x.
@@ -278,19 +267,7 @@ TEST(StatePublisher, AThreadsNodesArePublishedFromAFrameOfACutModel) {
   spec.solver.max_iterations = 2000;
   spec.tools.push_back(scalpel(0.03));
   spec.tools[0].spec.radius = 2e-5;
-  ThreadSpec th;
-  th.name = "suture";
-  th.length = 0.02;
-  th.segments = 10;
-  th.diameter = 2e-4;
-  th.young_modulus = 5e9;
-  th.density = 1100;
-  th.start = {0.09, 0.0, 0.005};
-  th.direction = {0, -1, 0};
-  ThreadSpec::Attach a;
-  a.target = "beam";
-  th.attach.push_back(a);
-  spec.threads.push_back(th);
+  spec.threads.push_back(test_support::anchored_suture("beam", 0.02, 10, {0.09, 0.0, 0.005}, {0, -1, 0}));
   CutSession run(spec);
   for (int k = 0; k <= 20; ++k) {
     const ToolInput in = blade(static_cast<uint64_t>(k + 1), kCutX, -0.01 + 0.002 * k, 0.005);
