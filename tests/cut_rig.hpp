@@ -27,6 +27,15 @@ inline ToolEntry scalpel(double edge_length) {
   return t;
 }
 
+/// The scalpel's pose with its edge (local x) along world z, its normal (local y) along world x
+/// and its back (local z) along world y, at (x, y, z): swept up (+y) it cuts the plane at x.
+inline ToolPose blade_pose(double x, double y, double z) {
+  ToolPose p;
+  p.position = {x, y, z};
+  p.orientation = {0.5, -0.5, -0.5, -0.5};
+  return p;
+}
+
 /// A USP 3-0 suture (0.2 mm, E 5 GPa, 1100 kg/m³) of `length` in `segments`, straight from
 /// `start` along `direction`, its first end anchored in tissue body `body`.
 inline ThreadSpec anchored_suture(const std::string& body, double length, int segments, const Vec3& start,

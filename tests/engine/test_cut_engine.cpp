@@ -58,14 +58,8 @@ ScenarioSpec beam_with_scalpel(bool gravity = true, double young = 1e6) {
   return s;
 }
 
-/// The blade's frame: edge (local x) along world z, normal (local y) along world x, back
-/// (local z) along world y.
-ToolPose blade_at(double y) {
-  ToolPose p;
-  p.position = {kCutX, y, 0.005};
-  p.orientation = {0.5, -0.5, -0.5, -0.5};
-  return p;
-}
+/// The blade at height y in the cut plane x = kCutX, mid-depth of the beam.
+ToolPose blade_at(double y) { return test_support::blade_pose(kCutX, y, 0.005); }
 
 /// A run as `stroma run` makes it: ticks, and after a tick that cut edges, the cut model built
 /// and swapped in before the next.

@@ -76,13 +76,8 @@ ScenarioSpec beam_with_thread_and_scalpel() {
   return s;
 }
 
-/// The blade's frame: edge along world z, normal along world x, back along world y.
-ToolPose blade_at(double y) {
-  ToolPose p;
-  p.position = {kCutX, y, 0.005};
-  p.orientation = {0.5, -0.5, -0.5, -0.5};
-  return p;
-}
+/// The blade at height y in the cut plane x = kCutX, mid-depth of the beam.
+ToolPose blade_at(double y) { return test_support::blade_pose(kCutX, y, 0.005); }
 
 Vec3 material_point(const double* x, const int32_t* node, const double* w) {
   Vec3 p{0, 0, 0};

@@ -66,8 +66,7 @@ struct CutSession {
 ToolInput blade(uint64_t seq, double x, double y, double z) {
   ToolInput in;
   in.seq = seq;
-  in.pose.position = {x, y, z};
-  in.pose.orientation = {0.5, -0.5, -0.5, -0.5};
+  in.pose = test_support::blade_pose(x, y, z);
   return in;
 }
 
