@@ -228,10 +228,16 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
     if (!w.needle_slips.empty())  // a needle turned back against a sliding track point sticks it
       n += stick_reversed_slips(w.backup_x.data(), s.tissue.x.data(), w.backup_rigid.data(), s.rigid.data(),
                                 w.row_body.data(), w.rigid_pairs, w.needle_slips, w.springs);
+    // Threads' segments that went through each other within the step get their springs
+    // (engine/thread_contact.hpp, thread_missed_self_contacts).
+    if (!m.fem.rods.empty())
+      n += thread_missed_self_contacts(m, w.backup_x.data(), w.backup_v.data(), s.tissue.x.data(), w.segment_spheres,
+                                       w.segment_order, w.self_spring_begin, w.springs, w.rigid_pairs,
+                                       r.thread_contact);
     return n;
   };
-  while (ok && (m.body_contact || !w.rigid_pairs.empty() || !w.needle_slips.empty()) && r.contact_releases < kMaxContactReleases &&
-         release() > 0) {
+  while (ok && (m.body_contact || !w.rigid_pairs.empty() || !w.needle_slips.empty() || !m.fem.rods.empty()) &&
+         r.contact_releases < kMaxContactReleases && release() > 0) {
     // Keep the step as solved, pulling contacts and all, if a redo would end past the deadline:
     // its assembly is not cut by it (only its solve is), so look ahead by one assembly as this
     // tick's passes measured it (on the fine liver ~0.3 ms: a redo begun just before the

@@ -50,13 +50,6 @@ bool rod_tied_to(const Model& m, const RodRange& r, int32_t k) {
   return false;
 }
 
-/// Segment (i, i + 1) is within two segments of a node tied to rigid body k.
-bool near_tie(const Model& m, int32_t k, int32_t i) {
-  for (const Model::ThreadTie& t : m.thread_ties)
-    if (t.body == k && i >= t.node - 2 && i <= t.node + 1) return true;
-  return false;
-}
-
 /// Where the thread is inside the tissue between its punctures: intervals of σ (node units).
 /// Pairing the punctures from the end not tied to a needle (it is outside), the arc between
 /// each pair is in the tissue; an odd one left pairs with the tied end (the needle's tail is in
@@ -368,39 +361,18 @@ void segment_pair_contact(const Model& m, const RodRange& A, const RodRange& B, 
 
 }  // namespace
 
-void thread_self_contact(const Model& m, const double* x, const double* v, std::vector<SegmentSphere>& spheres,
-                         std::vector<int32_t>& order, std::vector<ContactSpring>& springs,
-                         std::vector<RigidContactPair>& pairs, ThreadContactOutput& out) {
-  const std::vector<RodRange>& rods = m.fem.rods;
-  const double h = m.fem_step;
-  // Broad phase: each segment's sphere (the pair's cap = the sum of the two reaches beyond the
-  // half-lengths: rad_a + rad_b + 2h(s_a + s_b) + 0.25(rad_a + rad_b)), swept along the axis the
-  // midpoints spread most on. (All pairs: 4,950 for 100 segments, ~4 % of the stitch scene's
-  // tick; the sweep tests a few per segment.)
-  spheres.clear();
-  double mean[3] = {0, 0, 0}, sq[3] = {0, 0, 0};
-  for (size_t ri = 0; ri < rods.size(); ++ri) {
-    const RodRange& r = rods[ri];
-    if (!(r.diameter > 0)) continue;
-    for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i) {
-      const double* a0 = x + 3 * i;
-      const double* a1 = a0 + 3;
-      SegmentSphere sp;
-      double l2 = 0;
-      for (int k = 0; k < 3; ++k) {
-        sp.c[k] = 0.5 * (a0[k] + a1[k]);
-        l2 += (a1[k] - a0[k]) * (a1[k] - a0[k]);
-        mean[k] += sp.c[k];
-        sq[k] += sp.c[k] * sp.c[k];
-      }
-      sp.r = 0.5 * std::sqrt(l2) + 2.0 * h * segment_speed(v, i) + 1.25 * 0.5 * r.diameter;
-      sp.node = i;
-      sp.rod = static_cast<int32_t>(ri);
-      spheres.push_back(sp);  // (capacity: every segment, reserved at load)
-    }
-  }
+namespace {
+
+/// Every pair of segments whose spheres overlap and that share no node, each once in a fixed
+/// order (lower rod, then lower node first): a sweep along the axis the spheres' centres spread
+/// most on. `spheres` filled by the caller; `order` is scratch (capacity reserved at load).
+template <class PairFn>
+void sweep_segment_pairs(const std::vector<SegmentSphere>& spheres, std::vector<int32_t>& order, PairFn&& pair) {
   const size_t n = spheres.size();
   if (n < 2) return;
+  double mean[3] = {0, 0, 0}, sq[3] = {0, 0, 0};
+  for (const SegmentSphere& sp : spheres)
+    for (int k = 0; k < 3; ++k) mean[k] += sp.c[k], sq[k] += sp.c[k] * sp.c[k];
   int axis = 0;
   double spread = -1;
   for (int k = 0; k < 3; ++k) {
@@ -423,13 +395,150 @@ void thread_self_contact(const Model& m, const double* x, const double* v, std::
       double d2 = 0;
       for (int k = 0; k < 3; ++k) d2 += (a.c[k] - b.c[k]) * (a.c[k] - b.c[k]);
       if (d2 >= (a.r + b.r) * (a.r + b.r)) continue;  // their spheres apart
-      // The pair in a fixed order (lower rod, then lower node first), as the all-pairs loop had it.
       const bool a_first = a.rod < b.rod || (a.rod == b.rod && a.node < b.node);
-      const SegmentSphere& f = a_first ? a : b;
-      const SegmentSphere& g = a_first ? b : a;
-      segment_pair_contact(m, rods[size_t(f.rod)], rods[size_t(g.rod)], f.node, g.node, x, v, springs, pairs, out);
+      pair(a_first ? a : b, a_first ? b : a);
     }
   }
+}
+
+/// Every rod segment's sphere: its midpoint in x, its half-length plus `reach(i, rod)`.
+template <class ReachFn>
+void segment_spheres(const std::vector<RodRange>& rods, const double* x, std::vector<SegmentSphere>& spheres,
+                     ReachFn&& reach) {
+  spheres.clear();
+  for (size_t ri = 0; ri < rods.size(); ++ri) {
+    const RodRange& r = rods[ri];
+    if (!(r.diameter > 0)) continue;
+    for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i) {
+      const double* a0 = x + 3 * i;
+      const double* a1 = a0 + 3;
+      SegmentSphere sp;
+      double l2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        sp.c[k] = 0.5 * (a0[k] + a1[k]);
+        l2 += (a1[k] - a0[k]) * (a1[k] - a0[k]);
+      }
+      sp.r = 0.5 * std::sqrt(l2) + reach(i, r);
+      sp.node = i;
+      sp.rod = static_cast<int32_t>(ri);
+      spheres.push_back(sp);  // (capacity: every segment, reserved at load)
+    }
+  }
+}
+
+/// The distance between the two segments' centrelines at τ of the motion x0 → x1 (closest
+/// parameters s, t).
+double segments_at(const double* x0, const double* x1, int32_t i, int32_t j, double tau, double* s, double* t) {
+  double p[4][3];
+  const int32_t nodes[4] = {i, i + 1, j, j + 1};
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) p[a][k] = x0[3 * nodes[a] + k] + tau * (x1[3 * nodes[a] + k] - x0[3 * nodes[a] + k]);
+  return std::sqrt(segment_closest_points(p[0], p[1], p[2], p[3], s, t));
+}
+
+/// A self-contact spring of segments (i, i + 1) and (j, j + 1) exists in springs[begin, end).
+bool has_self_spring(const std::vector<ContactSpring>& springs, size_t begin, int32_t i, int32_t j) {
+  for (size_t q = begin; q < springs.size(); ++q) {
+    const ContactSpring& sp = springs[q];
+    if (sp.n == 4 && sp.node[0] == i && sp.node[1] == i + 1 && sp.node[2] == j && sp.node[3] == j + 1) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+void thread_self_contact(const Model& m, const double* x, const double* v, std::vector<SegmentSphere>& spheres,
+                         std::vector<int32_t>& order, std::vector<ContactSpring>& springs,
+                         std::vector<RigidContactPair>& pairs, ThreadContactOutput& out) {
+  const std::vector<RodRange>& rods = m.fem.rods;
+  const double h = m.fem_step;
+  // Broad phase: each segment's sphere (the pair's cap = the sum of the two reaches beyond the
+  // half-lengths: rad_a + rad_b + 2h(s_a + s_b) + 0.25(rad_a + rad_b)), swept along the axis the
+  // midpoints spread most on. (All pairs: 4,950 for 100 segments, ~4 % of the stitch scene's
+  // tick; the sweep tests a few per segment.)
+  segment_spheres(rods, x, spheres,
+                  [&](int32_t i, const RodRange& r) { return 2.0 * h * segment_speed(v, i) + 1.25 * 0.5 * r.diameter; });
+  sweep_segment_pairs(spheres, order, [&](const SegmentSphere& f, const SegmentSphere& g) {
+    segment_pair_contact(m, rods[size_t(f.rod)], rods[size_t(g.rod)], f.node, g.node, x, v, springs, pairs, out);
+  });
+}
+
+int thread_missed_self_contacts(const Model& m, const double* x0, const double* v0, const double* x1,
+                                std::vector<SegmentSphere>& spheres, std::vector<int32_t>& order, size_t self_begin,
+                                std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                                ThreadContactOutput& out) {
+  const std::vector<RodRange>& rods = m.fem.rods;
+  const auto moved = [&](int32_t i) {
+    double d = 0;
+    for (int a = 0; a < 2; ++a) {
+      double q = 0;
+      for (int k = 0; k < 3; ++k) q += (x1[3 * (i + a) + k] - x0[3 * (i + a) + k]) * (x1[3 * (i + a) + k] - x0[3 * (i + a) + k]);
+      d = std::max(d, q);
+    }
+    return std::sqrt(d);
+  };
+  // Each sphere holds its segment over the whole motion: |p(τ, u) − c₀| ≤ half-length₀ + the
+  // farther node's displacement.
+  segment_spheres(rods, x0, spheres, [&](int32_t i, const RodRange& r) { return moved(i) + 0.5 * r.diameter; });
+  int added = 0;
+  sweep_segment_pairs(spheres, order, [&](const SegmentSphere& f, const SegmentSphere& g) {
+    const RodRange& A = rods[size_t(f.rod)];
+    const RodRange& B = rods[size_t(g.rod)];
+    const double rad = 0.5 * (A.diameter + B.diameter);
+    const int32_t i = f.node, j = g.node;
+    double s, t;
+    if (segments_at(x0, x1, i, j, 0.0, &s, &t) < rad) return;  // touching at the start: the step's own spring
+    // Samples every quarter radius of relative motion: the centrelines' distance changes by at
+    // most that between two, so a crossing (distance 0) leaves a sample within an eighth.
+    const double rel = moved(i) + moved(j);
+    const int K = std::clamp(static_cast<int>(std::ceil(rel / (0.25 * rad))), 1, kThreadCcdSamples);
+    double s_prev = s, t_prev = t, tau_prev = 0.0;
+    for (int k = 1; k <= K; ++k) {
+      const double tau = static_cast<double>(k) / K;
+      double sk, tk;
+      if (segments_at(x0, x1, i, j, tau, &sk, &tk) >= rad) {
+        s_prev = sk, t_prev = tk, tau_prev = tau;
+        continue;
+      }
+      if (has_self_spring(springs, self_begin, i, j)) return;  // in the step (or released from it)
+      // The spring where they were just before they touched: its normal the direction between
+      // those points then, its depth theirs at the step's start along it.
+      double pa[3], pb[3], n[3], nl = 0;
+      for (int q = 0; q < 3; ++q) {
+        const double a = (1 - s_prev) * x0[3 * i + q] + s_prev * x0[3 * i + 3 + q];
+        const double b = (1 - t_prev) * x0[3 * j + q] + t_prev * x0[3 * j + 3 + q];
+        const double a1 = (1 - s_prev) * x1[3 * i + q] + s_prev * x1[3 * i + 3 + q];
+        const double b1 = (1 - t_prev) * x1[3 * j + q] + t_prev * x1[3 * j + 3 + q];
+        pa[q] = a, pb[q] = b;
+        n[q] = (a + tau_prev * (a1 - a)) - (b + tau_prev * (b1 - b));
+        nl += n[q] * n[q];
+      }
+      nl = std::sqrt(nl);
+      if (!(nl > 1e-9 * rad)) return;
+      for (double& q : n) q /= nl;
+      double gap = -rad;
+      for (int q = 0; q < 3; ++q) gap += (pa[q] - pb[q]) * n[q];
+      const int32_t nodes[4] = {i, i + 1, j, j + 1};
+      const double w[4] = {1.0 - s_prev, s_prev, -(1.0 - t_prev), -t_prev};
+      ContactSpring sp;
+      set_spring_nodes(m.fem.pattern, nodes, w, 4, sp);
+      double relv[3];
+      spring_point(sp, v0, relv);
+      if (!reserve_contact(springs, pairs, gap, n)) {
+        ++out.dropped;
+        return;
+      }
+      RigidContactOutput counts;
+      fill_contact_spring(sp, n, -gap, gap >= 0, std::max(A.stretch_stiffness, B.stretch_stiffness), 0.0,
+                          std::min(A.friction, B.friction), relv, 0.01 * std::min(A.diameter, B.diameter), counts);
+      springs.push_back(sp);
+      ++out.self;
+      ++out.missed;
+      ++added;
+      return;
+    }
+  });
+  return added;
 }
 
 int thread_tool_contact(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, ToolOutput& out,

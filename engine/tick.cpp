@@ -313,6 +313,7 @@ void collide(const Model& m, State& s, TickWorkspace& w) {
   thread_punctures_before_step(m, s);
   if (!m.fem.rods.empty()) {
     thread_tissue_contact(m, s, surf, w.bvh, px, v, w.springs, w.rigid_pairs, w.report.thread_contact);
+    w.self_spring_begin = w.springs.size();
     thread_self_contact(m, x, v, w.segment_spheres, w.segment_order, w.springs, w.rigid_pairs, w.report.thread_contact);
   }
   for (int32_t i = 0; i < s.puncture_count; ++i) thread_puncture_spring(m.fem, s.punctures[size_t(i)], x, w.springs);

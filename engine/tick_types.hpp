@@ -166,6 +166,9 @@ class TickWorkspace {
   /// bounding sphere and the segments sorted along the sweep axis (sized to the segments at load).
   std::vector<SegmentSphere> segment_spheres;
   std::vector<int32_t> segment_order;
+  /// Where this tick's self-contact springs begin in `springs` (the continuous check after the
+  /// step looks for a pair's spring from there: thread_missed_self_contacts).
+  size_t self_spring_begin = 0;
   /// Per tool, its hold on a rigid body this tick: the springs [hold_begin, hold_end).
   std::vector<int32_t> hold_begin, hold_end;
   /// Per rigid body, a needle's tip contact spring this tick (−1: none; rigid/needle_track.hpp).
