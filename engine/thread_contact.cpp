@@ -436,13 +436,14 @@ double segments_at(const double* x0, const double* x1, int32_t i, int32_t j, dou
   return std::sqrt(segment_closest_points(p[0], p[1], p[2], p[3], s, t));
 }
 
-/// A self-contact spring of segments (i, i + 1) and (j, j + 1) exists in springs[begin, end).
-bool has_self_spring(const std::vector<ContactSpring>& springs, size_t begin, int32_t i, int32_t j) {
+/// The self-contact spring of segments (i, i + 1) and (j, j + 1) in springs[begin, end), or −1.
+int32_t self_spring(const std::vector<ContactSpring>& springs, size_t begin, int32_t i, int32_t j) {
   for (size_t q = begin; q < springs.size(); ++q) {
     const ContactSpring& sp = springs[q];
-    if (sp.n == 4 && sp.node[0] == i && sp.node[1] == i + 1 && sp.node[2] == j && sp.node[3] == j + 1) return true;
+    if (sp.n == 4 && sp.node[0] == i && sp.node[1] == i + 1 && sp.node[2] == j && sp.node[3] == j + 1)
+      return static_cast<int32_t>(q);
   }
-  return false;
+  return -1;
 }
 
 }  // namespace
@@ -500,7 +501,15 @@ int thread_missed_self_contacts(const Model& m, const double* x0, const double* 
         s_prev = sk, t_prev = tk, tau_prev = tau;
         continue;
       }
-      if (has_self_spring(springs, self_begin, i, j)) return;  // in the step (or released from it)
+      // A spring of the pair acting in the step: the solve had it. One released from it (it
+      // ended an earlier pass pulling) is made again where the pair now meets.
+      const int32_t existing = self_spring(springs, self_begin, i, j);
+      RigidContactPair* released = nullptr;
+      if (existing >= 0) {
+        for (RigidContactPair& pr : pairs)
+          if (pr.spring == existing && !pr.active) released = &pr;
+        if (released == nullptr) return;
+      }
       // The spring where they were just before they touched: its normal the direction between
       // those points then, its depth theirs at the step's start along it.
       double pa[3], pb[3], n[3], nl = 0;
@@ -524,13 +533,28 @@ int thread_missed_self_contacts(const Model& m, const double* x0, const double* 
       set_spring_nodes(m.fem.pattern, nodes, w, 4, sp);
       double relv[3];
       spring_point(sp, v0, relv);
+      RigidContactOutput counts;
+      const auto fill = [&](ContactSpring& to) {
+        fill_contact_spring(to, n, -gap, gap >= 0, std::max(A.stretch_stiffness, B.stretch_stiffness), 0.0,
+                            std::min(A.friction, B.friction), relv, 0.01 * std::min(A.diameter, B.diameter), counts);
+      };
+      if (released != nullptr) {  // in its place, kept to the step's end
+        fill(sp);
+        springs[size_t(existing)] = sp;
+        released->active = true;
+        released->pinned = true;
+        released->depth0 = -gap;
+        for (int q = 0; q < 3; ++q) released->n[q] = n[q];
+        ++out.missed;
+        ++added;
+        return;
+      }
       if (!reserve_contact(springs, pairs, gap, n)) {
         ++out.dropped;
         return;
       }
-      RigidContactOutput counts;
-      fill_contact_spring(sp, n, -gap, gap >= 0, std::max(A.stretch_stiffness, B.stretch_stiffness), 0.0,
-                          std::min(A.friction, B.friction), relv, 0.01 * std::min(A.diameter, B.diameter), counts);
+      if (gap >= 0) pairs.back().pinned = true;
+      fill(sp);
       springs.push_back(sp);
       ++out.self;
       ++out.missed;

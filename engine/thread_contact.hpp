@@ -116,10 +116,16 @@ inline constexpr int kThreadCcdSamples = 64;
 /// each other within the step (a knot laid tight springing open). Every pair of segments sharing
 /// no node whose centrelines, moving linearly from x0 to x1, come closer than the two radii —
 /// sampled every quarter radius of relative motion — and that has no self spring in
-/// springs[self_begin, end) gets one, made where they were just before touching (its normal
-/// the line between those points, its depth theirs at the step's start along it; speculative,
-/// so released if it ends the redone step pulling). v0: the start velocities (friction).
-/// Returns how many: the caller redoes the step with them.
+/// springs[self_begin, end) acting in the step gets one, made where they were just before
+/// touching (its normal the line between those points, its depth theirs at the step's start
+/// along it) — a released one of the pair (it ended an earlier pass pulling) made again in its
+/// place. Either is pinned (RigidContactPair::pinned): kept to the step's end even if it ends
+/// it pulling, a little stickiness for a tick rather than a pass-through (released, such a pair
+/// was seen to go through in the redone step: a knot's tightening) — for that tick a pinned
+/// spring holds its pair touching, as a two-sided constraint would. Only pairs that meet are
+/// taken: a margin (tried: a quarter of the two radii) pinned resting neighbours of a knot
+/// together tick after tick, and the knot froze. v0: the start velocities (friction). Returns
+/// how many: the caller redoes the step with them.
 int thread_missed_self_contacts(const Model& m, const double* x0, const double* v0, const double* x1,
                                 std::vector<SegmentSphere>& spheres, std::vector<int32_t>& order, size_t self_begin,
                                 std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,

@@ -502,7 +502,7 @@ int release_pulling_rigid_contacts(const double* x0, const double* x, const Rigi
                                    std::vector<ContactSpring>& springs) {
   int released = 0;
   for (RigidContactPair& pr : pairs) {
-    if (!pr.active) continue;
+    if (!pr.active || pr.pinned) continue;
     ContactSpring& sp = springs[size_t(pr.spring)];
     double dp[3] = {0, 0, 0}, dn[3] = {0, 0, 0};  // the two sides' displacements
     if (sp.row_p >= 0) {

@@ -48,6 +48,9 @@ struct RigidContactPair {
   double n[3] = {0, 0, 0};
   double depth0 = 0;
   bool active = true;
+  /// Kept even if it ends the step pulling: the threads' continuous check found its two sides
+  /// meet within the step without it (engine/thread_contact.hpp, thread_missed_self_contacts).
+  bool pinned = false;
 };
 
 /// What one body's contacts did in one step (tick output).
