@@ -230,10 +230,19 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
                                 w.row_body.data(), w.rigid_pairs, w.needle_slips, w.springs);
     // Threads' segments that went through each other within the step get their springs
     // (engine/thread_contact.hpp, thread_missed_self_contacts).
-    if (!m.fem.rods.empty())
+    if (!m.fem.rods.empty()) {
+      StageTimer st(r, Stage::Collide);  // the continuous check is the collide stage's, after the step
       n += thread_missed_self_contacts(m, w.backup_x.data(), w.backup_v.data(), s.tissue.x.data(), w.segment_spheres,
                                        w.segment_order, w.self_spring_begin, w.springs, w.rigid_pairs,
                                        r.thread_contact);
+      for (size_t k = 0; k < m.rigid_bodies.size(); ++k) {  // and through the rigid bodies
+        const int32_t row = m.rigid_bodies[k].fixed ? -1 : w.body_row[k];
+        if (!m.rigid_bodies[k].fixed && row < 0) continue;  // no row this step: not checked
+        n += thread_missed_rigid_contacts(m, static_cast<int32_t>(k), w.backup_rigid[k], s.rigid[k], row,
+                                          w.backup_x.data(), w.backup_v.data(), s.tissue.x.data(), w.springs,
+                                          w.rigid_pairs, r.rigid_contact[k], r.thread_contact);
+      }
+    }
     return n;
   };
   while (ok && (m.body_contact || !w.rigid_pairs.empty() || !w.needle_slips.empty() || !m.fem.rods.empty()) &&

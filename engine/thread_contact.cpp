@@ -565,6 +565,115 @@ int thread_missed_self_contacts(const Model& m, const double* x0, const double* 
   return added;
 }
 
+int thread_missed_rigid_contacts(const Model& m, int32_t k, const RigidState& bs0, const RigidState& bs1, int32_t row,
+                                 const double* x0, const double* v0, const double* x1,
+                                 std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                                 RigidContactOutput& bout, ThreadContactOutput& out) {
+  const RigidBodyModel& b = m.rigid_bodies[size_t(k)];
+  const std::array<double, 9> R0 = rotation_of(bs0.q), R1 = rotation_of(bs1.q);
+  // World → body frame: Rᵀ (p − c) (R row-major).
+  const auto to_body = [](const std::array<double, 9>& R, const std::array<double, 3>& c, const double* p, double* q) {
+    const double r[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+    for (int a = 0; a < 3; ++a) q[a] = R[size_t(a)] * r[0] + R[size_t(3 + a)] * r[1] + R[size_t(6 + a)] * r[2];
+  };
+  int added = 0;
+  for (const RodRange& r : m.fem.rods) {
+    if (rod_tied_to(m, r, k)) continue;
+    const double rad = 0.5 * r.diameter;
+    const int K = segment_samples(r);
+    for (int32_t i = r.node_begin; i + 1 < r.node_end; ++i) {
+      const int ns = i + 2 == r.node_end ? K + 1 : K;
+      for (int j = 0; j < ns; ++j) {
+        const double u = static_cast<double>(j) / K;
+        double p0[3], p1[3], b0[3], b1[3], db[3];
+        for (int q = 0; q < 3; ++q) {
+          p0[q] = (1 - u) * x0[3 * i + q] + u * x0[3 * i + 3 + q];
+          p1[q] = (1 - u) * x1[3 * i + q] + u * x1[3 * i + 3 + q];
+        }
+        to_body(R0, bs0.x, p0, b0);
+        to_body(R1, bs1.x, p1, b1);
+        for (int q = 0; q < 3; ++q) db[q] = b1[q] - b0[q];
+        // The point's path in the body's frame, b0 → b1: out of its bounding sphere all along?
+        const double len2 = dot3(db, db);
+        const double along = len2 > 0 ? std::clamp(-dot3(b0, db) / len2, 0.0, 1.0) : 0.0;
+        double c2 = 0;
+        for (int q = 0; q < 3; ++q) c2 += (b0[q] + along * db[q]) * (b0[q] + along * db[q]);
+        const double reach = b.bounding_radius + rad;
+        if (c2 > reach * reach) continue;
+        double nprev[3];
+        double dprev = shape_distance(b, b0, nprev);
+        if (dprev < rad) continue;  // touching at the start: the step's own spring
+        const int S = std::clamp(static_cast<int>(std::ceil(std::sqrt(len2) / (0.25 * rad))), 1, kThreadCcdSamples);
+        double prev[3] = {b0[0], b0[1], b0[2]};
+        for (int t = 1; t <= S; ++t) {
+          const double tau = static_cast<double>(t) / S;
+          double bt[3], nt[3];
+          for (int q = 0; q < 3; ++q) bt[q] = b0[q] + tau * db[q];
+          const double dt = shape_distance(b, bt, nt);
+          if (dt >= rad) {
+            std::copy(bt, bt + 3, prev);
+            std::copy(nt, nt + 3, nprev);
+            dprev = dt;
+            continue;
+          }
+          // It met the body within the step: a spring where it was just before, at the body's
+          // start pose — unless the step had one of this point against this body.
+          RigidContactPair* released = nullptr;
+          bool acting = false;
+          for (RigidContactPair& pr : pairs) {
+            const ContactSpring& sp = springs[size_t(pr.spring)];
+            if (sp.n == 2 && sp.node[0] == i && std::abs(sp.w[1] - u) < 1e-12 && sp.row_n == row && sp.row_p < 0) {
+              if (pr.active) acting = true;
+              else released = &pr;
+            }
+          }
+          if (acting) break;
+          double n[3], arm[3];
+          double surf_b[3];  // the body's surface point then, in its frame
+          for (int q = 0; q < 3; ++q) {
+            n[q] = R0[size_t(3 * q)] * nprev[0] + R0[size_t(3 * q + 1)] * nprev[1] + R0[size_t(3 * q + 2)] * nprev[2];
+            surf_b[q] = prev[q] - dprev * nprev[q];
+          }
+          for (int q = 0; q < 3; ++q)
+            arm[q] = R0[size_t(3 * q)] * surf_b[0] + R0[size_t(3 * q + 1)] * surf_b[1] + R0[size_t(3 * q + 2)] * surf_b[2];
+          double gap = -rad, vb[3], rel[3];
+          for (int q = 0; q < 3; ++q) gap += (p0[q] - bs0.x[size_t(q)] - arm[q]) * n[q];
+          body_point_velocity(bs0, arm, vb);
+          for (int q = 0; q < 3; ++q) rel[q] = (1 - u) * v0[3 * i + q] + u * v0[3 * i + 3 + q] - vb[q];
+          ContactSpring sp;
+          segment_spring(m.fem.pattern, i, u, sp);
+          const double share = (i == r.node_begin && j == 0) || j == K ? 0.5 / K : 1.0 / K;
+          fill_contact_spring(sp, n, -gap, gap >= 0, r.stretch_stiffness * share, 0.0, std::min(r.friction, b.friction),
+                              rel, 0.01 * std::min(r.diameter, b.feature), bout);
+          sp.row_n = row;
+          if (row >= 0)
+            for (int q = 0; q < 3; ++q) sp.arm_n[q] = arm[q];
+          if (released != nullptr) {  // in its place, kept to the step's end
+            springs[size_t(released->spring)] = sp;
+            released->active = true;
+            released->pinned = true;
+            released->depth0 = -gap;
+            for (int q = 0; q < 3; ++q) released->n[q] = n[q];
+          } else {
+            if (!reserve_contact(springs, pairs, gap, n)) {
+              ++out.dropped;
+              ++bout.dropped;
+              break;
+            }
+            if (gap >= 0) pairs.back().pinned = true;
+            springs.push_back(sp);
+            ++out.rigid;
+          }
+          ++out.missed;
+          ++added;
+          break;
+        }
+      }
+    }
+  }
+  return added;
+}
+
 int thread_tool_contact(const Model& m, const ToolSpec& spec, ToolState& ts, const double* x, ToolOutput& out,
                         std::vector<ContactSpring>& springs, ThreadContactOutput& tout) {
   if (m.fem.rods.empty() || spec.shape == ToolShape::None || !ts.active || ts.last_command_time < 0) return 0;

@@ -70,8 +70,8 @@ inline constexpr int kMaxThreadHoles = 64;
 struct ThreadContactOutput {
   int32_t tissue = 0, self = 0, tools = 0, rigid = 0;  ///< springs made (speculative ones included)
   int32_t dropped = 0;     ///< beyond the springs' capacity (not applied)
-  /// Self-contact springs the continuous check after the step added (thread_missed_self_contacts;
-  /// the step redone with them), counted in `self` too.
+  /// Springs the continuous checks after the step added (thread_missed_self_contacts,
+  /// thread_missed_rigid_contacts; the step redone with them), counted in `self` or `rigid` too.
   int32_t missed = 0;
   double max_depth = 0;    ///< m: the deepest penetration of a thread's surface found
 };
@@ -130,6 +130,20 @@ int thread_missed_self_contacts(const Model& m, const double* x0, const double* 
                                 std::vector<SegmentSphere>& spheres, std::vector<int32_t>& order, size_t self_begin,
                                 std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
                                 ThreadContactOutput& out);
+
+/// The same continuous check for threads against rigid body k over the step (start state bs0,
+/// end bs1; step row `row`, −1 for a fixed body): a thread's sample point (those of
+/// thread_rigid_contact) whose path in the body's frame, x0 → x1 against bs0 → bs1, enters the
+/// body's shape less the thread's radius (sampled every quarter radius of the motion) and that
+/// has no spring acting against the body in the step gets one, pinned, made where it was just
+/// before (the shape's normal there, at the body's start pose) — a released one made again in
+/// its place. A free body without a row this step (it touched nothing at its start) is not
+/// checked: a row cannot be added after the collide stage (the caller skips it). Returns how
+/// many.
+int thread_missed_rigid_contacts(const Model& m, int32_t k, const RigidState& bs0, const RigidState& bs1, int32_t row,
+                                 const double* x0, const double* v0, const double* x1,
+                                 std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs,
+                                 RigidContactOutput& bout, ThreadContactOutput& out);
 
 /// Tool `spec` (state ts) against every thread: springs appended to the tool's range
 /// (out.spring_end moves; out.contacts and out.stiffness count them); clears
