@@ -229,8 +229,11 @@ void step_with_recovery(const Model& m, State& s, TickWorkspace& w, TickReport& 
       n += stick_reversed_slips(w.backup_x.data(), s.tissue.x.data(), w.backup_rigid.data(), s.rigid.data(),
                                 w.row_body.data(), w.rigid_pairs, w.needle_slips, w.springs);
     // Threads' segments that went through each other within the step get their springs
-    // (engine/thread_contact.hpp, thread_missed_self_contacts).
-    if (!m.fem.rods.empty()) {
+    // (engine/thread_contact.hpp, thread_missed_self_contacts) — if a redo still fits before the
+    // deadline (below): without one its springs would change nothing (counted: unchecked).
+    const bool redo_fits = !deadline.past_in(r.stage_ns[size_t(Stage::Assemble)] / (1 + r.contact_releases));
+    if (!m.fem.rods.empty() && !redo_fits) ++r.thread_contact.unchecked;
+    if (!m.fem.rods.empty() && redo_fits) {
       StageTimer st(r, Stage::Collide);  // the continuous check is the collide stage's, after the step
       n += thread_missed_self_contacts(m, w.backup_x.data(), w.backup_v.data(), s.tissue.x.data(), w.segment_spheres,
                                        w.segment_order, w.self_spring_begin, w.springs, w.rigid_pairs,

@@ -73,6 +73,9 @@ struct ThreadContactOutput {
   /// Springs the continuous checks after the step added (thread_missed_self_contacts,
   /// thread_missed_rigid_contacts; the step redone with them), counted in `self` or `rigid` too.
   int32_t missed = 0;
+  /// Passes after which the continuous checks did not run: no redo would have fitted before the
+  /// deadline (served; engine/step_with_recovery.cpp).
+  int32_t unchecked = 0;
   double max_depth = 0;    ///< m: the deepest penetration of a thread's surface found
 };
 
