@@ -446,6 +446,25 @@ int32_t self_spring(const std::vector<ContactSpring>& springs, size_t begin, int
   return -1;
 }
 
+/// A spring the continuous check made (its pair's gap at the step's start along n): in the place
+/// of the pair's released one if any (reactivated), else appended with a speculative pair of its
+/// own; pinned either way. False if there is no room (not applied).
+bool place_pinned(const ContactSpring& sp, double gap, const double* n, RigidContactPair* released,
+                  std::vector<ContactSpring>& springs, std::vector<RigidContactPair>& pairs) {
+  if (released != nullptr) {
+    springs[size_t(released->spring)] = sp;
+    released->active = true;
+    released->pinned = true;
+    released->depth0 = -gap;
+    for (int q = 0; q < 3; ++q) released->n[q] = n[q];
+    return true;
+  }
+  if (!reserve_contact(springs, pairs, gap, n)) return false;
+  if (gap >= 0) pairs.back().pinned = true;
+  springs.push_back(sp);
+  return true;
+}
+
 }  // namespace
 
 void thread_self_contact(const Model& m, const double* x, const double* v, std::vector<SegmentSphere>& spheres,
@@ -534,29 +553,13 @@ int thread_missed_self_contacts(const Model& m, const double* x0, const double* 
       double relv[3];
       spring_point(sp, v0, relv);
       RigidContactOutput counts;
-      const auto fill = [&](ContactSpring& to) {
-        fill_contact_spring(to, n, -gap, gap >= 0, std::max(A.stretch_stiffness, B.stretch_stiffness), 0.0,
-                            std::min(A.friction, B.friction), relv, 0.01 * std::min(A.diameter, B.diameter), counts);
-      };
-      if (released != nullptr) {  // in its place, kept to the step's end
-        fill(sp);
-        springs[size_t(existing)] = sp;
-        released->active = true;
-        released->pinned = true;
-        released->depth0 = -gap;
-        for (int q = 0; q < 3; ++q) released->n[q] = n[q];
-        ++out.missed;
-        ++added;
-        return;
-      }
-      if (!reserve_contact(springs, pairs, gap, n)) {
+      fill_contact_spring(sp, n, -gap, gap >= 0, std::max(A.stretch_stiffness, B.stretch_stiffness), 0.0,
+                          std::min(A.friction, B.friction), relv, 0.01 * std::min(A.diameter, B.diameter), counts);
+      if (!place_pinned(sp, gap, n, released, springs, pairs)) {
         ++out.dropped;
         return;
       }
-      if (gap >= 0) pairs.back().pinned = true;
-      fill(sp);
-      springs.push_back(sp);
-      ++out.self;
+      if (released == nullptr) ++out.self;
       ++out.missed;
       ++added;
       return;
@@ -648,22 +651,12 @@ int thread_missed_rigid_contacts(const Model& m, int32_t k, const RigidState& bs
           sp.row_n = row;
           if (row >= 0)
             for (int q = 0; q < 3; ++q) sp.arm_n[q] = arm[q];
-          if (released != nullptr) {  // in its place, kept to the step's end
-            springs[size_t(released->spring)] = sp;
-            released->active = true;
-            released->pinned = true;
-            released->depth0 = -gap;
-            for (int q = 0; q < 3; ++q) released->n[q] = n[q];
-          } else {
-            if (!reserve_contact(springs, pairs, gap, n)) {
-              ++out.dropped;
-              ++bout.dropped;
-              break;
-            }
-            if (gap >= 0) pairs.back().pinned = true;
-            springs.push_back(sp);
-            ++out.rigid;
+          if (!place_pinned(sp, gap, n, released, springs, pairs)) {
+            ++out.dropped;
+            ++bout.dropped;
+            break;
           }
+          if (released == nullptr) ++out.rigid;
           ++out.missed;
           ++added;
           break;
