@@ -158,6 +158,12 @@ std::vector<P3> square_knot_lay(double u, double tail, double rod_y, double rod_
   return p;
 }
 
+/// A suture of the knot tests: USP 3-0 polyglactin-like by default (0.2 mm, E 5 GPa, friction
+/// 0.2 on itself) in segments of about 0.5 mm (2.5 diameters).
+struct Suture {
+  double diameter = kD, modulus = 5.0e9, friction = 0.2, segment = 5e-4;
+};
+
 /// What a knot did when its two ends were pulled (pull_knot).
 struct KnotPull {
   int segments = 0, bad_ticks = 0, passes = 0;
@@ -179,16 +185,15 @@ double stored_length(const Model& m, const State& s) {
   return arc - std::hypot(x[3 * b] - x[3 * a], x[3 * b + 1] - x[3 * a + 1], x[3 * b + 2] - x[3 * a + 2]);
 }
 
-/// A 3-0 suture (0.2 mm, E 5 GPa, 1100 kg/m³, friction 0.2, mass damping 20/s) along `lay` in
-/// segments of about 0.5 mm, its ends held by two graspers (`rest`: more of the scene, YAML),
+/// A suture `su` (1100 kg/m³, mass damping 20/s) along `lay`, its ends held by two graspers (`rest`: more of the scene, YAML),
 /// which stand still for 50 ms, then pull the ends apart along x at 20 mm/s each whenever the
 /// right one feels less than `load` — until it has felt at least that for 200 ticks running —
 /// then hold still for 1 s. Every tick: its status, and the independent crossing check.
-KnotPull pull_knot(const std::vector<P3>& lay, const std::string& rest, double load) {
+KnotPull pull_knot(const std::vector<P3>& lay, const std::string& rest, double load, const Suture& su = {}) {
   KnotPull out;
   double fine = 0, L = 0;
   for (size_t i = 1; i < lay.size(); ++i) fine += dist(lay[i], lay[i - 1]);
-  out.segments = static_cast<int>(std::lround(fine / 5e-4));
+  out.segments = static_cast<int>(std::lround(fine / su.segment));
   const std::vector<P3> q = resample(lay, out.segments, &L);
   std::string path = "[";
   for (size_t i = 0; i < q.size(); ++i)
@@ -197,8 +202,9 @@ KnotPull pull_knot(const std::vector<P3>& lay, const std::string& rest, double l
   const std::string yaml = test_scenarios::rigid_scene_head("knot") + rest + "tools:\n" + grasper("left", q.front()) +
                            grasper("right", q.back()) + "threads:\n  - name: suture\n    length: " + num(L) +
                            "\n    segments: " + std::to_string(out.segments) +
-                           "\n    diameter: 2.0e-4\n    young_modulus: 5.0e9\n    density: 1100\n"
-                           "    damping: {rayleigh_mass: 20}\n    friction: 0.2\n    path: " + path + "\n";
+                           "\n    diameter: " + num(su.diameter) + "\n    young_modulus: " + num(su.modulus) +
+                           "\n    density: 1100\n    damping: {rayleigh_mass: 20}\n    friction: " + num(su.friction) +
+                           "\n    path: " + path + "\n";
   const auto m = compile_model(parse_scenario(yaml, "knot.yaml", kSrc));
   State s = State::initial(*m);
   TickWorkspace w(*m);
@@ -240,7 +246,7 @@ KnotPull pull_knot(const std::vector<P3>& lay, const std::string& rest, double l
   std::printf("  %d segments; the knot stores %.2f mm laid, %.2f mm at %.3f N (tick %d), then over 1 s within "
               "%.4f mm and %.4f N; least %.2f mm (%.1f diameters); %d pass-throughs\n",
               out.segments, 1e3 * out.loose, 1e3 * out.held, out.force, out.loaded_at, 1e3 * out.drift,
-              out.force_drift, 1e3 * out.least, out.least / kD, out.passes);
+              out.force_drift, 1e3 * out.least, out.least / su.diameter, out.passes);
   return out;
 }
 
@@ -266,15 +272,22 @@ const std::string kRod = R"(rigid_bodies:
 // a thread that went into itself could be tighter. No two segments pass through each other.
 TEST(ThreadKnot, AnOverhandKnotPulledAtBothEndsTightensAndHoldsItsLoad) {
   STROMA_LONG_TEST();
-  const KnotPull k = pull_knot(overhand_lay(1e-3, 0.03), "", 2.0);
-  EXPECT_EQ(k.bad_ticks, 0);
-  EXPECT_EQ(k.passes, 0) << "no segment went through another";
-  ASSERT_GE(k.loaded_at, 0) << "the knot came to hold the load";
-  EXPECT_GT(k.loose, 0.02);
-  EXPECT_LT(k.held, 0.3 * k.loose) << "the knot tightened";
-  EXPECT_GT(k.least, 10.1 * kD) << "a knot, and never tighter than a tight open trefoil";
-  EXPECT_LT(k.drift, 0.01 * k.held) << "held: the knot does not slip under the load";
-  EXPECT_LT(k.force_drift, 0.02 * k.force) << "and the graspers keep feeling it";
+  // The 3-0 suture; and a thinner, softer, slipperier one (USP 4-0-like: 0.15 mm, E 3 GPa,
+  // friction 0.1, segments of 0.4 mm) laid at 0.8 mm.
+  const Suture sutures[2] = {Suture{}, Suture{1.5e-4, 3.0e9, 0.1, 4e-4}};
+  const double scales[2] = {1e-3, 0.8e-3};
+  for (int c = 0; c < 2; ++c) {
+    const Suture& su = sutures[c];
+    const KnotPull k = pull_knot(overhand_lay(scales[c], 0.03), "", 2.0, su);
+    EXPECT_EQ(k.bad_ticks, 0) << c;
+    EXPECT_EQ(k.passes, 0) << c << ": no segment went through another";
+    ASSERT_GE(k.loaded_at, 0) << c << ": the knot came to hold the load";
+    EXPECT_GT(k.loose, 0.02) << c;
+    EXPECT_LT(k.held, 0.3 * k.loose) << c << ": the knot tightened";
+    EXPECT_GT(k.least, 10.1 * su.diameter) << c << ": a knot, and never tighter than a tight open trefoil";
+    EXPECT_LT(k.drift, 0.01 * k.held) << c << ": held: the knot does not slip under the load";
+    EXPECT_LT(k.force_drift, 0.02 * k.force) << c << ": and the graspers keep feeling it";
+  }
 }
 
 // A square knot tied around a fixed 2 mm rod (square_knot_lay: laid loose, bights of 1 mm, tails
@@ -295,6 +308,14 @@ TEST(ThreadKnot, ASquareKnotAroundARodPulledAtBothEndsHoldsItsLoad) {
   EXPECT_LT(k.held, 0.6 * k.loose) << "it tightened";
   EXPECT_LT(k.drift, 0.01 * k.held) << "held: the knot does not slip under the load";
   EXPECT_LT(k.force_drift, 0.02 * k.force) << "and the graspers keep feeling it";
+  // The thinner, softer, slipperier suture (as in the overhand test) holds it too.
+  const Suture thin{1.5e-4, 3.0e9, 0.1, 4e-4};
+  const KnotPull t = pull_knot(square_knot_lay(1e-3, 0.03, kRodY, kRodR, true), kRod, 2.0, thin);
+  EXPECT_EQ(t.passes, 0);
+  ASSERT_GE(t.loaded_at, 0);
+  EXPECT_GT(t.held, 2 * kPi * (kRodR + 0.5 * thin.diameter));
+  EXPECT_LT(t.drift, 0.01 * t.held);
+  EXPECT_LT(t.force_drift, 0.02 * t.force);
   const KnotPull none = pull_knot(square_knot_lay(1e-3, 0.03, kRodY, kRodR, false), kRod, 2.0);
   EXPECT_EQ(none.passes, 0);
   EXPECT_LT(none.held, 0.1 * around) << "laid without interlocking, the bights slide apart";
