@@ -318,6 +318,85 @@ def test_a_thread_is_read_as_its_nodes_and_swings_as_in_stroma_run(tmp_path):
     np.testing.assert_array_equal(final_state(tmp_path)[first:end], x)
 
 
+def _overhand_lay(scale, tail):
+    """An overhand knot laid loose: the trefoil (sin t + 2 sin 2t, cos t - 2 cos 2t, -sin 3t) at
+    `scale`, cut open at its bottom lobe (t = pi +- 0.5), each cut end carried by a cubic Bezier
+    into a straight tail along -x / +x (as tests/engine/test_thread_knot.cpp lays it)."""
+    t = np.linspace(np.pi + 0.5, 3 * np.pi - 0.5, 2001)
+    knot = scale * np.stack([np.sin(t) + 2 * np.sin(2 * t), np.cos(t) - 2 * np.cos(2 * t), -np.sin(3 * t)], 1)
+
+    def tangent(u):
+        d = np.array([np.cos(u) + 4 * np.cos(2 * u), -np.sin(u) + 4 * np.sin(2 * u), -3 * np.cos(3 * u)])
+        return d / np.linalg.norm(d)
+
+    def bezier(a, b, c, d, n=3000):
+        u = np.linspace(0, 1, n)[:, None]
+        return (1 - u) ** 3 * a + 3 * (1 - u) ** 2 * u * b + 3 * (1 - u) * u ** 2 * c + u ** 3 * d
+
+    A, B = knot[0], knot[-1]
+    y, arm = A[1] - 1.5 * scale, 1.5 * scale
+    fs, fe = np.array([-tail, y, A[2]]), np.array([tail, y, B[2]])
+    first = bezier(A, A - arm * tangent(np.pi + 0.5), fs + [tail / 3, 0, 0], fs)[::-1]
+    last = bezier(B, B + arm * tangent(3 * np.pi - 0.5), fe - [tail / 3, 0, 0], fe)
+    return np.concatenate([first[:-1], knot, last[1:]])
+
+
+def test_an_overhand_knot_pulled_by_two_graspers_tightens_and_holds():
+    """docs/THREAD.md, "Knots", from Python: a 3-0 suture laid loose in an overhand knot, its ends
+    held by two graspers driven by set_pose, pulled apart at 20 mm/s each until the right one
+    feels 2 N, then held still 0.3 s: the knot tightens (the thread it stores, length along the
+    nodes less the ends' distance, falls below a third of the laid) and holds (that length steady
+    within 1 %, the force within 5 %), never tighter than a tight open trefoil (10.1 diameters)."""
+    lay = _overhand_lay(1e-3, 0.03)
+    s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(lay, axis=0), axis=1))])
+    n = int(round(s[-1] / 5e-4))
+    q = np.stack([np.interp(np.linspace(0, s[-1], n + 1), s, lay[:, k]) for k in range(3)], 1)
+    length = float(np.linalg.norm(np.diff(q, axis=0), axis=1).sum())
+    grasper = lambda name, at: {"name": name, "shape": {"type": "sphere", "radius": 0.0003},
+                                "grasp": {"close": 0.05, "open": 0.1, "stiffness": 1.0e4}, "max_speed": 1.0,
+                                "pose": {"position": at.tolist()}}
+    sim = stroma.simulation_from_dict({
+        "name": "knot", "time_step": 0.001, "gravity": [0, -9.81, 0],
+        "solver": {"integrator": "implicit_euler", "preconditioner": "block_jacobi", "tolerance": 1e-10},
+        "bodies": [{"name": "far", "mesh": str(SCENARIOS / "meshes" / "cube_tet4_h5p000mm.msh"), "scale": 0.1,
+                    "translate": [1, 1, 1], "material": {"young_modulus": 1e4, "poisson_ratio": 0.45, "density": 1000},
+                    "fixed": [{"box": {"min": [-10, -10, -10], "max": [10, 10, 10]}}]}],
+        "tools": [grasper("left", q[0]), grasper("right", q[-1])],
+        "threads": [{"name": "suture", "length": length, "segments": n, "diameter": 2e-4, "young_modulus": 5e9,
+                     "density": 1100, "damping": {"rayleigh_mass": 20}, "friction": 0.2, "path": q.tolist()}]})
+    first, end = sim.threads[0]["nodes"]
+
+    def stored():
+        x = sim.positions[first:end]
+        return np.linalg.norm(np.diff(x, axis=0), axis=1).sum() - np.linalg.norm(x[-1] - x[0])
+
+    left, right = q[0].copy(), q[-1].copy()
+    laid, least, loaded = stored(), stored(), None
+    for i in range(4000):
+        force = abs(sim.feedback(1)["force"][0])
+        if i >= 50 and loaded is None:
+            if force >= 2.0:
+                loaded = (stored(), force)
+            else:
+                left[0] -= 2e-5
+                right[0] += 2e-5
+        if loaded is not None and i >= 50:
+            break
+        sim.set_pose(0, left.tolist(), jaw=0.0)
+        sim.set_pose(1, right.tolist(), jaw=0.0)
+        sim.step(1)
+        least = min(least, stored())
+    assert loaded is not None, "the graspers reached 2 N"
+    sim.step(100)  # settle
+    held, force = stored(), abs(sim.feedback(1)["force"][0])
+    sim.step(300)
+    assert laid > 0.02 and held < laid / 3, "the knot tightened"
+    assert least > 10.1 * 2e-4, "never tighter than a tight open trefoil"
+    assert abs(stored() - held) < 0.01 * held, "it holds: it does not slip"
+    assert abs(abs(sim.feedback(1)["force"][0]) - force) < 0.05 * force
+    assert force > 1.0
+
+
 def test_a_thread_drawn_through_the_tissue_lists_its_punctures():
     """docs/THREAD.md, "Through the tissue": a needle with a suture tied to its tail, driven through
     the 50 mm block by one grasper and pulled on by a second (tests/data/thread_draw_through.yaml,
