@@ -12,18 +12,32 @@
 
 namespace stroma::test_support {
 
-/// A scalpel: a blade of 0.5 mm half-thickness and `edge_length` edge that cuts (toughness
-/// 200 J/m², liver-like), fast enough for any test sweep, live for 10 s after a command.
-inline ToolEntry scalpel(double edge_length) {
+/// A scalpel: a blade of `half_thickness` (default 0.5 mm) and `edge_length` edge that cuts
+/// (toughness default 200 J/m², liver-like), fast enough for any test sweep, live for 10 s after
+/// a command.
+inline ToolEntry scalpel(double edge_length, double half_thickness = 0.0005, double toughness = 200) {
   ToolEntry t;
   t.spec.name = "scalpel";
   t.spec.shape = ToolShape::Blade;
-  t.spec.radius = 0.0005;
+  t.spec.radius = half_thickness;
   t.spec.shaft_length = edge_length;
   t.spec.timeout = 10;
   t.spec.max_speed = 50;
   t.spec.cuts = true;
-  t.spec.cut_toughness = 200;
+  t.spec.cut_toughness = toughness;
+  return t;
+}
+
+/// A grasping tip: a sphere of `radius` that can close on what is within its reach (a body's
+/// nodes, a thread's point), live for 10 s after a command.
+inline ToolEntry grasping_tip(const std::string& name, double radius, double max_speed) {
+  ToolEntry t;
+  t.spec.name = name;
+  t.spec.shape = ToolShape::Sphere;
+  t.spec.radius = radius;
+  t.spec.timeout = 10;
+  t.spec.max_speed = max_speed;
+  t.spec.can_grasp = true;
   return t;
 }
 

@@ -417,24 +417,8 @@ TEST(CutEngine, CuttingWithDamageGraspingAndBodyContact) {
   d.enabled = true;
   d.onset = 2e4;  // Pa of von Mises stress: far above this test's (~10² Pa), so nothing ruptures
   d.rupture = 4e4;
-  ToolEntry grasper;
-  grasper.spec.name = "grasper";
-  grasper.spec.shape = ToolShape::Sphere;
-  grasper.spec.radius = 0.002;
-  grasper.spec.can_grasp = true;
-  grasper.spec.timeout = 10;
-  grasper.spec.max_speed = 50;
-  spec.tools.push_back(grasper);
-  ToolEntry scalpel;
-  scalpel.spec.name = "scalpel";
-  scalpel.spec.shape = ToolShape::Blade;
-  scalpel.spec.radius = 1e-4;
-  scalpel.spec.shaft_length = 0.02;
-  scalpel.spec.timeout = 10;
-  scalpel.spec.max_speed = 50;
-  scalpel.spec.cuts = true;
-  scalpel.spec.cut_toughness = 100;
-  spec.tools.push_back(scalpel);
+  spec.tools.push_back(test_support::grasping_tip("grasper", 0.002, 50));
+  spec.tools.push_back(test_support::scalpel(0.02, 1e-4, 100));
   CutRun run(spec);
   const double mass = total_mass(*run.m);
   ToolInput in[2];

@@ -46,13 +46,7 @@ ScenarioSpec beam_with_thread_and_scalpel() {
   s.solver.tolerance = 1e-9;
   s.solver.max_iterations = 2000;
   s.tools.push_back(test_support::scalpel(0.03));
-  ToolEntry h;  // a grasping tip holding the thread's free end
-  h.spec.name = "holder";
-  h.spec.shape = ToolShape::Sphere;
-  h.spec.radius = 0.001;
-  h.spec.timeout = 10;
-  h.spec.max_speed = 1;
-  h.spec.can_grasp = true;
+  ToolEntry h = test_support::grasping_tip("holder", 0.001, 1);  // holding the thread's free end
   h.spec.grasp_stiffness = 1e4;
   s.tools.push_back(h);
   ProbeSpec pr = s.probes[0];
