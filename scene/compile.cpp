@@ -786,6 +786,7 @@ std::vector<FemRodInput> thread_inputs(const ScenarioSpec& spec, const std::vect
     r.name = t.name;
     r.segment_length = t.length / t.segments;
     r.young_modulus = t.young_modulus;
+    r.bending_stiffness = t.bending_stiffness;
     r.diameter = t.diameter;
     r.density = t.density;
     r.rayleigh_mass = t.rayleigh_mass;

@@ -886,15 +886,28 @@ ThreadSpec parse_thread(const MapReader& m, const Context& ctx) {
   m.require("young_modulus", t.young_modulus,
             physical_range(1e3, 1e12, "Pa: polyglactin and nylon sutures are ~1..10 GPa, silk ~5..10 GPa"));
   m.require("density", t.density, physical_range(1, 1e5, "kg/m^3: sutures are ~1000..1500"));
+  const double pi = 3.14159265358979323846;
+  const double solid_ei = t.young_modulus * pi * std::pow(t.diameter, 4) / 64.0;
+  m.read("bending_stiffness", t.bending_stiffness,
+         physical_range(1e-20, 1e3, "N*m^2: a 3-0 monofilament (0.2 mm, E 5 GPa) ~4e-7, a braid of the same ~1e-9..1e-8"));
+  if (t.bending_stiffness > solid_ei * (1 + 1e-12))
+    m.req("bending_stiffness")
+        .fail(fmt::format("{} N*m^2 is more than a solid rod of this diameter and young_modulus bends with "
+                          "(E*pi*d^4/64 = {:.3e} N*m^2): a thread is at most solid",
+                          format_number(t.bending_stiffness), solid_ei));
+  // The bending over the stretching stiffness, EI/(EA·l²), at least a solid rod's at
+  // kThreadMaxSegmentRatio diameters a segment, 1/(16·ratio²): the longest segment 4·ratio·√(EI/EA).
+  const double ei = t.bending_stiffness > 0 ? t.bending_stiffness : solid_ei;
   const double seg = t.length / t.segments;
-  if (seg > kThreadMaxSegmentRatio * t.diameter)
+  const double max_seg = 4 * kThreadMaxSegmentRatio * std::sqrt(ei / (t.young_modulus * pi * t.diameter * t.diameter / 4));
+  if (seg > max_seg * (1 + 1e-9))
     m.req("segments").fail(fmt::format(
-        "segments of {} m are {} diameters long; at most {}: beyond, the bending stiffness E*I/l^3 is below "
-        "{:.1e} of the stretching stiffness E*A/l (their ratio is d^2 / (16 l^2)), under what the step's solves "
-        "resolve — use at least {} segments",
-        format_number(seg), format_number(seg / t.diameter), format_number(kThreadMaxSegmentRatio),
-        1.0 / (16 * kThreadMaxSegmentRatio * kThreadMaxSegmentRatio),
-        static_cast<long>(std::ceil(t.length / (kThreadMaxSegmentRatio * t.diameter)))));
+        "segments of {} m are {} diameters long; at most {} m ({} diameters) for this thread: beyond, the bending "
+        "stiffness E*I/l^3 is below {:.1e} of the stretching stiffness E*A/l (for a solid rod their ratio is "
+        "d^2 / (16 l^2)), under what the step's solves resolve — use at least {} segments",
+        format_number(seg), format_number(seg / t.diameter), format_number(max_seg),
+        format_number(max_seg / t.diameter), 1.0 / (16 * kThreadMaxSegmentRatio * kThreadMaxSegmentRatio),
+        static_cast<long>(std::ceil(t.length / max_seg * (1 - 1e-9)))));
   const auto path = m.opt("path");
   if (path) {
     if (m.opt("start") || m.opt("direction")) path->fail("a thread starts straight (start, direction) or along a path, not both");
@@ -1027,7 +1040,8 @@ ScenarioSpec parse_root(const MapReader& m, const Context& ctx) {
   std::map<std::string, int> thread_names;
   for (const auto& item : m.list("threads")) {
     const MapReader tm = item.map({"name", "length", "segments", "diameter", "young_modulus", "density", "start",
-                                   "direction", "path", "damping", "fixed", "attach", "friction", "contact_stiffness"});
+                                   "direction", "path", "damping", "fixed", "attach", "friction", "contact_stiffness",
+                                   "bending_stiffness"});
     s.threads.push_back(parse_thread(tm, ctx));
     const std::string& name = s.threads.back().name;
     check_unique_name(thread_names, name, tm.req("name"), "thread");

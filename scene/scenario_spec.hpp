@@ -357,8 +357,10 @@ struct RigidBodySpec {
 /// `threads:` entry (issue 43; docs/THREAD.md): a suture thread, a rod of `segments` equal
 /// segments (tissue/rod.hpp), straight from `start` along `direction` or along the polyline
 /// `path` (its nodes at equal arc length on it). Invariants after load: segments ≥ 2; length,
-/// diameter, young_modulus and density > 0; the segment length at most kThreadMaxSegmentRatio
-/// diameters; direction a unit vector; a path's length within 1e-6 of `length`.
+/// diameter, young_modulus and density > 0; bending_stiffness 0 (the solid rod's) or in
+/// (0, E·π·d⁴/64]; the bending over the stretching stiffness, EI/(EA·ℓ²), at least that of a
+/// solid rod whose segments are kThreadMaxSegmentRatio diameters long; direction a unit vector;
+/// a path's length within 1e-6 of `length`.
 inline constexpr double kThreadMaxSegmentRatio = 100;
 struct ThreadSpec {
   std::string name;
@@ -367,6 +369,10 @@ struct ThreadSpec {
   double diameter = 0;       ///< m
   double young_modulus = 0;  ///< Pa
   double density = 0;        ///< kg/m³
+  /// N·m²: the thread's flexural rigidity E·I; 0: a solid (monofilament) rod's, E·π·d⁴/64. A
+  /// braid bends by its filaments (they slide on each other): about the solid's × its fill
+  /// fraction over its filament count (docs/THREAD.md, "The model").
+  double bending_stiffness = 0;
   Vec3 start{0, 0, 0};       ///< the first node (world, m)
   Vec3 direction{1, 0, 0};   ///< unit: straight from start along it (when no path)
   std::vector<Vec3> path;    ///< ≥ 2 points, its length = `length`; empty: straight

@@ -53,6 +53,7 @@ struct FemRodInput {
   std::vector<Vec3> nodes;              ///< positions in metres, ≥ 3
   double segment_length = 0;            ///< rest length of every segment (m)
   double young_modulus = 0, diameter = 0, density = 0;
+  double bending_stiffness = 0;  ///< N·m², E·I; 0: the solid rod's, E·π·d⁴/64
   double rayleigh_mass = 0, rayleigh_stiffness = 0;
   double friction = 0;  ///< Coulomb coefficient at punctures and in contact
   double contact_stiffness = 0;  ///< Pa/m against the tissue (engine/thread_contact.hpp)

@@ -118,6 +118,16 @@ TEST(Thread, BadInputIsRefusedWithFileLineAndField) {
   EXPECT_NE(e.find("0.05 m long, the thread 0.1 m"), std::string::npos) << e;
   e = edited("fixed: [first]", "fixed: [first]\n    contact_stiffness: -1");
   EXPECT_NE(e.find("threads[0].contact_stiffness"), std::string::npos) << e;
+  // A flexural rigidity above the solid rod's (E·π·d⁴/64 = 3.9e-7 N·m² here), and segments too
+  // long for a braid's (2 mm of a thread with EI 1e-9: at most 4·100·√(EI/EA) = 1.0 mm).
+  e = edited("fixed: [first]", "fixed: [first]\n    bending_stiffness: 1.0e-6");
+  EXPECT_NE(e.find("threads[0].bending_stiffness"), std::string::npos) << e;
+  EXPECT_NE(e.find("more than a solid rod"), std::string::npos) << e;
+  e = edited("fixed: [first]", "fixed: [first]\n    bending_stiffness: -1");
+  EXPECT_NE(e.find("threads[0].bending_stiffness"), std::string::npos) << e;
+  e = edited("fixed: [first]", "fixed: [first]\n    bending_stiffness: 1.0e-9");
+  EXPECT_NE(e.find("threads[0].segments"), std::string::npos) << e;
+  EXPECT_NE(e.find("at least 100 segments"), std::string::npos) << e;
   e = edited("fixed: [first]", "fixed: [middle]");
   EXPECT_NE(e.find("expected first or last"), std::string::npos) << e;
   e = message_of([&] {

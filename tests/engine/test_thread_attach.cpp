@@ -212,6 +212,35 @@ TEST(ThreadAttach, AGrasperHoldsAThreadAndLetsItFall) {
   EXPECT_LT(com_vy(), -0.05);
 }
 
+// A braided suture (`bending_stiffness`: its filaments slide on each other, so it bends far
+// more easily than a solid rod of its diameter and modulus) held by its middle: each half droops
+// as a cantilever of that flexural rigidity, w·L⁴/(8·EI) — 40 times the solid 3-0 suture's droop
+// for EI = 1e-8 N·m² (1/39 of E·π·d⁴/64), 1.6 mm on 25 mm (within 3 %); the stretching stays the
+// solid's (the same E·A: the tool carries the same weight).
+TEST(ThreadAttach, ABraidedSutureDroopsByItsOwnBendingStiffness) {
+  const double EI = 1.0e-8;
+  const std::string yaml = test_scenarios::rigid_scene_head("braid") + R"(tools:
+  - name: grasper
+    shape: {type: grasper, radius: 0.002, length: 0.01}
+    grasp: {close: 0.05, open: 0.1}
+    pose: {position: [0, 0.105, 0], orientation: [0.7071067811865476, 0.7071067811865476, 0, 0]}
+)" + thread_entry("    start: [-0.025, 0.1, 0]\n    direction: [1, 0, 0]\n    bending_stiffness: 1.0e-8\n", 0.05, 25, 10.0);
+  const auto m = compile_model(parse_scenario(yaml, "braid.yaml", kSrc));
+  const RodRange& r = m->fem.rods[0];
+  EXPECT_NEAR(r.bend_stiffness, EI / std::pow(0.002, 3), 1e-9 * r.bend_stiffness);
+  EXPECT_NEAR(r.stretch_stiffness, 5.0e9 * kPi * 1e-8 / 0.002, 1e-9 * r.stretch_stiffness);
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  const Vec3 pos{0, 0.105, 0};
+  for (int i = 0; i < 3000; ++i) ASSERT_TRUE(tick_tool(*m, s, w, pos, 0.0).status == TickStatus::Ok) << i;
+  const double W = thread_mass(*m) * kG;
+  EXPECT_NEAR(w.report.tools[0].force[1], -W, 0.01 * W) << "the grasper carries the thread";
+  const double L = 0.025, w_len = 1100 * kPi * 1e-8 * kG;
+  const double droop = w_len * std::pow(L, 4) / (8 * EI);
+  EXPECT_NEAR(0.1 - s.tissue.x[3 * r.node_begin + 1], droop, 0.03 * droop) << "its ends droop as cantilevers of EI";
+  EXPECT_NEAR(0.1 - s.tissue.x[3 * (r.node_end - 1) + 1], droop, 0.03 * droop);
+}
+
 TEST(ThreadAttach, BadAttachmentsAreRefusedWithFileLineAndField) {
   const std::string head = test_scenarios::rigid_scene_head("bad") + R"(rigid_bodies:
   - name: needle

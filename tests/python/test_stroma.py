@@ -397,6 +397,143 @@ def test_an_overhand_knot_pulled_by_two_graspers_tightens_and_holds():
     assert force > 1.0
 
 
+def _knot_determinant(x, seed):
+    """The determinant of the knot the open thread `x` makes when its ends are joined outside a ball
+    round it (each end out radially from the centroid to 0.2 m, then along that sphere: any such
+    arc gives the same knot): |det| of the Fox colouring matrix of a generic projection, less a
+    row and a column — 1 for the unknot, 3 for the trefoil (an overhand or half knot), 9 for a
+    square or granny knot; it depends on the knot, not on the projection (`seed` picks one)."""
+    c = x.mean(axis=0)
+    ends = [(x[-1] - c) / np.linalg.norm(x[-1] - c), (x[0] - c) / np.linalg.norm(x[0] - c)]
+    mid = ends[0] + ends[1]
+    mid = mid / np.linalg.norm(mid) if np.linalg.norm(mid) > 1e-6 else np.cross(ends[0], [0.3, 0.9, 0.1])
+    arc = [(1 - t) * a + t * b for a, b in ((ends[0], mid), (mid, ends[1])) for t in np.linspace(0, 1, 9)]
+    P = np.vstack([x] + [c + 0.2 * v / np.linalg.norm(v) for v in arc])
+    q = np.random.default_rng(seed).normal(size=4)
+    w, a, b, d = q / np.linalg.norm(q)
+    R = np.array([[1 - 2 * (b * b + d * d), 2 * (a * b - d * w), 2 * (a * d + b * w)],
+                  [2 * (a * b + d * w), 1 - 2 * (a * a + d * d), 2 * (b * d - a * w)],
+                  [2 * (a * d - b * w), 2 * (b * d + a * w), 1 - 2 * (a * a + b * b)]])
+    Q = P @ R.T
+    A, B, n = Q, np.roll(Q, -1, axis=0), len(Q)
+    cross = []  # (parameter along the curve on the over strand, on the under strand)
+    for i in range(n):
+        j = np.arange(i + 2, n if i > 0 else n - 1)
+        r, s = B[i, :2] - A[i, :2], B[j, :2] - A[j, :2]
+        den = r[0] * s[:, 1] - r[1] * s[:, 0]
+        qp = A[j, :2] - A[i, :2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (qp[:, 0] * s[:, 1] - qp[:, 1] * s[:, 0]) / den
+            u = (qp[:, 0] * r[1] - qp[:, 1] * r[0]) / den
+        for k in np.nonzero((den != 0) & (t >= 0) & (t < 1) & (u >= 0) & (u < 1))[0]:
+            zi = A[i, 2] + t[k] * (B[i, 2] - A[i, 2])
+            zj = A[j[k], 2] + u[k] * (B[j[k], 2] - A[j[k], 2])
+            cross.append((i + t[k], j[k] + u[k]) if zi > zj else (j[k] + u[k], i + t[k]))
+    if len(cross) < 2:
+        return 1
+    unders = sorted(c[1] for c in cross)
+    m = len(cross)
+    M = np.zeros((m, m))
+    for row, (over, under) in enumerate(cross):
+        k = unders.index(under)  # the under strand's arcs end and start here
+        M[row, np.searchsorted(unders, over, side="right") % m] += 2
+        M[row, k] -= 1
+        M[row, (k + 1) % m] -= 1
+    return int(round(abs(np.linalg.det(M[:-1, :-1]))))
+
+
+def test_the_knot_determinant_tells_a_trefoil_from_an_unknot():
+    """The test's own knot check against known knots: a trefoil 3, a circle 1, in any projection."""
+    t = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    trefoil = np.stack([np.sin(t) + 2 * np.sin(2 * t), np.cos(t) - 2 * np.cos(2 * t), -np.sin(3 * t)], 1)
+    assert [_knot_determinant(trefoil[:-20], s) for s in range(3)] == [3, 3, 3]  # open, closed far away
+    circle = np.stack([np.cos(t), np.sin(t), 0 * t], 1)
+    assert [_knot_determinant(circle[:-20], s) for s in range(3)] == [1, 1, 1]
+
+
+def test_an_instrument_tie_throws_a_half_knot_round_a_rod():
+    """docs/THREAD.md, "Knots": the first throw of an instrument tie, scripted through set_pose. A
+    3-0 suture passes under a fixed 2 mm rod; grasper A holds its long end, B — a needle holder
+    with a 2 mm tip and shaft — holds the short end at its tip. B's shaft lies over the rod,
+    parallel to it; A wraps its strand once round the shaft; B draws back along its shaft, so the
+    wrap slides off its tip onto the short end; both pull apart to 1 N. The thread, unknotted
+    before (knot determinant 1), is then a half knot round the rod: closed far away, a trefoil
+    (determinant 3, in three projections), its loop still round the rod."""
+    RR = 0.001 + 1e-4 + 5e-5
+    path = [np.array([-0.004, 0.018, 0]) + (np.array([-RR, 0, 0]) - [-0.004, 0.018, 0]) * u for u in np.linspace(0, 1, 200)]
+    path += [np.array([RR * np.cos(a), RR * np.sin(a), 0]) for a in np.linspace(np.pi, 2 * np.pi, 200)[1:]]
+    path += [np.array([RR, 0, 0]) + (np.array([0.004, 0.009, 0]) - [RR, 0, 0]) * u for u in np.linspace(0, 1, 200)[1:]]
+    lay = np.array(path)
+    s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(lay, axis=0), axis=1))])
+    n = int(round(s[-1] / 5e-4))
+    q = np.stack([np.interp(np.linspace(0, s[-1], n + 1), s, lay[:, k]) for k in range(3)], 1)
+    grasp = {"close": 0.05, "open": 0.1, "stiffness": 1.0e4}
+    sim = stroma.simulation_from_dict({
+        "name": "tie", "time_step": 0.001, "gravity": [0, -9.81, 0],
+        "solver": {"integrator": "implicit_euler", "preconditioner": "block_jacobi", "tolerance": 1e-8},
+        "bodies": [{"name": "far", "mesh": str(SCENARIOS / "meshes" / "cube_tet4_h5p000mm.msh"), "scale": 0.1,
+                    "translate": [1, 1, 1], "material": {"young_modulus": 1e4, "poisson_ratio": 0.45, "density": 1000},
+                    "fixed": [{"box": {"min": [-10, -10, -10], "max": [10, 10, 10]}}]}],
+        "rigid_bodies": [{"name": "rod", "shape": {"type": "capsule", "radius": 0.001, "length": 0.1},
+                          "density": 1000, "fixed": True, "pose": {"position": [0, 0, 0]}}],
+        "tools": [{"name": "A", "shape": {"type": "sphere", "radius": 0.0003}, "grasp": grasp, "max_speed": 1.0,
+                   "pose": {"position": q[0].tolist()}},
+                  {"name": "B", "shape": {"type": "probe", "radius": 0.001, "length": 0.03}, "grasp": grasp,
+                   "max_speed": 1.0, "pose": {"position": q[-1].tolist()}}],
+        "threads": [{"name": "suture", "length": float(np.linalg.norm(np.diff(q, axis=0), axis=1).sum()),
+                     "segments": n, "diameter": 2e-4, "young_modulus": 5e9, "density": 1100,
+                     "damping": {"rayleigh_mass": 20}, "friction": 0.2, "path": q.tolist()}]})
+    first, end = sim.threads[0]["nodes"]
+    x = lambda: np.array(sim.positions[first:end])
+    pose = {"A": q[0].copy(), "B": q[-1].copy()}
+    bad = []
+
+    def step(a=None, b=None):
+        if a is not None:
+            pose["A"] = np.asarray(a, float)
+        if b is not None:
+            pose["B"] = np.asarray(b, float)
+        sim.set_pose(0, pose["A"].tolist(), jaw=0.0)
+        sim.set_pose(1, pose["B"].tolist(), jaw=0.0)  # B's shaft along +z: identity orientation
+        sim.step(1)
+        if sim.metrics["status"] not in (0, 1):
+            bad.append(sim.metrics["status"])
+
+    def line(who, to, speed):
+        start = pose[who].copy()
+        ticks = max(1, int(round(np.linalg.norm(np.asarray(to) - start) / speed * 1000)))
+        for i in range(1, ticks + 1):
+            p = start + (np.asarray(to) - start) * i / ticks
+            step(a=p if who == "A" else None, b=p if who == "B" else None)
+
+    for _ in range(50):
+        step()
+    assert [_knot_determinant(x(), k) for k in range(3)] == [1, 1, 1]
+    H, RW, ZW = 0.008, 0.004, 0.004
+    line("B", [0, H, 0], 0.03)  # the tip over the rod, the shaft along +z beside it
+    ring = lambda a: np.array([RW * np.cos(a), H + RW * np.sin(a), ZW])
+    line("A", ring(np.pi) + [-0.002, 0.003, 0], 0.03)
+    line("A", ring(np.pi), 0.03)
+    ticks = int(round(2.25 * np.pi * RW / 0.03 * 1000))
+    for i in range(1, ticks + 1):  # over the shaft, down behind it, under, up: one wrap and a quarter
+        step(a=ring(np.pi - 2.25 * np.pi * i / ticks))
+    while np.linalg.norm(sim.feedback(0)["force"]) < 0.05:  # A takes up the slack
+        step(a=pose["A"] + [-1e-5, 2e-6, 0])
+    line("B", pose["B"] + [0, 0, 0.009], 0.02)  # B draws back along its shaft: the wrap leaves its tip
+    for _ in range(3000):  # both pull apart to 1 N
+        if max(np.linalg.norm(sim.feedback(k)["force"]) for k in (0, 1)) >= 1.0:
+            break
+        step(a=pose["A"] + [-2e-5, -4e-6, 0], b=pose["B"] + [2e-5, -4e-6, 0])
+    else:
+        pytest.fail("the graspers never felt 1 N")
+    assert not bad
+    assert [_knot_determinant(x(), k) for k in range(3)] == [3, 3, 3], "a half knot: closed far away, a trefoil"
+    # its loop still goes round the rod: under it, the ends above it
+    xs = x()
+    under = xs[np.abs(xs[:, 0]) < 0.0015]
+    assert under[:, 1].min() < -0.001 and xs[0, 1] > 0 and xs[-1, 1] > 0
+
+
 def test_a_thread_drawn_through_the_tissue_lists_its_punctures():
     """docs/THREAD.md, "Through the tissue": a needle with a suture tied to its tail, driven through
     the 50 mm block by one grasper and pulled on by a second (tests/data/thread_draw_through.yaml,
