@@ -17,10 +17,12 @@
 #include "scene/scenario_spec.hpp"
 #include "tests/test_labels.hpp"
 #include "tests/test_scenarios.hpp"
+#include "tests/knot_determinant.hpp"
 #include "tests/thread_crossing.hpp"
 
 using namespace stroma;
 using stroma::test_support::count_passes;
+using stroma::test_support::knot_determinant;
 
 namespace {
 
@@ -171,7 +173,22 @@ struct KnotPull {
   double loose = 0, least = 0;    ///< m: the thread in the knot as laid, and the least over the run
   double held = 0, force = 0;     ///< m, N: at the hold's start
   double drift = 0, force_drift = 0;  ///< m, N: the most either moved from there over the hold
+  int det_laid = 0, det_held = 0;     ///< the knot's determinant as laid and after the hold (−1: projections disagree)
 };
+
+/// The knot determinant of the thread's nodes (tests/knot_determinant.hpp) in the first three
+/// projections that are not degenerate: their common value, or −1 if they disagree (they cannot,
+/// for a knot: a check of the check).
+int thread_knot(const Model& m, const State& s) {
+  const RodRange& r = m.fem.rods[0];
+  std::vector<std::array<double, 3>> x;
+  for (int32_t i = r.node_begin; i < r.node_end; ++i)
+    x.push_back({s.tissue.x[3 * i], s.tissue.x[3 * i + 1], s.tissue.x[3 * i + 2]});
+  std::vector<int> d;
+  for (uint64_t seed = 1; seed <= 20 && d.size() < 3; ++seed)
+    if (const int k = knot_determinant(x, seed); k >= 0) d.push_back(k);
+  return d.size() == 3 && d[0] == d[1] && d[1] == d[2] ? d[0] : -1;
+}
 
 /// The thread in a knot (and round whatever it is tied on): its length along the nodes less
 /// the distance between its ends — zero for a straight thread, and what a knot stores.
@@ -209,6 +226,7 @@ KnotPull pull_knot(const std::vector<P3>& lay, const std::string& rest, double l
   State s = State::initial(*m);
   TickWorkspace w(*m);
   out.loose = out.least = stored_length(*m, s);
+  out.det_laid = thread_knot(*m, s);
   P3 left = q.front(), right = q.back();
   std::vector<double> x0(s.tissue.x.size());
   int still = 0;  // ticks running at the load, the graspers still
@@ -243,10 +261,11 @@ KnotPull pull_knot(const std::vector<P3>& lay, const std::string& rest, double l
       if (i - out.loaded_at >= 1000) break;
     }
   }
+  out.det_held = thread_knot(*m, s);
   std::printf("  %d segments; the knot stores %.2f mm laid, %.2f mm at %.3f N (tick %d), then over 1 s within "
-              "%.4f mm and %.4f N; least %.2f mm (%.1f diameters); %d pass-throughs\n",
+              "%.4f mm and %.4f N; least %.2f mm (%.1f diameters); %d pass-throughs; knot determinant %d laid, %d held\n",
               out.segments, 1e3 * out.loose, 1e3 * out.held, out.force, out.loaded_at, 1e3 * out.drift,
-              out.force_drift, 1e3 * out.least, out.least / su.diameter, out.passes);
+              out.force_drift, 1e3 * out.least, out.least / su.diameter, out.passes, out.det_laid, out.det_held);
   return out;
 }
 
@@ -283,6 +302,8 @@ TEST(ThreadKnot, AnOverhandKnotPulledAtBothEndsTightensAndHoldsItsLoad) {
     EXPECT_EQ(k.passes, 0) << c << ": no segment went through another";
     ASSERT_GE(k.loaded_at, 0) << c << ": the knot came to hold the load";
     EXPECT_GT(k.loose, 0.02) << c;
+    EXPECT_EQ(k.det_laid, 3) << c << ": laid, an overhand knot (a trefoil once its ends are joined)";
+    EXPECT_EQ(k.det_held, 3) << c << ": and still one, tight";
     EXPECT_LT(k.held, 0.3 * k.loose) << c << ": the knot tightened";
     EXPECT_GT(k.least, 10.1 * su.diameter) << c << ": a knot, and never tighter than a tight open trefoil";
     EXPECT_LT(k.drift, 0.01 * k.held) << c << ": held: the knot does not slip under the load";
@@ -305,10 +326,32 @@ TEST(ThreadKnot, ASquareKnotAroundARodPulledAtBothEndsHoldsItsLoad) {
   EXPECT_EQ(k.passes, 0) << "no segment went through another";
   ASSERT_GE(k.loaded_at, 0) << "the knot came to hold the load";
   EXPECT_GT(k.held, around) << "round the rod and knotted";
+  EXPECT_EQ(k.det_laid, 9) << "laid, a square knot (trefoil and mirror trefoil: 3 x 3)";
+  EXPECT_EQ(k.det_held, 9) << "and still one, tight";
   EXPECT_LT(k.held, 0.6 * k.loose) << "it tightened";
   EXPECT_LT(k.drift, 0.01 * k.held) << "held: the knot does not slip under the load";
   EXPECT_LT(k.force_drift, 0.02 * k.force) << "and the graspers keep feeling it";
   const KnotPull none = pull_knot(square_knot_lay(1e-3, 0.03, kRodY, kRodR, false), kRod, 2.0);
   EXPECT_EQ(none.passes, 0);
+  EXPECT_EQ(none.det_laid, 1) << "the control is no knot";
   EXPECT_LT(none.held, 0.1 * around) << "laid without interlocking, the bights slide apart";
+}
+
+// The knot check itself (tests/knot_determinant.hpp) on known curves, opened at an outermost
+// point (the last 2 % cut off, then joined far away): the (2,3) torus knot (the trefoil) 3, the
+// (2,5) torus knot 5, the (2,4) torus link's one component and a circle 1 — in ten projections.
+TEST(ThreadKnot, TheKnotDeterminantTellsKnotsApart) {
+  auto torus = [](int p, int q) {  // ((2 + cos qt) cos pt, (2 + cos qt) sin pt, sin qt): outermost at t = 0
+    std::vector<std::array<double, 3>> x;
+    for (int i = 0; i < 490; ++i) {
+      const double t = 2 * kPi * i / 500.0;
+      x.push_back({(2 + std::cos(q * t)) * std::cos(p * t), (2 + std::cos(q * t)) * std::sin(p * t), std::sin(q * t)});
+    }
+    return x;
+  };
+  for (uint64_t seed = 0; seed < 10; ++seed) {
+    EXPECT_EQ(knot_determinant(torus(2, 3), seed, 100), 3) << seed;
+    EXPECT_EQ(knot_determinant(torus(2, 5), seed, 100), 5) << seed;
+    EXPECT_EQ(knot_determinant(torus(1, 0), seed, 100), 1) << seed;  // a circle of radius 3
+  }
 }
