@@ -180,6 +180,13 @@ class PySimulation {
       if (last_->stage_ran[k])
         stages[py::str(std::string(stage_name(static_cast<Stage>(k))))] = static_cast<double>(last_->stage_ns[k]) * 1e-6;
     d["stage_ms"] = stages;
+    if (!sim_->model().fem.rods.empty()) {  // the threads' contacts this tick (docs/THREAD.md, "Contact")
+      const ThreadContactOutput& t = last_->thread_contact;
+      py::dict tc;
+      tc["tissue"] = t.tissue, tc["self"] = t.self, tc["tools"] = t.tools, tc["rigid"] = t.rigid;
+      tc["dropped"] = t.dropped, tc["missed"] = t.missed, tc["unchecked"] = t.unchecked;
+      d["thread_contact"] = tc;
+    }
     return d;
   }
 

@@ -217,6 +217,8 @@ void RunOutputs::finish(RunResult& res) {
   j["time_budget"] = m.time_budget > 0 ? nlohmann::ordered_json(m.time_budget) : nlohmann::ordered_json("none");
   j["ticks_over_budget"] = res.ticks_over_budget;
   j["ticks_degraded"] = res.ticks_degraded;
+  if (!m.fem.rods.empty())  // docs/THREAD.md, "Contact": the continuous check after the step
+    j["thread_contact"] = {{"missed_springs_added", res.thread_missed}, {"checks_skipped", res.thread_unchecked}};
   if (m.stepper.preconditioner == Preconditioner::WarpedCholesky) {
     j["warped_preconditioner"] = {{"fallbacks", res.preconditioner_fallbacks},
                                   {"refreshes", res.preconditioner_refreshes}};
@@ -473,6 +475,8 @@ void run_dynamic(const CompiledScenario& sc, const RunOptions& o, long steps, Si
     res.max_substeps = std::max(res.max_substeps, r.substeps);
     res.ticks_over_budget += r.over_budget;
     res.ticks_degraded += r.degradation != Degradation::None;
+    res.thread_missed += r.thread_contact.missed;
+    res.thread_unchecked += r.thread_contact.unchecked;
     res.preconditioner_fallbacks += r.solve.preconditioner_fallback;
     res.residual_max = std::max(res.residual_max, r.solve.relative_residual);
     res.error_energy_max = std::max(res.error_energy_max, r.solve.error_energy);

@@ -56,6 +56,9 @@ struct RunResult {
   int max_substeps = 1;       ///< most sub-steps any tick needed
   long ticks_over_budget = 0;  ///< ticks that ended past solver.time_budget
   long ticks_degraded = 0;     ///< ticks the budget cut short (TickReport::degradation)
+  /// Threads: springs the continuous check after the step added, and passes it skipped (no redo
+  /// fitted before the deadline; headless only under a time budget).
+  long thread_missed = 0, thread_unchecked = 0;
   /// Warped Cholesky: solves Jacobi-PCG finished (SolveStats::preconditioner_fallback), and
   /// refreshed factors swapped in (`preconditioner_refresh`).
   long preconditioner_fallbacks = 0;

@@ -243,6 +243,8 @@ void PhysicsLoop::account_tick(const TickReport& r, RunState& rs, StatusWindow& 
   }
   if (r.status == TickStatus::SolverNotConverged) ++stats_.not_converged;
   if (r.status == TickStatus::Recovered) ++stats_.recovered;
+  stats_.thread_missed += static_cast<uint64_t>(r.thread_contact.missed);
+  stats_.thread_unchecked += static_cast<uint64_t>(r.thread_contact.unchecked);
   if (r.over_budget) {
     ++stats_.over_budget;
     ++win.over_budget;

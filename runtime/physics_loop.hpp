@@ -178,6 +178,9 @@ struct PhysicsLoopStats {
   uint64_t recovered = 0;  ///< ticks redone in sub-steps after a failed step
   uint64_t over_budget = 0;  ///< ticks whose engine work ended past the budget
   uint64_t degraded = 0;     ///< ticks the budget cut short (TickReport::degradation)
+  /// Threads (TickReport::thread_contact): springs the continuous check after the step added (the
+  /// step redone with them), and passes it skipped because no redo fitted before the deadline.
+  uint64_t thread_missed = 0, thread_unchecked = 0;
   int64_t budget_ns = 0;     ///< the per-tick budget used
   uint64_t cg_iterations_total = 0;
   uint64_t record_dropped = 0;  ///< session-log events lost because the recorder fell behind

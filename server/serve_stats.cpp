@@ -63,6 +63,8 @@ nlohmann::ordered_json stats_json(const ServeOptions& o, const Model& model, con
                       {"tissue_steps_late", st.tissue_steps_late},
                       {"haptic_model", model.haptic_secant ? "secant" : "hold"}};
   j["ticks_degraded"] = st.degraded;
+  if (!model.fem.rods.empty())  // docs/THREAD.md, "Contact": the continuous check after the step
+    j["thread_contact"] = {{"missed_springs_added", st.thread_missed}, {"checks_skipped", st.thread_unchecked}};
   j["controls"] = {{"received", counters.controls.load()}, {"dropped", counters.controls_dropped.load()}};
   {
     const CommandCounters& cc = loop.commands().counters();

@@ -313,9 +313,15 @@ def test_a_thread_is_read_as_its_nodes_and_swings_as_in_stroma_run(tmp_path):
     np.testing.assert_array_equal(x[0], start[0])  # the fixed end
     assert x[-1, 1] < start[0, 1] - 0.1, "it hangs down from its fixed end"
     assert abs(t["length"] / 0.15 - 1) < 1e-3, "a suture barely stretches under its weight"
+    tc = sim.metrics["thread_contact"]  # the last tick's thread contacts (docs/THREAD.md, "Contact")
+    assert set(tc) == {"tissue", "self", "tools", "rigid", "dropped", "missed", "unchecked"}
+    assert tc["unchecked"] == 0, "no deadline here: the continuous check always runs"
     subprocess.run([str(BUILD / "stroma"), "run", str(SCENARIOS / "thread_swing.yaml"), "--out", str(tmp_path),
                     "--quiet", "--no-metrics"], check=True)
     np.testing.assert_array_equal(final_state(tmp_path)[first:end], x)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["thread_contact"]["checks_skipped"] == 0
+    assert summary["thread_contact"]["missed_springs_added"] >= 0
 
 
 def _overhand_lay(scale, tail):

@@ -1226,7 +1226,11 @@ dds_entity_t thread_state_reader(dds_entity_t pp) {
 }
 
 void thread_over_dds(int domain, bool crtk) {
-  Process server(paused_serve_args("/tests/data/server/thread.yaml", domain, crtk));
+  const std::string stats = (fs::temp_directory_path() / ("stroma_serve_thread_" + std::to_string(domain) + ".json")).string();
+  fs::remove(stats);
+  std::vector<std::string> args = paused_serve_args("/tests/data/server/thread.yaml", domain, crtk);
+  args.insert(args.end(), {"--stats", stats});
+  Process server(args);
   Client client(domain);
   const dds_entity_t pp = client.participant();
   const dds_entity_t reader = thread_state_reader(pp);
@@ -1285,6 +1289,14 @@ void thread_over_dds(int domain, bool crtk) {
   EXPECT_GT(s.tension, 0.0) << "its weight and swing pull on it";
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(15), 0);
+  // --stats counts what the continuous contact check after the step did (docs/THREAD.md, "Contact").
+  std::ifstream in(stats);
+  ASSERT_TRUE(in.good()) << stats;
+  const auto j = nlohmann::json::parse(in);
+  ASSERT_TRUE(j.contains("thread_contact")) << j.dump();
+  EXPECT_GE(j["thread_contact"]["missed_springs_added"].get<int64_t>(), 0);
+  EXPECT_GE(j["thread_contact"]["checks_skipped"].get<int64_t>(), 0);
+  EXPECT_LE(j["thread_contact"]["checks_skipped"].get<int64_t>(), j["ticks"].get<int64_t>());
 }
 
 // Served end to end: tests/data/thread_draw_through.yaml under `stroma serve`, its graspers driven
