@@ -355,3 +355,120 @@ TEST(ThreadKnot, TheKnotDeterminantTellsKnotsApart) {
     EXPECT_EQ(knot_determinant(torus(1, 0), seed, 100), 1) << seed;  // a circle of radius 3
   }
 }
+
+// The first throw of an instrument tie, scripted (docs/THREAD.md, "Knots"; its Python twin is
+// the pytest `-k instrument_tie`): a 3-0 suture passes under the fixed 2 mm rod, grasper A (a
+// 0.3 mm sphere) holds its long end, B — a needle holder: a probe with a 1 mm tip and a 30 mm
+// shaft along +z, its grasp at the tip — holds the short end. B's tip goes 8 mm over the rod, its
+// shaft beside the rod; A wraps its strand 1¼ turns round the shaft (4 mm out, 4 mm behind the
+// tip) and takes up the slack to 0.05 N; B draws back 9 mm along its shaft, so the wrap slides
+// off its tip onto the tail; both pull apart to 1 N. Unknotted before (knot determinant 1), the
+// thread is then a half knot round the rod (3: a trefoil once closed far away), its loop still
+// under the rod — and no two segments went through each other on the way (the crossing check,
+// every tick): the knot came from the motions, not from a thread passing itself.
+TEST(ThreadKnot, TheFirstThrowOfAnInstrumentTieIsAHalfKnotRoundTheRod) {
+  STROMA_LONG_TEST();
+  const double rr = 0.001 + 1e-4 + 5e-5;  // the thread's axis round the rod's bottom
+  std::vector<P3> lay;
+  for (int i = 0; i < 200; ++i) {
+    const double u = i / 199.0;
+    lay.push_back({-0.004 + (-rr + 0.004) * u, 0.018 * (1 - u), 0.0});
+  }
+  for (int i = 1; i < 200; ++i) {
+    const double a = kPi + kPi * i / 199.0;
+    lay.push_back({rr * std::cos(a), rr * std::sin(a), 0.0});
+  }
+  for (int i = 1; i < 200; ++i) {
+    const double u = i / 199.0;
+    lay.push_back({rr + (0.004 - rr) * u, 0.009 * u, 0.0});
+  }
+  double fine = 0, L = 0;
+  for (size_t i = 1; i < lay.size(); ++i) fine += dist(lay[i], lay[i - 1]);
+  const int segments = static_cast<int>(std::lround(fine / 5e-4));
+  const std::vector<P3> q = resample(lay, segments, &L);
+  std::string path = "[";
+  for (size_t i = 0; i < q.size(); ++i)
+    path += (i ? ", [" : "[") + num(q[i][0]) + ", " + num(q[i][1]) + ", " + num(q[i][2]) + "]";
+  const std::string yaml = test_scenarios::rigid_scene_head("tie") + R"(rigid_bodies:
+  - name: rod
+    shape: {type: capsule, radius: 0.001, length: 0.1}
+    density: 1000
+    fixed: true
+    pose: {position: [0, 0, 0]}
+tools:
+)" + grasper("A", q.front()) + R"(  - name: B
+    shape: {type: probe, radius: 0.001, length: 0.03}
+    grasp: {close: 0.05, open: 0.1, stiffness: 1.0e4}
+    max_speed: 1.0
+    pose: {position: [)" + num(q.back()[0]) + ", " + num(q.back()[1]) + ", " + num(q.back()[2]) +
+                           "]}\nthreads:\n  - name: suture\n    length: " + num(L) + "\n    segments: " +
+                           std::to_string(segments) + "\n    diameter: " + num(kD) +
+                           "\n    young_modulus: 5.0e9\n    density: 1100\n    damping: {rayleigh_mass: 20}"
+                           "\n    friction: 0.2\n    path: " + path + "]\n";
+  const auto m = compile_model(parse_scenario(yaml, "tie.yaml", kSrc));
+  State s = State::initial(*m);
+  TickWorkspace w(*m);
+  std::vector<double> x0(s.tissue.x.size());
+  P3 pose[2] = {q.front(), q.back()};
+  int bad = 0, passes = 0, ticks = 0;
+  const TickReport* rep = nullptr;
+  auto step = [&] {
+    ToolInput in[2];
+    for (int t = 0; t < 2; ++t) {
+      in[t].tool = t;
+      in[t].seq = uint64_t(++ticks);
+      in[t].pose.position = {pose[t][0], pose[t][1], pose[t][2]};
+      in[t].pose.jaw = 0.0;
+    }
+    std::copy(s.tissue.x.begin(), s.tissue.x.end(), x0.begin());
+    rep = &tick(*m, s, w, in, 2);
+    bad += rep->status != TickStatus::Ok && rep->status != TickStatus::SolverNotConverged;
+    passes += count_passes(*m, x0, s.tissue.x.data());
+  };
+  auto line = [&](int who, const P3& to, double speed) {  // straight, at `speed` (m/s)
+    const P3 from = pose[who];
+    const int n = std::max(1, static_cast<int>(std::lround(dist(from, to) / speed * 1000)));
+    for (int i = 1; i <= n; ++i) {
+      for (int k = 0; k < 3; ++k) pose[who][size_t(k)] = from[size_t(k)] + (to[size_t(k)] - from[size_t(k)]) * i / n;
+      step();
+    }
+  };
+  auto force = [&](int t) { return std::hypot(rep->tools[t].force[0], rep->tools[t].force[1], rep->tools[t].force[2]); };
+  for (int i = 0; i < 50; ++i) step();
+  EXPECT_EQ(thread_knot(*m, s), 1) << "laid round the rod: no knot";
+  const double H = 0.008, RW = 0.004, ZW = 0.004;
+  auto ring = [&](double a) { return P3{RW * std::cos(a), H + RW * std::sin(a), ZW}; };
+  line(1, {0, H, 0}, 0.03);  // B's tip over the rod, its shaft along +z beside it
+  const P3 r0 = ring(kPi);
+  line(0, {r0[0] - 0.002, r0[1] + 0.003, r0[2]}, 0.03);
+  line(0, r0, 0.03);
+  const int wrap = static_cast<int>(std::lround(2.25 * kPi * RW / 0.03 * 1000));
+  for (int i = 1; i <= wrap; ++i) {  // over the shaft, down behind it, under, up: 1¼ turns
+    pose[0] = ring(kPi - 2.25 * kPi * i / wrap);
+    step();
+  }
+  for (int i = 0; i < 3000 && force(0) < 0.05; ++i) {  // A takes up the slack
+    pose[0][0] -= 1e-5, pose[0][1] += 2e-6;
+    step();
+  }
+  line(1, {pose[1][0], pose[1][1], pose[1][2] + 0.009}, 0.02);  // B draws back along its shaft
+  int i = 0;
+  for (; i < 3000 && std::max(force(0), force(1)) < 1.0; ++i) {  // both pull apart to 1 N
+    pose[0][0] -= 2e-5, pose[0][1] -= 4e-6;
+    pose[1][0] += 2e-5, pose[1][1] -= 4e-6;
+    step();
+  }
+  std::printf("  %d segments, %d ticks; pulled apart %d ms to %.2f / %.2f N; %d pass-throughs\n", segments, ticks, i,
+              force(0), force(1), passes);
+  EXPECT_LT(i, 3000) << "the graspers came to feel 1 N";
+  EXPECT_EQ(bad, 0);
+  EXPECT_EQ(passes, 0) << "no segment went through another";
+  EXPECT_EQ(thread_knot(*m, s), 3) << "a half knot: a trefoil once its ends are joined far away";
+  const RodRange& r = m->fem.rods[0];
+  double lowest = 1;  // its loop still under the rod, both ends above it
+  for (int32_t k = r.node_begin; k < r.node_end; ++k)
+    if (std::abs(s.tissue.x[3 * k]) < 0.0015) lowest = std::min(lowest, s.tissue.x[3 * k + 1]);
+  EXPECT_LT(lowest, -0.001);
+  EXPECT_GT(s.tissue.x[3 * r.node_begin + 1], 0.0);
+  EXPECT_GT(s.tissue.x[3 * (r.node_end - 1) + 1], 0.0);
+}
