@@ -324,6 +324,12 @@ def test_a_thread_is_read_as_its_nodes_and_swings_as_in_stroma_run(tmp_path):
     assert summary["thread_contact"]["missed_springs_added"] >= 0
 
 
+# A fixed tissue block far from the knot tests' threads (a scenario needs a tissue body).
+_FAR_BLOCK = {"name": "far", "mesh": str(SCENARIOS / "meshes" / "cube_tet4_h5p000mm.msh"), "scale": 0.1,
+              "translate": [1, 1, 1], "material": {"young_modulus": 1e4, "poisson_ratio": 0.45, "density": 1000},
+              "fixed": [{"box": {"min": [-10, -10, -10], "max": [10, 10, 10]}}]}
+
+
 def _overhand_lay(scale, tail):
     """An overhand knot laid loose: the trefoil (sin t + 2 sin 2t, cos t - 2 cos 2t, -sin 3t) at
     `scale`, cut open at its bottom lobe (t = pi +- 0.5), each cut end carried by a cubic Bezier
@@ -364,9 +370,7 @@ def test_an_overhand_knot_pulled_by_two_graspers_tightens_and_holds():
     sim = stroma.simulation_from_dict({
         "name": "knot", "time_step": 0.001, "gravity": [0, -9.81, 0],
         "solver": {"integrator": "implicit_euler", "preconditioner": "block_jacobi", "tolerance": 1e-10},
-        "bodies": [{"name": "far", "mesh": str(SCENARIOS / "meshes" / "cube_tet4_h5p000mm.msh"), "scale": 0.1,
-                    "translate": [1, 1, 1], "material": {"young_modulus": 1e4, "poisson_ratio": 0.45, "density": 1000},
-                    "fixed": [{"box": {"min": [-10, -10, -10], "max": [10, 10, 10]}}]}],
+        "bodies": [_FAR_BLOCK],
         "tools": [grasper("left", q[0]), grasper("right", q[-1])],
         "threads": [{"name": "suture", "length": length, "segments": n, "diameter": 2e-4, "young_modulus": 5e9,
                      "density": 1100, "damping": {"rayleigh_mass": 20}, "friction": 0.2, "path": q.tolist()}]})
@@ -488,9 +492,7 @@ def test_an_instrument_tie_throws_a_half_knot_round_a_rod():
     sim = stroma.simulation_from_dict({
         "name": "tie", "time_step": 0.001, "gravity": [0, -9.81, 0],
         "solver": {"integrator": "implicit_euler", "preconditioner": "block_jacobi", "tolerance": 1e-8},
-        "bodies": [{"name": "far", "mesh": str(SCENARIOS / "meshes" / "cube_tet4_h5p000mm.msh"), "scale": 0.1,
-                    "translate": [1, 1, 1], "material": {"young_modulus": 1e4, "poisson_ratio": 0.45, "density": 1000},
-                    "fixed": [{"box": {"min": [-10, -10, -10], "max": [10, 10, 10]}}]}],
+        "bodies": [_FAR_BLOCK],
         "rigid_bodies": [{"name": "rod", "shape": {"type": "capsule", "radius": 0.001, "length": 0.1},
                           "density": 1000, "fixed": True, "pose": {"position": [0, 0, 0]}}],
         "tools": [{"name": "A", "shape": {"type": "sphere", "radius": 0.0003}, "grasp": grasp, "max_speed": 1.0,
