@@ -911,6 +911,34 @@ def test_a_bad_thread_contact_stiffness_raises_with_file_line_and_field(tmp_path
     assert "bad_thread.yaml:14: threads[0].contact_stiffness" in cli.stderr
 
 
+def test_a_braided_threads_bending_stiffness_is_read_and_checked_by_every_front_end(tmp_path):
+    """`bending_stiffness` (docs/THREAD.md, "Braided sutures"): read, it sets the rod's bending
+    stiffness EI/l^3 (Python's view of the thread); above the solid rod's E*pi*d^4/64 it is the
+    one loader's file:line:field error — from Python, `stroma run` and `stroma serve` alike."""
+    mesh = SCENARIOS / "meshes" / "cube_tet4_h8p333mm.msh"
+    text = ("name: braid\nbodies:\n  - name: block\n    mesh: %s\n"
+            "    material: {young_modulus: 3.0e4, poisson_ratio: 0.45, density: 1000}\n"
+            "threads:\n  - name: suture\n    length: 0.04\n    segments: 20\n    diameter: 2.0e-4\n"
+            "    young_modulus: 5.0e9\n    density: 1100\n    start: [0, 0.1, 0]\n"
+            "    bending_stiffness: %s\n")
+    good = tmp_path / "braid.yaml"
+    good.write_text(text % (mesh, "1.0e-8"))
+    t = stroma.Simulation(str(good)).threads[0]
+    assert t["bend_stiffness"] == pytest.approx(1e-8 / 0.002 ** 3, rel=1e-12)
+    assert t["stretch_stiffness"] == pytest.approx(5e9 * np.pi * 1e-8 / 0.002, rel=1e-12)
+    bad = tmp_path / "bad_braid.yaml"
+    bad.write_text(text % (mesh, "1.0e-6"))
+    where = "bad_braid.yaml:14: threads[0].bending_stiffness"
+    with pytest.raises(ValueError) as e:
+        stroma.Simulation(str(bad))
+    assert where in str(e.value) and "more than a solid rod" in str(e.value)
+    for cmd in (["run", str(bad), "--out", str(tmp_path / "out"), "--quiet"],
+                ["serve", str(bad), "--domain", "147", "--duration", "1", "--realtime", "off"]):
+        cli = subprocess.run([str(BUILD / "stroma")] + cmd, capture_output=True, text=True, timeout=60)
+        assert cli.returncode == 2, cmd
+        assert where in cli.stderr, cmd
+
+
 @pytest.fixture(scope="module")
 def stitch_env():
     """The stitch environment, made once for its tests (the scripted stitch runs ~15 s)."""
