@@ -30,6 +30,7 @@
 #include "scene/sofa_scene.hpp"
 #include "scene/yaml_schema.hpp"
 #include "tissue/input_error.hpp"
+#include "tissue/rod.hpp"
 
 namespace stroma {
 namespace {
@@ -886,8 +887,7 @@ ThreadSpec parse_thread(const MapReader& m, const Context& ctx) {
   m.require("young_modulus", t.young_modulus,
             physical_range(1e3, 1e12, "Pa: polyglactin and nylon sutures are ~1..10 GPa, silk ~5..10 GPa"));
   m.require("density", t.density, physical_range(1, 1e5, "kg/m^3: sutures are ~1000..1500"));
-  const double pi = 3.14159265358979323846;
-  const double solid_ei = t.young_modulus * pi * std::pow(t.diameter, 4) / 64.0;
+  const double solid_ei = rod_solid_flexural_rigidity(t.young_modulus, t.diameter);
   m.read("bending_stiffness", t.bending_stiffness,
          physical_range(1e-20, 1e3, "N*m^2: a 3-0 monofilament (0.2 mm, E 5 GPa) ~4e-7, a braid of the same ~1e-9..1e-8"));
   if (t.bending_stiffness > solid_ei * (1 + 1e-12))
@@ -899,7 +899,7 @@ ThreadSpec parse_thread(const MapReader& m, const Context& ctx) {
   // kThreadMaxSegmentRatio diameters a segment, 1/(16·ratio²): the longest segment 4·ratio·√(EI/EA).
   const double ei = t.bending_stiffness > 0 ? t.bending_stiffness : solid_ei;
   const double seg = t.length / t.segments;
-  const double max_seg = 4 * kThreadMaxSegmentRatio * std::sqrt(ei / (t.young_modulus * pi * t.diameter * t.diameter / 4));
+  const double max_seg = 4 * kThreadMaxSegmentRatio * std::sqrt(ei / rod_axial_rigidity(t.young_modulus, t.diameter));
   if (seg > max_seg * (1 + 1e-9))
     m.req("segments").fail(fmt::format(
         "segments of {} m are {} diameters long; at most {} m ({} diameters) for this thread: beyond, the bending "

@@ -92,15 +92,25 @@ static_assert(sizeof(RodPuncture) == 80, "RodPuncture has padding");
 /// The slots of one anchor: the upper triangle of its 5×5 node pairs.
 inline constexpr int kRodAnchorSlots = 15;
 
-/// The stiffnesses of a solid round rod of `diameter` d and Young's modulus E with segments of
-/// length ℓ: A = π d²/4, I = π d⁴/64.
-inline double rod_stretch_stiffness(double young_modulus, double diameter, double segment_length) {
+/// A solid round rod of diameter d and Young's modulus E: its axial rigidity E·A (N, A = π d²/4)
+/// and flexural rigidity E·I (N·m², I = π d⁴/64). A thread's `bending_stiffness` (a braid's E·I)
+/// is at most the solid's (the loader's check).
+inline double rod_axial_rigidity(double young_modulus, double diameter) {
   const double pi = 3.14159265358979323846;
-  return young_modulus * pi * diameter * diameter / 4.0 / segment_length;
+  return young_modulus * pi * diameter * diameter / 4.0;
 }
-inline double rod_bend_stiffness(double young_modulus, double diameter, double segment_length) {
+inline double rod_solid_flexural_rigidity(double young_modulus, double diameter) {
   const double pi = 3.14159265358979323846;
-  return young_modulus * pi * std::pow(diameter, 4) / 64.0 / std::pow(segment_length, 3);
+  return young_modulus * pi * std::pow(diameter, 4) / 64.0;
+}
+
+/// The stiffnesses of a rod's segments of length ℓ: stretching k_s = E·A/ℓ, bending
+/// k_b = E·I/ℓ³ (E·I the solid rod's unless given).
+inline double rod_stretch_stiffness(double young_modulus, double diameter, double segment_length) {
+  return rod_axial_rigidity(young_modulus, diameter) / segment_length;
+}
+inline double rod_bend_stiffness(double flexural_rigidity, double segment_length) {
+  return flexural_rigidity / std::pow(segment_length, 3);
 }
 
 }  // namespace stroma
