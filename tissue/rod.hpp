@@ -104,8 +104,9 @@ inline double rod_solid_flexural_rigidity(double young_modulus, double diameter)
   return young_modulus * pi * std::pow(diameter, 4) / 64.0;
 }
 
-/// The stiffnesses of a rod's segments of length ℓ: stretching k_s = E·A/ℓ, bending
-/// k_b = E·I/ℓ³ (E·I the solid rod's unless given).
+/// The stiffnesses of a rod's segments of length ℓ: stretching k_s = E·A/ℓ (the solid's E·A),
+/// bending k_b = E·I/ℓ³ for the flexural rigidity E·I passed in (a braid's `bending_stiffness`, or
+/// rod_solid_flexural_rigidity's).
 inline double rod_stretch_stiffness(double young_modulus, double diameter, double segment_length) {
   return rod_axial_rigidity(young_modulus, diameter) / segment_length;
 }
