@@ -16,6 +16,7 @@
 #include "scene/compiled_scenario.hpp"
 #include "scene/scenario_spec.hpp"
 #include "tests/input_error_message.hpp"
+#include "tests/test_labels.hpp"
 #include "tests/test_scenarios.hpp"
 
 using namespace stroma;
@@ -402,6 +403,7 @@ TEST(ThreadPuncture, APulledThreadPassesItsTensionThroughAPunctureLessItsFrictio
 // at the end each puncture's point of the thread is at its material point, at the arc length
 // from the tail the needle has travelled past it.
 TEST(ThreadPuncture, ANeedleDrawsItsThreadThroughTheTissue) {
+  STROMA_LONG_TEST();  // 64 s under the sanitizers; the other ThreadPuncture cases run the puncture there
   const auto m = compile_model(load_scenario(kSrc + "/tests/data/thread_draw_through.yaml"));
   State s = State::initial(*m);
   TickWorkspace w(*m);
