@@ -897,7 +897,7 @@ ThreadSpec parse_thread(const MapReader& m, const Context& ctx) {
                           format_number(t.bending_stiffness), solid_ei));
   // The bending over the stretching stiffness, EI/(EA·l²), at least a solid rod's at
   // kThreadMaxSegmentRatio diameters a segment, 1/(16·ratio²): the longest segment 4·ratio·√(EI/EA).
-  const double ei = t.bending_stiffness > 0 ? t.bending_stiffness : solid_ei;
+  const double ei = rod_flexural_rigidity(t.young_modulus, t.diameter, t.bending_stiffness);
   const double seg = t.length / t.segments;
   const double max_seg = 4 * kThreadMaxSegmentRatio * std::sqrt(ei / rod_axial_rigidity(t.young_modulus, t.diameter));
   if (seg > max_seg * (1 + 1e-9))

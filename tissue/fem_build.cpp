@@ -117,7 +117,7 @@ void add_rod(FemModel& m, const FemRodInput& rod, const Vec3& gravity, int32_t n
   r.segment_length = rod.segment_length;
   r.stretch_stiffness = rod_stretch_stiffness(rod.young_modulus, rod.diameter, rod.segment_length);
   r.bend_stiffness = rod_bend_stiffness(
-      rod.bending_stiffness > 0 ? rod.bending_stiffness : rod_solid_flexural_rigidity(rod.young_modulus, rod.diameter),
+      rod_flexural_rigidity(rod.young_modulus, rod.diameter, rod.bending_stiffness),
       rod.segment_length);
   r.beta = rod.rayleigh_stiffness;
   r.diameter = rod.diameter;

@@ -104,9 +104,14 @@ inline double rod_solid_flexural_rigidity(double young_modulus, double diameter)
   return young_modulus * pi * std::pow(diameter, 4) / 64.0;
 }
 
+/// The flexural rigidity a thread bends with: its `bending_stiffness` (a braid's E·I) when given
+/// (> 0), else the solid rod's.
+inline double rod_flexural_rigidity(double young_modulus, double diameter, double bending_stiffness) {
+  return bending_stiffness > 0 ? bending_stiffness : rod_solid_flexural_rigidity(young_modulus, diameter);
+}
+
 /// The stiffnesses of a rod's segments of length ℓ: stretching k_s = E·A/ℓ (the solid's E·A),
-/// bending k_b = E·I/ℓ³ for the flexural rigidity E·I passed in (a braid's `bending_stiffness`, or
-/// rod_solid_flexural_rigidity's).
+/// bending k_b = E·I/ℓ³ for the flexural rigidity E·I passed in (rod_flexural_rigidity's).
 inline double rod_stretch_stiffness(double young_modulus, double diameter, double segment_length) {
   return rod_axial_rigidity(young_modulus, diameter) / segment_length;
 }
