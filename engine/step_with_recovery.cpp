@@ -5,6 +5,9 @@
 
 #include "engine/stage_timer.hpp"
 #include "engine/tick.hpp"  // step_inputs
+#include "rigid/rigid_motion.hpp"
+#include "tissue/contact_spring.hpp"
+#include "tissue/time_stepper.hpp"
 
 namespace stroma {
 
@@ -81,6 +84,81 @@ bool integrate_rigid(const Model& m, State& s, const TickWorkspace& w, double h)
   return acc == 0.0;
 }
 
+/// The rigid rows' share of the energy guard's account for a full step (from the tick's start,
+/// w.backup_rigid, to s.rigid): the bodies with rows — kinetic energy and gravity's potential
+/// before and after — and the springs naming a row as the step linearised them: d, the point's
+/// displacement less its anchor's, with a row's point moving by h·(v + ω × arm) at the step's
+/// end velocities (the rows' linear model, tissue/rigid_rows.hpp).
+GuardRows guard_rows(const Model& m, const State& s, const TickWorkspace& w, double h) {
+  GuardRows g;
+  const Vec3& gr = m.fem.gravity;
+  for (size_t k = 0; k < m.rigid_bodies.size(); ++k) {
+    if (m.rigid_bodies[k].fixed || w.body_row[k] < 0) continue;
+    const RigidBodyModel& b = m.rigid_bodies[k];
+    const RigidState &s0 = w.backup_rigid[k], &s1 = s.rigid[k];
+    g.kinetic0 += rigid_kinetic_energy(b.mass.mass, b.mass.inertia, s0);
+    g.kinetic1 += rigid_kinetic_energy(b.mass.mass, b.mass.inertia, s1);
+    for (int i = 0; i < 3; ++i) {
+      g.gravity0 -= b.mass.mass * gr[size_t(i)] * s0.x[size_t(i)];
+      g.gravity1 -= b.mass.mass * gr[size_t(i)] * s1.x[size_t(i)];
+    }
+  }
+  auto row_travel = [&](int32_t row, const double* arm, double* d, double sign) {
+    const RigidState& rs = s.rigid[size_t(w.row_body[size_t(row)])];
+    const double c[3] = {rs.w[1] * arm[2] - rs.w[2] * arm[1], rs.w[2] * arm[0] - rs.w[0] * arm[2],
+                         rs.w[0] * arm[1] - rs.w[1] * arm[0]};
+    for (int i = 0; i < 3; ++i) d[i] += sign * h * (rs.v[size_t(i)] + c[i]);
+  };
+  const double* x0 = w.backup_x.data();
+  const double* x1 = s.tissue.x.data();
+  for (const ContactSpring& sp : w.springs) {
+    if (!spring_has_rows(sp)) continue;
+    double d[3] = {0, 0, 0};
+    if (sp.n > 0) {
+      double p0[3], p1[3];
+      spring_point(sp, x0, p0);
+      spring_point(sp, x1, p1);
+      for (int i = 0; i < 3; ++i) d[i] = p1[i] - p0[i];
+    } else {
+      row_travel(sp.row_p, sp.arm_p, d, 1.0);
+    }
+    if (sp.row_n >= 0) row_travel(sp.row_n, sp.arm_n, d, -1.0);
+    for (int i = 0; i < 3; ++i) {
+      g.spring_linear -= sp.force[i] * d[i];
+      g.spring_quadratic += 0.5 * d[i] * (sp.K[3 * i] * d[0] + sp.K[3 * i + 1] * d[1] + sp.K[3 * i + 2] * d[2]);
+    }
+  }
+  return g;
+}
+
+/// The bodies with rows follow what the energy guard did to the tissue (GuardRows' out): their
+/// poses θ of the way from the tick's start (the orientation by normalised interpolation: a
+/// step's turn is small), their velocities scaled.
+void follow_guard(const Model& m, State& s, const TickWorkspace& w, const GuardRows& g) {
+  for (size_t k = 0; k < m.rigid_bodies.size(); ++k) {
+    if (m.rigid_bodies[k].fixed || w.body_row[k] < 0) continue;
+    const RigidState& s0 = w.backup_rigid[k];
+    RigidState& rs = s.rigid[k];
+    if (g.theta < 1) {
+      double dot = 0;
+      for (int i = 0; i < 4; ++i) dot += s0.q[size_t(i)] * rs.q[size_t(i)];
+      const double sign = dot < 0 ? -1.0 : 1.0;
+      double n2 = 0;
+      for (int i = 0; i < 4; ++i) {
+        rs.q[size_t(i)] = (1 - g.theta) * s0.q[size_t(i)] + g.theta * sign * rs.q[size_t(i)];
+        n2 += rs.q[size_t(i)] * rs.q[size_t(i)];
+      }
+      const double inv = 1.0 / std::sqrt(n2);
+      for (int i = 0; i < 4; ++i) rs.q[size_t(i)] *= inv;
+      for (int i = 0; i < 3; ++i) rs.x[size_t(i)] = s0.x[size_t(i)] + g.theta * (rs.x[size_t(i)] - s0.x[size_t(i)]);
+    }
+    for (int i = 0; i < 3; ++i) {
+      rs.v[size_t(i)] *= g.velocity_scale;
+      rs.w[size_t(i)] *= g.velocity_scale;
+    }
+  }
+}
+
 /// Records the worst degradation of the tick.
 void degrade(TickReport& r, Degradation d) {
   if (static_cast<int>(d) > static_cast<int>(r.degradation)) r.degradation = d;
@@ -139,7 +217,13 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
         stepper.energy_guard_applies()) {
       double removed = 0;
       const int64_t g0 = steady_now_ns();
-      const EnergyLimit e = stepper.energy_guard(t, h, &removed);
+      // With rigid rows only a full step (from the tick's start, where the backups are) is
+      // checked: the bodies' share of the account is the engine's.
+      const bool rows = w.rigid_in.rows > 0;
+      GuardRows g;
+      if (rows && h == m.fem_step) g = guard_rows(m, s, w, h);
+      const EnergyLimit e = stepper.energy_guard(t, h, &removed, rows && h == m.fem_step ? &g : nullptr);
+      if (rows && e != EnergyLimit::None) follow_guard(m, s, w, g);
       w.guard_ns += (steady_now_ns() - g0 - w.guard_ns) / 8;  // what the tick keeps back for it
       if (e != EnergyLimit::None) {
         r.energy_limit = e;

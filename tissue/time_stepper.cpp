@@ -550,7 +550,7 @@ NewtonStats TimeStepper::newton(TissueState& s, double h, Deadline* deadline) {
   return st;
 }
 
-double TimeStepper::potential_terms(const double* x) const {
+double TimeStepper::potential_terms(const double* x, bool skip_rows) const {
   double e = 0;
   for (int32_t i = 0; i < m_.num_nodes; ++i) {
     const double dm = mass(i) - m_.mass[i];
@@ -562,6 +562,7 @@ double TimeStepper::potential_terms(const double* x) const {
   if (!in_.contact_origin) return e;
   for (int c = 0; c < in_.spring_count; ++c) {
     const ContactSpring& sp = in_.springs[c];
+    if (skip_rows && spring_has_rows(sp)) continue;
     double p0[3], p1[3];
     spring_point(sp, in_.contact_origin, p0);
     spring_point(sp, x, p1);
@@ -572,15 +573,19 @@ double TimeStepper::potential_terms(const double* x) const {
   return e;
 }
 
-EnergyLimit TimeStepper::energy_guard(TissueState& s, double h, double* removed) {
+EnergyLimit TimeStepper::energy_guard(TissueState& s, double h, double* removed, GuardRows* rows) {
   *removed = 0;
-  // The guard measures the tissue's energy; with rigid rows energy moves between the tissue
-  // and the bodies within the step, which it does not see (docs/RIGID.md).
-  if (rows_.rows() > 0) return EnergyLimit::None;
+  // With rigid rows energy moves between the tissue and the bodies within the step: the
+  // account closes only with the bodies' share (the engine's), else the guard stays out.
+  if (rows_.rows() > 0 && !rows) return EnergyLimit::None;
+  const bool with_rows = rows != nullptr;
+  GuardRows none;
+  GuardRows& g = with_rows ? *rows : none;
+  g.theta = g.velocity_scale = 1;
   const size_t n3 = s.x.size();
   // The start of the step: v₀ = v − Δv, x₀ = x − h·v (constrained DOFs did not move).
   std::vector<double>& x0 = tmp_;
-  double ke0 = 0, ke1 = 0;
+  double ke0 = g.kinetic0, ke1 = g.kinetic1;
   for (int32_t i = 0; i < m_.num_nodes; ++i) {
     const double mi = mass(i);
     for (int k = 0; k < 3; ++k) {
@@ -592,17 +597,23 @@ EnergyLimit TimeStepper::energy_guard(TissueState& s, double h, double* removed)
       ke1 += 0.5 * mi * s.v[d] * s.v[d];
     }
   }
-  const double e0 = ke0 + u_start_ + potential_terms(x0.data());
-  const double v1 = step_potential(s.x.data()) + potential_terms(s.x.data());
+  // The potential θ of the way along the step (θ = 1: its end), less the elastic part.
+  auto rows_potential = [&](double theta) {
+    return g.gravity0 + theta * (g.gravity1 - g.gravity0) + theta * g.spring_linear + theta * theta * g.spring_quadratic;
+  };
+  const double e0 = ke0 + u_start_ + potential_terms(x0.data(), with_rows) + g.gravity0;
+  const double v1 = step_potential(s.x.data()) + potential_terms(s.x.data(), with_rows) + rows_potential(1.0);
   const double tol = 1e-12 * (std::abs(e0) + ke1 + std::abs(v1)) + 1e-300;
   if (ke1 + v1 <= e0 + tol) return EnergyLimit::None;
-  auto scale_velocities = [&](double available, double ke) {
+  auto velocity_factor = [&](double available, double ke) {
     const double f = ke > 0 ? std::sqrt(std::max(0.0, available) / ke) : 0.0;
-    if (f < 1.0)
-      for (double& v : s.v) v *= f;
+    return std::min(f, 1.0);
   };
   if (v1 <= e0) {  // the kinetic energy is what grew: damp this tick's velocities
-    scale_velocities(e0 - v1, ke1);
+    const double f = velocity_factor(e0 - v1, ke1);
+    if (f < 1.0)
+      for (double& v : s.v) v *= f;
+    g.velocity_scale = f;
     *removed = ke1 + v1 - e0;
     return EnergyLimit::VelocityScaled;
   }
@@ -611,11 +622,14 @@ EnergyLimit TimeStepper::energy_guard(TissueState& s, double h, double* removed)
   std::copy(s.x.begin(), s.x.end(), x1.begin());
   for (double theta = 0.5; theta >= 1.0 / 64; theta *= 0.5) {
     for (size_t d = 0; d < n3; ++d) s.x[d] = x0[d] + theta * (x1[d] - x0[d]);
-    const double vt = step_potential(s.x.data()) + potential_terms(s.x.data());
+    const double vt = step_potential(s.x.data()) + potential_terms(s.x.data(), with_rows) + rows_potential(theta);
     if (vt <= e0) {
-      const double ke = theta * theta * ke1;
       for (double& v : s.v) v *= theta;
-      scale_velocities(e0 - vt, ke);
+      const double f = velocity_factor(e0 - vt, theta * theta * ke1);
+      if (f < 1.0)
+        for (double& v : s.v) v *= f;
+      g.theta = theta;
+      g.velocity_scale = theta * f;
       *removed = ke1 + v1 - e0;
       redo_viscous_update(s);
       return EnergyLimit::PositionsPulled;
@@ -623,6 +637,8 @@ EnergyLimit TimeStepper::energy_guard(TissueState& s, double h, double* removed)
   }
   std::copy(x0.begin(), x0.end(), s.x.begin());
   std::fill(s.v.begin(), s.v.end(), 0.0);
+  g.theta = 0;
+  g.velocity_scale = 0;
   *removed = ke1 + v1 - e0;
   redo_viscous_update(s);
   return EnergyLimit::Held;

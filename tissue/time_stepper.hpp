@@ -87,6 +87,20 @@ enum class EnergyLimit : uint8_t {
   Held             ///< back to the start positions, velocities zero
 };
 
+/// The rigid rows' share of a step's energy, for energy_guard() (the engine fills it: tissue/
+/// knows no bodies' states). In: the bodies that had rows in the step — their kinetic energy at
+/// the step's start and end, their gravitational potential (−m·g·x) at start and end — and the
+/// springs that name a row, as the step linearised them: along the step (a fraction θ of it)
+/// their potential is θ·spring_linear + θ²·spring_quadratic (−f·d and ½dᵀKd at the step's end, d
+/// the point's displacement less its anchor's, both sides moving). Out: what the guard did, for
+/// the bodies to follow — their poses θ of the way along the step (1: kept), their velocities
+/// × velocity_scale.
+struct GuardRows {
+  double kinetic0 = 0, kinetic1 = 0, gravity0 = 0, gravity1 = 0;
+  double spring_linear = 0, spring_quadratic = 0;
+  double theta = 1, velocity_scale = 1;
+};
+
 /// Result of a static solve.
 struct StaticResult {
   int newton_iterations = 0;
@@ -174,8 +188,10 @@ class TimeStepper {
   /// down so that it did not; if the positions alone hold more than the start energy, they are
   /// pulled back along the step (halving, up to 6 times; then the start positions, at rest).
   /// Costs one elastic-energy element pass, only when called. Returns what it did; `removed`
-  /// gets the energy taken out (J).
-  EnergyLimit energy_guard(TissueState& s, double h, double* removed);
+  /// gets the energy taken out (J). A step with rigid rows is checked only with their share
+  /// (`rows`: the bodies' energies and the springs to them join the account, the springs to
+  /// them leave the tissue's; the bodies are to follow what it did) — without it, None.
+  EnergyLimit energy_guard(TissueState& s, double h, double* removed, GuardRows* rows = nullptr);
   /// Whether energy_guard() means anything for this model: its elastic forces are the gradient
   /// of the energy it measures. Not so with QR-rotation corotational elements (SOFA's "large"
   /// frame: the rotation is not the polar one, the force not −∂E/∂x), where an exact step can
@@ -271,7 +287,8 @@ class TimeStepper {
   void redo_viscous_update(TissueState& s) const;
   /// −f_ext·(x − X) (gravity following the current masses) plus the contact springs' potential
   /// relative to their origin, at positions x.
-  double potential_terms(const double* x) const;
+  /// `skip_rows`: without the springs that name a rigid row (the engine's GuardRows has them).
+  double potential_terms(const double* x, bool skip_rows = false) const;
   /// ½ rᵀM_eff⁻¹r and the position bound for SolveStats (r: the CG residual; M_eff = (1 + hα)M).
   void error_bounds(const double* r, double h, SolveStats& st) const;
   double mass(int32_t i) const { return in_.node_mass ? in_.node_mass[i] : m_.mass[i]; }
