@@ -7,6 +7,7 @@
 #include "engine/tick.hpp"  // step_inputs
 #include "rigid/rigid_motion.hpp"
 #include "tissue/contact_spring.hpp"
+#include "tissue/mat3.hpp"
 #include "tissue/time_stepper.hpp"
 
 namespace stroma {
@@ -105,8 +106,8 @@ GuardRows guard_rows(const Model& m, const State& s, const TickWorkspace& w, dou
   }
   auto row_travel = [&](int32_t row, const double* arm, double* d, double sign) {
     const RigidState& rs = s.rigid[size_t(w.row_body[size_t(row)])];
-    const double c[3] = {rs.w[1] * arm[2] - rs.w[2] * arm[1], rs.w[2] * arm[0] - rs.w[0] * arm[2],
-                         rs.w[0] * arm[1] - rs.w[1] * arm[0]};
+    double c[3];
+    m3::cross(rs.w.data(), arm, c);  // ω × arm
     for (int i = 0; i < 3; ++i) d[i] += sign * h * (rs.v[size_t(i)] + c[i]);
   };
   const double* x0 = w.backup_x.data();
@@ -219,10 +220,10 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
       const int64_t g0 = steady_now_ns();
       // With rigid rows only a full step (from the tick's start, where the backups are) is
       // checked: the bodies' share of the account is the engine's.
-      const bool rows = w.rigid_in.rows > 0;
+      const bool rows = w.rigid_in.rows > 0 && h == m.fem_step;
       GuardRows g;
-      if (rows && h == m.fem_step) g = guard_rows(m, s, w, h);
-      const EnergyLimit e = stepper.energy_guard(t, h, &removed, rows && h == m.fem_step ? &g : nullptr);
+      if (rows) g = guard_rows(m, s, w, h);
+      const EnergyLimit e = stepper.energy_guard(t, h, &removed, rows ? &g : nullptr);
       if (rows && e != EnergyLimit::None) follow_guard(m, s, w, g);
       w.guard_ns += (steady_now_ns() - g0 - w.guard_ns) / 8;  // what the tick keeps back for it
       if (e != EnergyLimit::None) {
