@@ -23,7 +23,7 @@ For each scene:
 Prints a Markdown table (docs/PERFORMANCE.md). Machines are shared and noisy: use many runs.
 
 Usage: bench/physical.py [--stroma build/stroma] [--runs 5] [--every 50] [--scenes a,b]
-                         [--out /tmp/stroma_physical]
+                         [--out /tmp/stroma_physical] [--variant 'stiffness_every: 4, time_budget: 0.00065']
 """
 import argparse, csv, json, math, os, re, statistics, subprocess, sys
 
@@ -33,7 +33,8 @@ SCENES = ["liver_16cm", "liver_16cm_locking_free", "liver_fine_16cm", "liver_fin
 CONVERGED = "max_iterations: 5000, tolerance: 1.0e-10"
 
 
-def scenario_with_solver(scene, solver_override, reset=("max_iterations", "tolerance", "on_cg_cap", "time_budget")):
+def scenario_with_solver(scene, solver_override, reset=("max_iterations", "tolerance", "on_cg_cap", "time_budget"),
+                         tag=""):
     """The scene's YAML with its solver map's settings overridden (a copy next to the original, so
     relative mesh paths still resolve): the keys given replace the scene's, and the `reset` keys
     are dropped (back to their defaults) unless given. Returns (path, temporary file or None)."""
@@ -49,7 +50,7 @@ def scenario_with_solver(scene, solver_override, reset=("max_iterations", "toler
     keep = [kv.strip() for kv in m.group(1).replace("\n", " ").split(",")
             if kv.strip() and kv.split(":")[0].strip() not in drop]
     src = src[:m.start()] + "solver: {" + ", ".join(keep + [solver_override]) + "}" + src[m.end():]
-    tmp = os.path.join(os.path.dirname(path), f".physical_{scene}.yaml")
+    tmp = os.path.join(os.path.dirname(path), f".physical_{scene}{tag}.yaml")
     with open(tmp, "w") as f:
         f.write(src)
     return tmp, tmp
@@ -97,13 +98,16 @@ def main():
     ap.add_argument("--every", type=int, default=50, help="ticks between state samples for the error")
     ap.add_argument("--scenes", default=",".join(SCENES))
     ap.add_argument("--out", default="/tmp/stroma_physical")
+    ap.add_argument("--variant", default="",
+                    help="solver settings that replace the scene's in the timed and compared runs (e.g. "
+                         "'stiffness_every: 4, time_budget: 0.00065'); the converged reference is the scene's own")
     a = ap.parse_args()
     print("| scene | nodes / tets | tick p50 / p99 / max ms | CG it. mean / max | displacement error (of max) | "
           "feedback error (of max) |")
     print("|---|---|---|---|---|---|")
     for scene in a.scenes.split(","):
         base = os.path.join(a.out, scene)
-        shipped, _ = scenario_with_solver(scene, None)
+        shipped, variant_tmp = scenario_with_solver(scene, a.variant or None, reset=(), tag="_variant")
         p50, p99, mx, cg, cgmax = [], [], [], [], 0
         for r in range(a.runs):
             out = os.path.join(base, f"timing_{r}")
@@ -113,6 +117,8 @@ def main():
             cg.append(s["cg_iterations"]["mean"]); cgmax = max(cgmax, s["cg_iterations"]["max"])
             print(f"physical.py: {scene} timing run {r + 1}/{a.runs}", file=sys.stderr, flush=True)
         run(a.stroma, shipped, os.path.join(base, "shipped"), ["--vtu-every", str(a.every)])
+        if variant_tmp:
+            os.remove(variant_tmp)
         conv, tmp = scenario_with_solver(scene, CONVERGED)
         try:
             run(a.stroma, conv, os.path.join(base, "converged"), ["--vtu-every", str(a.every)])

@@ -13,7 +13,12 @@ needle through the intact liver, a 100-segment thread through two punctures; 0: 
 
     python3 bench/thread_ticks.py --runs 3 [--stroma build/stroma] [--scene S] [--segments N]
 
-`--served SECONDS [--no-thread]`: instead, the scene (with its segments, or without its thread) served at 1 kHz with the other
+`--stiffness-every 1,4@0.00065`: the thread scene alone, once per value of `solver.stiffness_every`
+in each round (alternating; `N@B`: with time_budget B seconds, else `--budget` or the scene's),
+with the ticks over 0.9 ms, the solve's position error estimate and the grasper's force at the
+end (a runaway shows there).
+
+`--served SECONDS [--no-thread] [--stiffness-every N] [--budget B]`: instead, the scene (with its segments, or without its thread) served at 1 kHz with the other
 core busy (bench/realtime.sh: the grasper's script from a client that resumes the paused server,
 the scalpel's from a second client), printing the server's tick and deadline statistics.
 """
@@ -50,6 +55,25 @@ def without_thread(src, dst):
     open(dst, "w").write(absolute(text[:a] + text[b:]))
 
 
+def with_stiffness_every(path, n, budget=0.0):
+    """The scene at `path` rewritten with solver.stiffness_every = n (and time_budget, if given)."""
+    text = open(path).read()
+    assert "solver: {" in text, "the scene's solver section is expected in flow style"
+    text = re.sub(r"stiffness_every: \d+, ", "", text).replace("solver: {", f"solver: {{stiffness_every: {n}, ", 1)
+    if budget > 0:
+        text = re.sub(r"time_budget: [0-9.e-]+", f"time_budget: {budget}", text, count=1)
+    open(path, "w").write(text)
+
+
+def final_force(out, tool="grasper"):
+    """The tool's force magnitude (N) in the last row of metrics.csv (nan if not recorded)."""
+    rows = list(csv.DictReader(open(os.path.join(out, "metrics.csv"))))
+    keys = [f"{tool}_f{c}" for c in "xyz"]
+    if not rows or any(k not in rows[-1] for k in keys):
+        return float("nan")
+    return sum(float(rows[-1][k]) ** 2 for k in keys) ** 0.5
+
+
 def run(stroma, scene, out, skip):
     subprocess.run([stroma, "run", scene, "--out", out, "--quiet"], check=True, capture_output=True)
     rows = list(csv.DictReader(open(os.path.join(out, "metrics.csv"))))[skip:]
@@ -64,6 +88,8 @@ def run(stroma, scene, out, skip):
         "assemble_p50": pct("assemble_ms", 0.5), "solve_p50": pct("solve_ms", 0.5),
         "cg_mean": statistics.mean(float(r["cg_iterations"]) for r in rows),
         "cut": sum(1 for r in rows if r["degradation"] != "none") / len(rows),
+        "over": sum(1 for r in rows if float(r["step_ms"]) > 0.9) / len(rows),
+        "err_p50": pct("error_position", 0.5), "err_p99": pct("error_position", 0.99),
     }
 
 
@@ -76,6 +102,8 @@ def main():
     ap.add_argument("--segments", type=int, default=100, help="the thread's segments (0: as the scene has it)")
     ap.add_argument("--served", type=float, default=0, help="serve the scene this many seconds instead")
     ap.add_argument("--no-thread", action="store_true", help="--served: the scene without its thread")
+    ap.add_argument("--stiffness-every", default="", help="comma-separated values of solver.stiffness_every to compare")
+    ap.add_argument("--budget", type=float, default=0, help="--stiffness-every: the solver's time_budget (s) instead of the scene's")
     a = ap.parse_args()
     if a.served > 0:
         with tempfile.TemporaryDirectory() as tmp:
@@ -84,11 +112,32 @@ def main():
                 without_thread(a.scene, scene)
             else:
                 with_segments(a.scene, scene, a.segments)
+            if a.stiffness_every:
+                with_stiffness_every(scene, int(a.stiffness_every), a.budget)
             traj = os.path.join(ROOT, "scenarios", "trajectories")
             env = dict(os.environ, PAUSED="1", TOOL_NAME="grasper",
                        SECOND_TOOL="scalpel:" + os.path.join(traj, "liver_suture_scalpel.yaml"))
             return subprocess.run(["bench/realtime.sh", str(int(a.served)), "--busy", scene,
                                    os.path.join(traj, "liver_suture_thread_grasper.yaml")], cwd=ROOT, env=env).returncode
+    if a.stiffness_every:
+        # Each value N, or N@BUDGET (seconds) for a budget of its own.
+        values = [(int(v.split("@")[0]), float(v.split("@")[1]) if "@" in v else a.budget)
+                  for v in a.stiffness_every.split(",")]
+        with tempfile.TemporaryDirectory() as tmp:
+            for k in range(a.runs):
+                for n, budget in values:
+                    scene = os.path.join(tmp, f"thread_{n}.yaml")
+                    with_segments(a.scene, scene, a.segments)
+                    with_stiffness_every(scene, n, budget)
+                    out = os.path.join(tmp, f"out_{n}")
+                    r = run(a.stroma, scene, out, a.skip)
+                    label = f"{n}" + (f" budget {1e3 * budget:.2f} ms" if budget > 0 else "")
+                    print(f"run {k + 1} stiffness_every {label}: tick p50 {r['p50']:.3f} p99 {r['p99']:.3f} ms, "
+                          f"{100 * r['over']:.2f} % over 0.9 ms; "
+                          f"assemble p50 {r['assemble_p50']:.3f}; solve p50 {r['solve_p50']:.3f}; CG {r['cg_mean']:.1f}; "
+                          f"cut by the budget {100 * r['cut']:.0f} %; solve's position error p50 {1e6 * r['err_p50']:.1f} "
+                          f"p99 {1e6 * r['err_p99']:.1f} um; grasper at the end {final_force(out):.2f} N", flush=True)
+        return 0
     with tempfile.TemporaryDirectory() as tmp:
         scene = os.path.join(tmp, "thread.yaml")
         with_segments(a.scene, scene, a.segments)

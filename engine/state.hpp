@@ -62,6 +62,12 @@ struct State {
       h.factor_rot.assign(rot, 0.0);
       h.pending_rot.assign(rot, 0.0);
     }
+    // Kept element stiffness blocks (StepperSettings::stiffness_every): room made here, the
+    // first step fills it (phase −1: none yet).
+    if (m.stepper.stiffness_every > 1 && m.stepper.integrator == Integrator::ImplicitEuler) {
+      s.tissue.solver.element_blocks.assign(9 * static_cast<size_t>(m.fem.pattern.nnzb()), 0.0);
+      s.tissue.solver.element_blocks_next.assign(9 * static_cast<size_t>(m.fem.pattern.nnzb()), 0.0);
+    }
     s.tools.assign(m.tools.size(), ToolState{});
     for (const RigidBodyModel& b : m.rigid_bodies) {
       s.rigid.push_back(b.initial);

@@ -1,5 +1,6 @@
 #include "engine/state_bytes.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <type_traits>
 
@@ -12,11 +13,11 @@ namespace {
 
 constexpr char kMagic[12] = {'S', 'T', 'R', 'O', 'M', 'A', '-', 'S', 'T', 'A', 'T', 'E'};
 /// 2: the solver's history (SolverHistory) after the step counter.
-constexpr uint32_t kVersion = 9;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body; 6: needles;
+constexpr uint32_t kVersion = 10;  // 3: ToolState.posed; 4: rigid bodies; 5: a tool's grasp of a body; 6: needles;
                                   // 7: refresh ids as presence flags (one encoding per state); track
                                   // points name their body (needles through two bites); 8: a tool's
                                   // grasp of a thread; threads' punctures; 9: the thread segment
-                                  // a tool let go of
+                                  // a tool let go of; 10: the kept element stiffness blocks
 const char* const kWhat = "<state bytes>";
 
 static_assert(std::is_trivially_copyable_v<ToolState>, "ToolState is copied as bytes");
@@ -137,6 +138,7 @@ void hash_stepper(Fnv& f, const StepperSettings& s) {
   f.value(s.newton_tolerance);
   f.value(s.preconditioner_refresh);
   f.value(static_cast<uint8_t>(s.refresh_follows_pace));
+  f.value(s.stiffness_every);
 }
 
 void hash_tool(Fnv& f, const ToolSpec& t) {
@@ -302,6 +304,10 @@ std::string encode_state(const State& s, uint64_t fingerprint) {
   w.value(h.pace_iterations);
   w.value(h.typical_iterations);
   w.value(h.warped_solves);
+  w.value(h.element_blocks_key);
+  w.value(h.element_blocks_phase);
+  w.array(h.element_blocks);
+  w.array(h.element_blocks_next);
   return w.take();
 }
 
@@ -381,6 +387,10 @@ State decode_state(const std::string& bytes, uint64_t* fingerprint) {
   r.value(h.pace_iterations, "solver.pace_iterations");
   r.value(h.typical_iterations, "solver.typical_iterations");
   r.value(h.warped_solves, "solver.warped_solves");
+  r.value(h.element_blocks_key, "solver.element_blocks_key");
+  r.value(h.element_blocks_phase, "solver.element_blocks_phase");
+  r.array(h.element_blocks, "solver.element_blocks");
+  r.array(h.element_blocks_next, "solver.element_blocks_next");
   r.finish();
   // Refresh ids name factors within one process: a state from elsewhere gets fresh ones, so no
   // stepper here mistakes them for a factor it holds (it remakes them from the systems kept).
@@ -447,6 +457,11 @@ bool state_fits_model(const State& s, const Model& m, std::string* why) {
     if (why) *why = std::string(what) + ": " + std::to_string(have) + " values, the model's state has " + std::to_string(want);
     return false;
   };
+  if (const int32_t ph = s.tissue.solver.element_blocks_phase; ph < -1 || ph >= std::max(1, m.stepper.stiffness_every)) {
+    if (why) *why = "the solver's history: a stiffness phase of " + std::to_string(ph) + " (solver.stiffness_every " +
+                    std::to_string(m.stepper.stiffness_every) + ")";
+    return false;
+  }
   return check(s.tissue.x.size(), ref.tissue.x.size(), "positions") &&
          check(s.tissue.v.size(), ref.tissue.v.size(), "velocities") &&
          check(s.tissue.dv.size(), ref.tissue.dv.size(), "warm start") &&
@@ -463,7 +478,10 @@ bool state_fits_model(const State& s, const Model& m, std::string* why) {
          check(s.tissue.solver.factor_matrix.size(), ref.tissue.solver.factor_matrix.size(), "the solver's history") &&
          check(s.tissue.solver.pending_matrix.size(), ref.tissue.solver.pending_matrix.size(), "the solver's history") &&
          check(s.tissue.solver.factor_rot.size(), ref.tissue.solver.factor_rot.size(), "the solver's history") &&
-         check(s.tissue.solver.pending_rot.size(), ref.tissue.solver.pending_rot.size(), "the solver's history");
+         check(s.tissue.solver.pending_rot.size(), ref.tissue.solver.pending_rot.size(), "the solver's history") &&
+         check(s.tissue.solver.element_blocks.size(), ref.tissue.solver.element_blocks.size(), "the solver's history") &&
+         check(s.tissue.solver.element_blocks_next.size(), ref.tissue.solver.element_blocks_next.size(),
+               "the solver's history");
 }
 
 }  // namespace stroma

@@ -946,6 +946,7 @@ CompiledScenario compile_scenario(const ScenarioSpec& spec_in, const CompileOpti
                                    s.static_tolerance, s.static_max_newton,
                                    resolved_newton_iterations(s.newton_iterations, model->fem_step),
                                    s.newton_tolerance, s.preconditioner_refresh};
+  model->stepper.stiffness_every = s.stiffness_every;
   model->time_budget = s.time_budget;
 
   const std::vector<PreparedMesh> meshes = load_meshes(spec, out.notes);

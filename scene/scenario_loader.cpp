@@ -126,7 +126,7 @@ SolverSpec parse_solver(const Field& f) {
   const MapReader m = f.map({"integrator", "linear_solver", "preconditioner", "max_iterations",
                              "tolerance", "warm_start", "static_tolerance", "static_max_newton", "on_cg_cap",
                              "newton_iterations", "newton_tolerance", "time_budget",
-                             "preconditioner_refresh", "fem_every", "haptic_model"});
+                             "preconditioner_refresh", "fem_every", "haptic_model", "stiffness_every"});
   SolverSpec s;
   s.where = location_of(m);
   if (auto i = m.opt("integrator")) s.integrator_where = location_of(*i);
@@ -143,6 +143,7 @@ SolverSpec parse_solver(const Field& f) {
   m.read("newton_tolerance", s.newton_tolerance, open_interval(0, 1));
   read_count_or_words(m, "preconditioner_refresh", {{"auto", -1}, {"off", 0}},
                       "a whole number of steps >= 1, auto or off", s.preconditioner_refresh);
+  read_count_or_words(m, "stiffness_every", {}, "a whole number of steps >= 1", s.stiffness_every);
   if (const auto f = m.opt("fem_every")) {
     s.fem_every_where = location_of(*f);
     read_count_or_words(m, "fem_every", {}, "a whole number of ticks >= 1", s.fem_every);

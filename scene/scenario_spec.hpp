@@ -74,6 +74,10 @@ struct SolverSpec {
   /// auto_refresh_period() steps (tissue/solver_costs.hpp: re-evaluated as the ticks go);
   /// 0 = `off` (the rest-pose factor).
   int preconditioner_refresh = -1;
+  /// `stiffness_every: N` (implicit Euler): the elements' stiffness blocks are made every N
+  /// steps and the steps between solve with them (StepperSettings::stiffness_every). 1 (the
+  /// default): every step.
+  int stiffness_every = 1;
   /// `fem_every: N` (multirate, issue 14 §7): the tissue is stepped every N ticks with a step of
   /// N·time_step; the ticks in between (the haptic rate, 1/time_step) render each tool's force
   /// from the last finished step's local model (engine/haptic_model.hpp). 1 (the default): every

@@ -290,7 +290,9 @@ double pass_range(const FemModel& m, const ElasticPass& p, const ElementRange& r
       batch_stress_forces(R, L, in, 0.0, kv_scale, kv, nullptr);
       for (int l = 0; l < count; ++l) scatter_nodal(m.elements[e0 + l], kv, l, p.kv);
     }
+    static_assert(kBatch == ElasticPass::kPassBatch, "ElasticPass::blocks_due counts the pass's batches");
     if constexpr (kHasK) {
+      if (!p.blocks_due(e0)) continue;
       for (int l = 0; l < kBatch; ++l) k_scale[l] = in.vol[l] * (p.k_beta * in.beta[l] + p.k_const);
       scatter_blocks<0>(m, p, R, in, k_scale, e0, count);
       if (count > kBlockLanes) scatter_blocks<kBlockLanes>(m, p, R, in, k_scale, e0, count);

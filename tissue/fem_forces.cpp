@@ -18,6 +18,7 @@ namespace stroma {
 double elastic_pass(const FemModel& m, const ElasticPass& p) {
   double energy = 0.0;
   for (const ElementRange& r : m.ranges) {
+    if (p.parts == PassParts::Rest) break;
     if (r.fixed) continue;  // a fixed body: nothing it computes could move anything
     switch (r.kernel) {
       case ElementKernel::Linear:
@@ -33,6 +34,7 @@ double elastic_pass(const FemModel& m, const ElasticPass& p) {
         break;
     }
   }
+  if (p.parts == PassParts::Elements) return energy;
   if (!m.smoothing.empty() && !p.unsmoothed) energy += nodal_smoothing_pass(m, p);
   if (!m.rods.empty()) energy += rod_pass(m, p);
   return energy;

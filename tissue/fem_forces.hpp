@@ -15,6 +15,10 @@ namespace stroma {
 
 /// Inputs and outputs of one element pass. Output arrays are accumulated into (+=): the
 /// caller zeroes them. Null outputs are skipped (their work is not done).
+/// Which parts of the model an elastic pass runs over: the element ranges, the rest (the
+/// locking-free node domains and element patches, the rods), or both.
+enum class PassParts : uint8_t { All, Elements, Rest };
+
 struct ElasticPass {
   const double* x = nullptr;   ///< 3n current positions (required)
   double* force = nullptr;     ///< 3n: += elastic force
@@ -42,6 +46,13 @@ struct ElasticPass {
   /// Compute locking-free bodies as plain elements with their full material, without node
   /// domains: the warped preconditioner's one-ring stand-in for the smoothed system.
   bool unsmoothed = false;
+  PassParts parts = PassParts::All;  ///< see PassParts
+  /// With k_every > 1, only a share of the elements add their blocks to kvals: the batches
+  /// (kPassBatch elements from e0 on) whose e0 / kPassBatch ≡ k_phase (mod k_every) — over
+  /// k_every passes with phases 0 … k_every − 1, every batch of every range exactly once.
+  static constexpr int32_t kPassBatch = 16;  ///< the element passes' batch (each asserts it)
+  int k_every = 1, k_phase = 0;
+  bool blocks_due(int32_t e0) const { return k_every <= 1 || (e0 / kPassBatch) % k_every == k_phase; }
 };
 
 /// Runs the pass over every element; returns the total elastic energy

@@ -130,6 +130,7 @@ void eigensystem(const double* F, double lambda, double mu, double* values, doub
 /// corotational pass's polar decomposition; 16 lanes, two AVX-512 registers, hide the Jacobi
 /// sweeps' latency there: tissue/fem_forces.cpp).
 inline constexpr int kBatch = 16;
+static_assert(kBatch == ElasticPass::kPassBatch, "ElasticPass::blocks_due counts the pass's batches");
 
 /// The polar rotation R = U·Vᵀ (row-major) from the rotation-variant SVD's U and V.
 inline void polar_from_svd(const double* U, const double* V, double* R) {
@@ -305,7 +306,7 @@ double pass(const FemModel& m, const ElasticPass& p, const ElementRange& r) {
           }
       for (int r1 = 0; r1 < 12; ++r1)
         for (int c1 = 0; c1 < r1; ++c1) K[r1][c1] = K[c1][r1];
-      if (p.kvals) {
+      if (p.kvals && p.blocks_due(e0)) {  // (the tangent is made for K·v and the SVD anyway)
         const double sc = p.k_beta * ep.beta + p.k_const;
         const ElementSlots& slot = m.slots[e];
         for (int b1 = 0; b1 < 4; ++b1)

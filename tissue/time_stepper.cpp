@@ -85,6 +85,7 @@ void TimeStepper::set_realtime(bool realtime) {
 }
 
 void TimeStepper::prepare(double h) {
+  lag_h_ = h;
   if (!warped_) return;
   if (cfg_.integrator == Integrator::Static) warped_->factor(-1.0, 0.0, 1.0);
   if (cfg_.integrator != Integrator::ImplicitEuler) return;
@@ -180,7 +181,6 @@ double TimeStepper::assemble(TissueState& s, double h, const StepInputs& inputs)
   if (implicit) {
     // A = (1 + hα) M + h(β + h) K. The damping and h·K·v terms of the right-hand side come
     // from one SpMV with A below, cheaper than a second element pass over the velocities.
-    std::fill(A_.begin(), A_.end(), 0.0);
     p.kvals = A_.data();
     p.k_beta = h;
     p.k_const = h * h;
@@ -195,7 +195,14 @@ double TimeStepper::assemble(TissueState& s, double h, const StepInputs& inputs)
     p.kv_beta = 1.0;  // symplectic: damping force −βK·v
     p.kv_const = 0.0;
   }
-  const double energy = elastic_pass(m_, p);
+  double energy = 0;
+  if (implicit && cfg_.stiffness_every > 1) {
+    energy = lagged_elastic_pass(s, p, h);
+  } else {
+    if (implicit) std::fill(A_.begin(), A_.end(), 0.0);
+    energy = elastic_pass(m_, p);
+    if (implicit) ++stiffness_refreshes_;
+  }
   u_start_ = energy;
   // Contact: forces join the elastic ones; stiffness and damping join the system matrix, so
   // the SpMV below also forms their −h(hK + C)v terms of the right-hand side.
@@ -246,6 +253,47 @@ double TimeStepper::assemble(TissueState& s, double h, const StepInputs& inputs)
     }
   }
   return energy;
+}
+
+double TimeStepper::lagged_elastic_pass(TissueState& s, ElasticPass p, double h) {
+  SolverHistory& hist = s.solver;
+  std::vector<double>&blocks = hist.element_blocks, &next = hist.element_blocks_next;
+  if (lag_h_ == 0) lag_h_ = h;  // (prepare() not called: the first step's length)
+  double energy = 0;
+  p.parts = PassParts::Elements;
+  if (h != lag_h_) {
+    // A step of another length (a sub-step): its own blocks, the kept ones left as they are.
+    std::fill(A_.begin(), A_.end(), 0.0);
+    energy = elastic_pass(m_, p);
+    ++stiffness_refreshes_;
+  } else if (hist.element_blocks_phase < 0 || blocks.size() != A_.size() || next.size() != A_.size() ||
+             hist.element_blocks_key != h) {
+    // None yet (the first step, a cut's new model, a state from elsewhere): all made now.
+    std::fill(A_.begin(), A_.end(), 0.0);
+    energy = elastic_pass(m_, p);
+    blocks.assign(A_.begin(), A_.end());  // into the room State::initial made (no allocation)
+    next.assign(A_.size(), 0.0);
+    hist.element_blocks_key = h;
+    hist.element_blocks_phase = 0;
+    ++stiffness_refreshes_;
+  } else {
+    // The kept blocks into the system; this phase's share of the batches made into the next.
+    std::copy(blocks.begin(), blocks.end(), A_.begin());
+    p.kvals = next.data();
+    p.k_every = cfg_.stiffness_every;
+    p.k_phase = hist.element_blocks_phase;
+    energy = elastic_pass(m_, p);
+    if (++hist.element_blocks_phase == cfg_.stiffness_every) {  // complete: the next steps use it
+      blocks.swap(next);
+      std::fill(next.begin(), next.end(), 0.0);
+      hist.element_blocks_phase = 0;
+    }
+    p.k_every = 1;
+    ++stiffness_reuses_;
+  }
+  p.kvals = A_.data();
+  p.parts = PassParts::Rest;
+  return energy + elastic_pass(m_, p);
 }
 
 void TimeStepper::error_bounds(const double* r, double h, SolveStats& st) const {

@@ -51,6 +51,17 @@ struct StepperSettings {
   /// `preconditioner_refresh: auto` resolved (compile): the period above is the first, and the
   /// stepper re-evaluates it from the running mean of its warped iterations (auto_refresh_period).
   bool refresh_follows_pace = false;
+  /// Implicit Euler: each element's stiffness blocks R·Ke·Rᵀ are made once every this many
+  /// steps (1, the default: every step). With N > 1 each step makes those of a 1/N share of the
+  /// element batches, into a matrix that replaces the one in use once all N shares are in it,
+  /// and solves with the one in use (made over the N steps before the last N): the same work
+  /// every step, no step that makes them all. The forces, the rods', node domains' and contacts'
+  /// stiffness are of the step's own positions. A lagged tangent: the step stays implicit, its
+  /// system symmetric positive definite (each element's share is), and a body comes to rest
+  /// where the forces balance, as with a fresh one; what it costs in accuracy and saves in time
+  /// is in docs/PERFORMANCE.md ("Stiffness every N steps"). The state keeps both matrices
+  /// (SolverHistory::element_blocks). A step of another length (a sub-step) makes its own.
+  int stiffness_every = 1;
 };
 
 
@@ -241,6 +252,11 @@ class TimeStepper {
   const std::vector<double>& rotations() const { return rot_; }
   /// Assembles that took the energy guard's rotations instead of recomputing them (end_rot_).
   int64_t rotations_reused() const { return rotations_reused_; }
+  /// Implicit steps that made all their elements' stiffness blocks (every one when
+  /// StepperSettings::stiffness_every is 1; else the first, sub-steps and after a cut) and
+  /// steps that solved with kept ones.
+  int64_t stiffness_refreshes() const { return stiffness_refreshes_; }
+  int64_t stiffness_reuses() const { return stiffness_reuses_; }
   /// Off: every assemble computes its rotations (the reuse's A/B, in tests and benchmarks).
   /// Results agree to round-off either way.
   void set_rotation_reuse(bool on) { reuse_rotations_ = on; }
@@ -304,6 +320,13 @@ class TimeStepper {
   bool end_rot_valid_ = false;
   bool guard_applies_ = true;  ///< see energy_guard_applies()
   int64_t rotations_reused_ = 0;
+  int64_t stiffness_refreshes_ = 0, stiffness_reuses_ = 0;
+  /// The implicit step's element pass into A_ (overwritten here) with stiffness_every > 1: the
+  /// kept element blocks copied in and this step's share made into the next ones (or, with
+  /// none kept, all made and kept); then the rest (node domains, rods) as usual. Returns the
+  /// elastic energy.
+  double lagged_elastic_pass(TissueState& s, ElasticPass p, double h);
+  double lag_h_ = 0;  ///< the step the kept element blocks are for (prepare(), else the first)
   bool reuse_rotations_ = true;  ///< see set_rotation_reuse()
   std::vector<double> newton_x_, newton_v_, newton_r_, newton_trial_r_, newton_delta_, newton_dv_;  // Newton scratch
   CgSolver cg_;

@@ -34,6 +34,15 @@ struct SolverHistory {
   double pace_iterations = 2;        ///< running mean (1/16) of every warped solve's iterations
   double typical_iterations = 0;     ///< running mean of the converged warped solves' iterations
   int64_t warped_solves = 0;         ///< converged warped solves so far
+  /// `solver.stiffness_every: N` > 1 (StepperSettings): the elements' stiffness blocks
+  /// h(β + h)·R·Ke·Rᵀ the steps solve with (BSR values of the model's pattern), the ones being
+  /// made — a 1/N share of the element batches each step, those of `element_blocks_phase` —,
+  /// which replace them once complete, the phase (−1: none yet, the next step makes them all)
+  /// and the step h they are for. State, not scratch: the next steps solve with them, so a
+  /// snapshot replays bit for bit only with them.
+  std::vector<double> element_blocks, element_blocks_next;
+  double element_blocks_key = 0;
+  int32_t element_blocks_phase = -1;
 };
 
 /// Positions, velocities, the solver's warm start and history. Everything else is either in

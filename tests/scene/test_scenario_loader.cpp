@@ -313,6 +313,18 @@ TEST(ScenarioLoader, PreconditionerRefresh) {
                {"whole number of steps"});
 }
 
+// solver.stiffness_every: the elements' stiffness made every N implicit steps (1, the default:
+// every step).
+TEST(ScenarioLoader, StiffnessEvery) {
+  EXPECT_EQ(parse(kMinimal).solver.stiffness_every, 1);
+  EXPECT_EQ(parse(kMinimal + "solver:\n  stiffness_every: 3\n").solver.stiffness_every, 3);
+  expect_error(kMinimal + "solver:\n  stiffness_every: 0\n", 10, "solver.stiffness_every", {"0"});
+  expect_error(kMinimal + "solver:\n  stiffness_every: often\n", 10, "solver.stiffness_every",
+               {"whole number of steps >= 1", "'often'"});
+  expect_error(kMinimal + "solver:\n  stiffness_every: 1.5\n", 10, "solver.stiffness_every",
+               {"whole number of steps"});
+}
+
 TEST(ScenarioLoader, RunDuration) {
   const ScenarioSpec s = parse(kMinimal + "run:\n  duration: 0.5\n");
   ASSERT_TRUE(s.run.duration.has_value());
