@@ -32,11 +32,36 @@ void CgSolver::resize(int32_t n) {
 }
 
 extern "C" {
-// LAPACK's banded Cholesky (Debian's liblapack-dev: the reference LAPACK or OpenBLAS's): factor, solve.
+// LAPACK's banded Cholesky factorisation (Debian's liblapack-dev: the reference LAPACK or
+// OpenBLAS's). Its solve, dpbtrs, is not called: see band_solve.
 void dpbtrf_(const char* uplo, const int* n, const int* kd, double* ab, const int* ldab, int* info);
-void dpbtrs_(const char* uplo, const int* n, const int* kd, const int* nrhs, const double* ab, const int* ldab, double* b,
-             const int* ldb, int* info);
 }
+
+namespace {
+/// L·Lᵀ·x = b in place for a factor in LAPACK's lower band storage (ab[(i − j) + j·ld] = L(i, j),
+/// j ≤ i ≤ j + kd): what dpbtrs("L") computes, by the same two triangular sweeps. Written out
+/// because dpbtrs's triangular solves (OpenBLAS's dtbsv) take a work buffer from OpenBLAS's pool
+/// and the first call on a thread maps it: under `serve`'s mlockall the mapping is populated at
+/// once, and the physics thread's first tick with a thread took 41–66 ms (perf: dtbsv →
+/// blas_memory_alloc → mmap → __mm_populate; docs/PERFORMANCE.md, "Stiffness every N steps").
+/// A tick allocates nothing and takes no lock; this is 2·n·kd multiply-adds and nothing else.
+void band_solve(int n, int kd, const double* ab, int ld, double* x) {
+  for (int j = 0; j < n; ++j) {  // L·y = b
+    const double* col = ab + static_cast<size_t>(j) * ld;
+    const double yj = x[j] / col[0];
+    x[j] = yj;
+    const int last = std::min(n - 1, j + kd);
+    for (int i = j + 1; i <= last; ++i) x[i] -= col[i - j] * yj;
+  }
+  for (int j = n - 1; j >= 0; --j) {  // Lᵀ·x = y
+    const double* col = ab + static_cast<size_t>(j) * ld;
+    double s = x[j];
+    const int last = std::min(n - 1, j + kd);
+    for (int i = j + 1; i <= last; ++i) s -= col[i - j] * x[i];
+    x[j] = s / col[0];
+  }
+}
+}  // namespace
 
 namespace {
 constexpr int kRodBand = 8;  ///< scalar bandwidth of a rod's rows: blocks (i, i+2), 3 rows each, less one
@@ -99,11 +124,10 @@ void CgSolver::solve_rod_bands(const double* r, double* z) const {
   for (size_t ri = 0; ri < rods_.size(); ++ri) {
     if (!rod_ok_[ri]) continue;  // its Jacobi blocks stand
     const auto [begin, count, offset] = rods_[ri];
-    const int n = 3 * count, kd = kRodBand, one = 1;
+    const int n = 3 * count, kd = kRodBand;
     double* zr = z + 3 * static_cast<size_t>(begin);
     std::copy(r + 3 * static_cast<size_t>(begin), r + 3 * static_cast<size_t>(begin + count), zr);
-    int info = 0;
-    dpbtrs_("L", &n, &kd, &one, rod_band_.data() + offset, &ld, zr, &n, &info);
+    band_solve(n, kd, rod_band_.data() + offset, ld, zr);
   }
 }
 
