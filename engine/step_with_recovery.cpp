@@ -1,6 +1,7 @@
 #include "engine/step_with_recovery.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "engine/stage_timer.hpp"
@@ -160,6 +161,46 @@ void follow_guard(const Model& m, State& s, const TickWorkspace& w, const GuardR
   }
 }
 
+/// Each spring's force where a sub-step starts, into w.substep_force: f − K·d, d the spring's
+/// relative displacement since the tick's start, where it was found and linearised — its
+/// tissue point's (from w.backup_x) less a body's point at its arm (from w.backup_rigid; a
+/// rigid pair's row_p side counts positive). Without it every sub-step would start from the
+/// force found at the tick's start: a speculative spring (f = −k·gap, pulling) would ask each
+/// sub-step to close its whole gap — a node and the box moved ~45 mm and ~16 mm in a sub-step
+/// of h/16, v ∝ 1/h, and every level failed (docs/RIGID.md).
+const double* substep_spring_forces(const State& s, TickWorkspace& w) {
+  const double* x0 = w.backup_x.data();
+  const double* x1 = s.tissue.x.data();
+  auto body_travel = [&](int32_t row, const double* arm, double sign, double* d) {
+    const size_t b = size_t(w.row_body[size_t(row)]);
+    const RigidState &a = w.backup_rigid[b], &c = s.rigid[b];
+    // The arm's point moves with the body: (x_c − x_a) + (R_c·R_aᵀ − I)·arm.
+    const std::array<double, 9> Ra = rotation_of(a.q), Rc = rotation_of(c.q);
+    double local[3], now[3];
+    for (int i = 0; i < 3; ++i) local[i] = Ra[size_t(i)] * arm[0] + Ra[size_t(3 + i)] * arm[1] + Ra[size_t(6 + i)] * arm[2];
+    for (int i = 0; i < 3; ++i)
+      now[i] = Rc[size_t(3 * i)] * local[0] + Rc[size_t(3 * i + 1)] * local[1] + Rc[size_t(3 * i + 2)] * local[2];
+    for (int i = 0; i < 3; ++i) d[i] += sign * (c.x[size_t(i)] - a.x[size_t(i)] + now[i] - arm[i]);
+  };
+  double* out = w.substep_force.data();
+  for (size_t c = 0; c < w.springs.size(); ++c) {
+    const ContactSpring& sp = w.springs[c];
+    double d[3] = {0, 0, 0};
+    if (sp.n > 0) {
+      double p0[3], p1[3];
+      spring_point(sp, x0, p0);
+      spring_point(sp, x1, p1);
+      for (int i = 0; i < 3; ++i) d[i] = p1[i] - p0[i];
+    } else if (sp.row_p >= 0) {
+      body_travel(sp.row_p, sp.arm_p, 1.0, d);
+    }
+    if (sp.row_n >= 0) body_travel(sp.row_n, sp.arm_n, -1.0, d);
+    for (int i = 0; i < 3; ++i)
+      out[3 * c + i] = sp.force[i] - (sp.K[3 * i] * d[0] + sp.K[3 * i + 1] * d[1] + sp.K[3 * i + 2] * d[2]);
+  }
+  return out;
+}
+
 /// Records the worst degradation of the tick.
 void degrade(TickReport& r, Degradation d) {
   if (static_cast<int>(d) > static_cast<int>(r.degradation)) r.degradation = d;
@@ -175,7 +216,12 @@ bool step(const Model& m, State& s, TickWorkspace& w, double h, TickReport& r, b
   {
     StageTimer st(r, Stage::Assemble);
     if (w.rigid_in.rows > 0) prepare_rigid_rows(m, s, w, h);
-    const double e = stepper.assemble(t, h, step_inputs(m, s, w));
+    StepInputs in = step_inputs(m, s, w);
+    // A sub-step (the ladder's, from the tick's start or where the last one ended): the springs
+    // found at the tick's start, evaluated where it starts.
+    if (h != m.fem_step && !w.springs.empty() && w.substep_force.size() >= 3 * w.springs.size())
+      in.spring_force = substep_spring_forces(s, w);
+    const double e = stepper.assemble(t, h, in);
     if (first) r.elastic_energy = e;
   }
   // A headless wait for a late refresh worker is not the engine's work: the deadline moves

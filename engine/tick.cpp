@@ -117,6 +117,7 @@ TickWorkspace::TickWorkspace(const Model& m) : stepper_(m.fem, m.stepper) {
     body_pairs.resize(kMaxContacts / 2);  // touched now, as the springs
     body_pairs.clear();
   }
+  substep_force.assign(3 * springs.capacity(), 0.0);  // touched now
   if (m.stepper.integrator == Integrator::ImplicitEuler && !m.fem.elements.empty() &&
       stepper_.energy_guard_applies()) {
     guard_ns = stepper_.time_energy_guard_pass(m.fem.rest.data());  // the guard's pass, rotation store included

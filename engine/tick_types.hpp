@@ -159,6 +159,9 @@ class TickWorkspace {
   RigidRowsInput rigid_in;
   /// The rigid bodies at the start of the tick, for rollback.
   std::vector<RigidState> backup_rigid;
+  /// 3 per spring: each spring's force where a sub-step starts (StepInputs::spring_force;
+  /// engine/step_with_recovery.cpp). Sized to the springs' capacity at load.
+  std::vector<double> substep_force;
   /// This tick's speculative contacts of rigid bodies and threads (capacity fixed at load;
   /// rigid/rigid_contact.hpp, engine/thread_contact.hpp): released if they end the step pulling.
   std::vector<RigidContactPair> rigid_pairs;

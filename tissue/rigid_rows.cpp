@@ -52,7 +52,7 @@ void RigidRows::reserve(int32_t rows) {
 }
 
 bool RigidRows::assemble(const RigidRowsInput& in, const ContactSpring* springs, int count, double h,
-                         const double* v_t0, double* rhs_t, const FemModel& m) {
+                         const double* v_t0, double* rhs_t, const FemModel& m, const double* spring_force) {
   STROMA_DEMAND(in.rows <= cap_, "rigid rows: more rows than reserved");
   rows_ = in.rows;
   in_ = &in;
@@ -92,7 +92,8 @@ bool RigidRows::assemble(const RigidRowsInput& in, const ContactSpring* springs,
     }
     double Kg[3], imp[3];
     mul3(Kp, g0, Kg);
-    for (int k = 0; k < 3; ++k) imp[k] = h * sp.force[k] - Kg[k];
+    const double* f = spring_force ? spring_force + 3 * c : sp.force;
+    for (int k = 0; k < 3; ++k) imp[k] = h * f[k] - Kg[k];
     for (const Side& s : sides)
       if (s.row >= 0) add_generalised(imp, s.arm, s.sign, &b_[6 * s.row]);
     // The tissue's share: its rhs already holds Wᵀ(h f − K' W v_t0) (the stepper's SpMV); the

@@ -50,9 +50,10 @@ class RigidRows {
   /// The step's rows: forms A_rr (factored) and b_r from `in` and the springs at step h with
   /// tissue velocities v_t0, and adds the tissue's share of the anchors' start velocity,
   /// Wᵀ(h²K + hC)J u0, to rhs_t (free DOFs of m only). False if A_rr is not positive definite
-  /// (then rows() is 0).
+  /// (then rows() is 0). `spring_force` (3 per spring; null: the springs' own): each spring's
+  /// force where the step starts (StepInputs::spring_force).
   bool assemble(const RigidRowsInput& in, const ContactSpring* springs, int count, double h, const double* v_t0,
-                double* rhs_t, const FemModel& m);
+                double* rhs_t, const FemModel& m, const double* spring_force = nullptr);
   /// No rows this step.
   void clear() { rows_ = 0; }
   /// rhs_t −= B A_rr⁻¹ b_r: the reduced right-hand side.

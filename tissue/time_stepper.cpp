@@ -116,7 +116,8 @@ void TimeStepper::add_mass_diagonal(double* A, double h) const {
 void TimeStepper::scatter_springs(double* force, double* A, double k_scale, double c_scale, const double* v) const {
   for (int c = 0; c < in_.spring_count; ++c) {
     const ContactSpring& sp = in_.springs[c];
-    double f[3] = {sp.force[0], sp.force[1], sp.force[2]};
+    const double* f0 = spring_force(c);
+    double f[3] = {f0[0], f0[1], f0[2]};
     if (v) {  // explicit damping at the contact point's velocity
       double vc[3] = {0, 0, 0};
       for (int a = 0; a < sp.n; ++a)
@@ -228,7 +229,7 @@ double TimeStepper::assemble(TissueState& s, double h, const StepInputs& inputs)
     // Rigid rows (tissue/rigid_rows.hpp): their A_rr and b_r, the tissue's share of the
     // anchors' velocity, then eliminated: the solve is of the Schur complement.
     if (in_.rigid && in_.rigid->rows > 0 &&
-        rows_.assemble(*in_.rigid, in_.springs, in_.spring_count, h, s.v.data(), rhs_.data(), m_))
+        rows_.assemble(*in_.rigid, in_.springs, in_.spring_count, h, s.v.data(), rhs_.data(), m_, in_.spring_force))
       rows_.reduce_rhs(rhs_.data());
     project_constraints(A_.data(), 1.0);
     if (nodal_) nodal_->finish();
@@ -471,7 +472,8 @@ double TimeStepper::implicit_residual(const TissueState& s, double h, const doub
                (h * h * sp.K[3 * k + 2] + h * sp.C[3 * k + 2]) * vc[2];
     for (int a = 0; a < sp.n; ++a)
       for (int k = 0; k < 3; ++k) tmp_[3 * sp.node[a] + k] += sp.w[a] * lin[k];
-    for (int k = 0; k < 3; ++k) contact_merit += -h * sp.force[k] * vc[k] + 0.5 * vc[k] * lin[k];
+    const double* f0 = spring_force(c);
+    for (int k = 0; k < 3; ++k) contact_merit += -h * f0[k] * vc[k] + 0.5 * vc[k] * lin[k];
   }
   scatter_springs(force_.data(), matrix ? A_.data() : nullptr, h * h, h);
   const double* fe = m_.f_ext.data();

@@ -88,6 +88,12 @@ struct StepInputs {
   /// Rigid bodies touching something this step: their rows join the step's system
   /// (tissue/rigid_rows.hpp) and the solve fills their Δu. Null: none.
   const RigidRowsInput* rigid = nullptr;
+  /// 3 per spring: each spring's force where this step starts, when that is not where the
+  /// springs were found — a sub-step after the first: f − K·d, d the spring's relative
+  /// displacement since (the springs are linear about where they were found). Null: the
+  /// springs' own `force` (a step from where they were found). The energy guard's potential
+  /// keeps measuring from contact_origin with the springs' own force, as before.
+  const double* spring_force = nullptr;
 };
 
 /// What energy_guard() did to a step.
@@ -268,6 +274,8 @@ class TimeStepper {
   /// Adds each contact spring's w_a·f to `force` and, with A, w_a w_b (k_scale·K + c_scale·C)
   /// to its blocks. With velocities v (explicit integration), f includes the damping −C·v_p.
   void scatter_springs(double* force, double* A, double k_scale, double c_scale, const double* v = nullptr) const;
+  /// Spring c's force where the step starts (StepInputs::spring_force, else its own).
+  const double* spring_force(int c) const { return in_.spring_force ? in_.spring_force + 3 * c : in_.springs[c].force; }
   /// R(dv) of the implicit-Euler equations into R (see newton()); with `matrix`, also A at the
   /// iterate (A_, its constraints projected; node rotations updated). Returns ‖R‖. `merit`:
   /// the incremental potential Φ(Δv) whose gradient is −R (up to a constant; damping and

@@ -272,6 +272,45 @@ TEST(RigidContact, ABoxDroppedOnTissueOnItsEdgeNeverGainsEnergyAndComesToRestOnI
 // contact springs' potential with the box's points moving (engine/step_with_recovery.cpp,
 // guard_rows) — the box and the tissue together never gain energy: the guard takes it out
 // where a step would.
+// The same drop redone in sub-steps at every tick (`on_cg_cap: substep`, CG capped at 2: the
+// tick's step and the 2-, 4- and 8-sub-step levels capped, so 16 sub-steps whose capped solves
+// are kept). The springs are found at the tick's start; each sub-step evaluates them where it
+// starts (f − K·d). Before, a sub-step was asked to close a speculative spring's whole gap and
+// every tick from the landing on was rolled back unadvanced (548 of 600). Now no tick fails and
+// the box stays on the tissue — but not where the full steps put it: it sinks up to 4 mm deeper
+// and keeps rocking ±1.3 mm (docs/RIGID.md: not yet understood), so the bound here is loose.
+TEST(RigidContact, ABoxDroppedOnTissueInSubStepsAdvancesEveryTickAndStaysOnIt) {
+  STROMA_LONG_TEST();  // ~10 s
+  auto run = [](const std::string& solver, std::vector<double>& height, int& failed, int& substepped) {
+    const auto m = compile_yaml(tilted_cube_drop_yaml(solver));
+    State s = State::initial(*m);
+    TickWorkspace w(*m);
+    failed = substepped = 0;
+    for (int k = 0; k < 300; ++k) {
+      const TickReport& rep = tick(*m, s, w);
+      failed += rep.status == TickStatus::NonFinite;
+      substepped += rep.substeps > 1 && rep.rigid_contact[0].contacts > 0;
+      height.push_back(s.rigid[0].x[1]);
+    }
+  };
+  std::vector<double> full, sub;
+  int full_failed = 0, sub_failed = 0, full_sub = 0, sub_sub = 0;
+  run("solver: {integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-10, max_iterations: 500}",
+      full, full_failed, full_sub);
+  run("solver: {integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-10, max_iterations: 2, "
+      "on_cg_cap: substep}",
+      sub, sub_failed, sub_sub);
+  EXPECT_EQ(full_failed, 0);
+  EXPECT_EQ(sub_failed, 0) << "ticks rolled back unadvanced";
+  EXPECT_GT(sub_sub, 100) << "ticks in contact redone in sub-steps";
+  double worst = 0, drop = full.front() - *std::min_element(full.begin(), full.end());
+  for (size_t k = 0; k < full.size(); ++k) worst = std::max(worst, std::abs(sub[k] - full[k]));
+  std::printf("box height, sub-steps against converged full steps: at most %.3g mm apart (it fell %.3g mm)\n",
+              1e3 * worst, 1e3 * drop);
+  ASSERT_GT(drop, 0.009) << "it fell onto the tissue and pressed it";
+  EXPECT_LT(worst, 0.5 * drop);
+}
+
 TEST(RigidContact, ABoxDroppedOnTissueWithItsSolvesCutShortNeverGainsEnergy) {
   const auto m = compile_yaml(tilted_cube_drop_yaml(
       "solver: {integrator: implicit_euler, preconditioner: block_jacobi, tolerance: 1.0e-10, max_iterations: 2, "
