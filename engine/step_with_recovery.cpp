@@ -86,6 +86,14 @@ bool integrate_rigid(const Model& m, State& s, const TickWorkspace& w, double h)
   return acc == 0.0;
 }
 
+/// d = the spring's tissue point at positions x1 less at x0.
+void tissue_point_travel(const ContactSpring& sp, const double* x0, const double* x1, double* d) {
+  double p0[3], p1[3];
+  spring_point(sp, x0, p0);
+  spring_point(sp, x1, p1);
+  for (int i = 0; i < 3; ++i) d[i] = p1[i] - p0[i];
+}
+
 /// The rigid rows' share of the energy guard's account for a full step (from the tick's start,
 /// w.backup_rigid, to s.rigid): the bodies with rows — kinetic energy and gravity's potential
 /// before and after — and the springs naming a row as the step linearised them: d, the point's
@@ -116,14 +124,8 @@ GuardRows guard_rows(const Model& m, const State& s, const TickWorkspace& w, dou
   for (const ContactSpring& sp : w.springs) {
     if (!spring_has_rows(sp)) continue;
     double d[3] = {0, 0, 0};
-    if (sp.n > 0) {
-      double p0[3], p1[3];
-      spring_point(sp, x0, p0);
-      spring_point(sp, x1, p1);
-      for (int i = 0; i < 3; ++i) d[i] = p1[i] - p0[i];
-    } else {
-      row_travel(sp.row_p, sp.arm_p, d, 1.0);
-    }
+    if (sp.n > 0) tissue_point_travel(sp, x0, x1, d);
+    else row_travel(sp.row_p, sp.arm_p, d, 1.0);
     if (sp.row_n >= 0) row_travel(sp.row_n, sp.arm_n, d, -1.0);
     for (int i = 0; i < 3; ++i) {
       g.spring_linear -= sp.force[i] * d[i];
@@ -186,14 +188,8 @@ const double* substep_spring_forces(const State& s, TickWorkspace& w) {
   for (size_t c = 0; c < w.springs.size(); ++c) {
     const ContactSpring& sp = w.springs[c];
     double d[3] = {0, 0, 0};
-    if (sp.n > 0) {
-      double p0[3], p1[3];
-      spring_point(sp, x0, p0);
-      spring_point(sp, x1, p1);
-      for (int i = 0; i < 3; ++i) d[i] = p1[i] - p0[i];
-    } else if (sp.row_p >= 0) {
-      body_travel(sp.row_p, sp.arm_p, 1.0, d);
-    }
+    if (sp.n > 0) tissue_point_travel(sp, x0, x1, d);
+    else if (sp.row_p >= 0) body_travel(sp.row_p, sp.arm_p, 1.0, d);
     if (sp.row_n >= 0) body_travel(sp.row_n, sp.arm_n, -1.0, d);
     for (int i = 0; i < 3; ++i)
       out[3 * c + i] = sp.force[i] - (sp.K[3 * i] * d[0] + sp.K[3 * i + 1] * d[1] + sp.K[3 * i + 2] * d[2]);
